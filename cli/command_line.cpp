@@ -1,0 +1,282 @@
+#include "command_line.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <set>
+
+namespace relief::cli {
+
+namespace fs = std::filesystem;
+
+const char* usage_text()
+{
+    return R"(relief — normal maps to displacement maps (OpenCL)
+
+Usage: relief [options] ARG...
+Arguments are read left to right over a stack of images, like oiiotool:
+  FILE                  push an image (read as raw data, no colour conversion)
+  --slopes[:MODS]       pop a normal map, push its slopes (2 channels gx, gy:
+                        height change per texel step along x and y, texels)
+  --height[:MODS]       pop a normal map, push its displacement (1 channel,
+                        texel units: 1.0 = one texel's width; bumps positive,
+                        zero mean)
+  -o FILE               write the top of the stack (atomically)
+  -d TYPE               pixel type for the following -o: float (default),
+                        half, uint16, uint8; integer files store
+                        data = (value - 0.5) * scale, scale printed and stored
+Modifiers (:key=value) of --slopes and --height:
+  normal=auto|opengl|directx   green convention (auto: the one with less curl)
+  max_angle=DEG         clamp grazing normals to DEG from +z (default 85)
+  range=signed|unsigned float/half normals in [-1,1] (default) or [0,1]
+Modifiers of --height:
+  method=rays           radial ray integration (DESIGN.md 4.2)
+  impl=reference        the reference kernel
+  rays=J                ray directions (default 32)
+  radius=R              ray length in texels (default 64)
+  phase=PHI             angles 2*pi*(j+PHI)/J, PHI in [0,1) (default 0.5)
+  directions=exact      uniform angles
+  boundary=periodic|clip  tiling texture (default) or rays stop at the edge
+Options:
+  --device DEV          auto (default: a GPU if any, else the CPU), gpu, cpu,
+                        or PLATFORM:DEVICE as --list-devices numbers them
+  --list-devices        list the OpenCL devices and exit
+  -v                    say what was chosen (device, convention), progress, times
+  --help, --version
+Example:
+  relief normal.png --height:normal=directx:rays=16:radius=32:boundary=clip -o height.exr
+)";
+}
+
+namespace {
+
+struct Modifiers {
+    std::string command;
+    std::map<std::string, std::string> values;
+};
+
+Modifiers split_modifiers(const std::string& arg)
+{
+    Modifiers m;
+    std::size_t pos = arg.find(':');
+    m.command = arg.substr(0, pos);
+    while (pos != std::string::npos) {
+        std::size_t next = arg.find(':', pos + 1);
+        std::string kv = arg.substr(pos + 1, next == std::string::npos ? next : next - pos - 1);
+        std::size_t eq = kv.find('=');
+        if (kv.empty() || eq == std::string::npos || eq == 0)
+            throw UsageError(arg + ": modifier '" + kv + "' is not key=value");
+        std::string key = kv.substr(0, eq);
+        if (m.values.count(key))
+            throw UsageError(arg + ": modifier '" + key + "' given twice");
+        m.values[key] = kv.substr(eq + 1);
+        pos = next;
+    }
+    return m;
+}
+
+double parse_number(const std::string& arg, const std::string& key, const std::string& text)
+{
+    double v = 0.0;
+    const char* end = text.data() + text.size();
+    auto r = std::from_chars(text.data(), end, v);
+    if (text.empty() || r.ec != std::errc() || r.ptr != end || !std::isfinite(v))
+        throw UsageError(arg + ": " + key + "=" + text + " is not a number");
+    return v;
+}
+
+double parse_in_range(const std::string& arg, const std::string& key, const std::string& text,
+                      double lo, bool lo_open, double hi, bool hi_open, const char* what)
+{
+    double v = parse_number(arg, key, text);
+    if ((lo_open ? v <= lo : v < lo) || (hi_open ? v >= hi : v > hi))
+        throw UsageError(arg + ": " + key + "=" + text + " is out of range; " + what);
+    return v;
+}
+
+int parse_int(const std::string& arg, const std::string& key, const std::string& text, int lo,
+              int hi)
+{
+    int v = 0;
+    const char* end = text.data() + text.size();
+    auto r = std::from_chars(text.data(), end, v);
+    if (text.empty() || r.ec != std::errc() || r.ptr != end || v < lo || v > hi)
+        throw UsageError(arg + ": " + key + "=" + text + " must be an integer in [" +
+                         std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    return v;
+}
+
+std::string choice(const std::string& arg, const std::string& key, const std::string& text,
+                   std::initializer_list<const char*> allowed)
+{
+    std::string list;
+    for (const char* a : allowed) {
+        if (text == a)
+            return text;
+        list += list.empty() ? a : std::string("|") + a;
+    }
+    throw UsageError(arg + ": " + key + "=" + text + " is not one of " + list);
+}
+
+// Applies the normal-decoding modifiers; returns false if `key` is not one.
+bool apply_decoding(NormalDecoding& d, const std::string& arg, const std::string& key,
+                    const std::string& v)
+{
+    if (key == "normal") {
+        std::string c = choice(arg, key, v, {"auto", "opengl", "directx"});
+        d.convention = c == "opengl"    ? NormalConvention::OpenGL
+                       : c == "directx" ? NormalConvention::DirectX
+                                        : NormalConvention::Auto;
+    } else if (key == "max_angle") {
+        d.max_angle = float(parse_in_range(arg, key, v, 0, true, 90, true, "degrees in (0, 90)"));
+    } else if (key == "range") {
+        d.float_encoding = choice(arg, key, v, {"signed", "unsigned"}) == "unsigned"
+                               ? FloatEncoding::Unsigned
+                               : FloatEncoding::Signed;
+    } else {
+        return false;
+    }
+    return true;
+}
+
+[[noreturn]] void unknown_modifier(const std::string& arg, const std::string& key,
+                                   const char* known)
+{
+    throw UsageError(arg + ": unknown modifier '" + key + "' (known: " + known + ")");
+}
+
+Step parse_slopes(const std::string& arg)
+{
+    Step s{Step::Kind::Slopes, arg, {}, {}, {}, {}};
+    for (const auto& [key, v] : split_modifiers(arg).values)
+        if (!apply_decoding(s.slopes.normals, arg, key, v))
+            unknown_modifier(arg, key, "normal, max_angle, range");
+    return s;
+}
+
+Step parse_height(const std::string& arg)
+{
+    Step s{Step::Kind::Height, arg, {}, {}, {}, {}};
+    HeightOptions& h = s.height;
+    for (const auto& [key, v] : split_modifiers(arg).values) {
+        if (apply_decoding(h.normals, arg, key, v))
+            continue;
+        if (key == "method")
+            choice(arg, key, v, {"rays"});
+        else if (key == "impl")
+            choice(arg, key, v, {"reference"});
+        else if (key == "directions")
+            choice(arg, key, v, {"exact"});
+        else if (key == "rays")
+            h.rays = parse_int(arg, key, v, 1, 4096);
+        else if (key == "radius")
+            h.radius = float(parse_in_range(arg, key, v, 0, true, 65536, false,
+                                            "texels in (0, 65536]"));
+        else if (key == "phase")
+            h.phase = float(parse_in_range(arg, key, v, 0, false, 1, true, "in [0, 1)"));
+        else if (key == "boundary")
+            h.boundary = choice(arg, key, v, {"periodic", "clip"}) == "clip" ? Boundary::Clip
+                                                                              : Boundary::Periodic;
+        else
+            unknown_modifier(arg, key,
+                             "method, impl, normal, max_angle, range, rays, radius, phase, "
+                             "directions, boundary");
+    }
+    return s;
+}
+
+OIIO::TypeDesc parse_format(const std::string& t)
+{
+    if (t == "float")
+        return OIIO::TypeDesc::FLOAT;
+    if (t == "half")
+        return OIIO::TypeDesc::HALF;
+    if (t == "uint16")
+        return OIIO::TypeDesc::UINT16;
+    if (t == "uint8")
+        return OIIO::TypeDesc::UINT8;
+    throw UsageError("-d " + t + ": unknown type (float, half, uint16, uint8)");
+}
+
+void check_output_path(const std::string& path)
+{
+    fs::path p(path);
+    fs::path folder = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+    std::error_code ec;
+    if (!fs::is_directory(folder, ec))
+        throw UsageError("-o " + path + ": the folder '" + folder.string() + "' does not exist");
+    if (fs::is_directory(p, ec))
+        throw UsageError("-o " + path + ": it is a folder");
+    auto out = OIIO::ImageOutput::create(path);
+    if (!out) {
+        OIIO::geterror();
+        throw UsageError("-o " + path + ": unknown image format '" + p.extension().string() +
+                         "' (use .exr, .tif, .png, ...)");
+    }
+}
+
+} // namespace
+
+Program parse_command_line(const std::vector<std::string>& args)
+{
+    Program prog;
+    OIIO::TypeDesc format = OIIO::TypeDesc::FLOAT;
+    int depth = 0;  // stack depth as the program will run
+    auto need = [&](const std::string& arg, int n) {
+        if (depth < n)
+            throw UsageError(arg + " needs " + std::to_string(n) + " image(s) on the stack, has " +
+                             std::to_string(depth) + " (give the input file before it)");
+    };
+    auto value_of = [&](std::size_t& i) -> const std::string& {
+        if (i + 1 >= args.size())
+            throw UsageError(args[i] + " needs a value");
+        return args[++i];
+    };
+
+    for (std::size_t i = 0; i < args.size(); ++i) {
+        const std::string& a = args[i];
+        const std::string cmd = a.substr(0, a.find(':'));
+        if (a == "--help" || a == "-h") {
+            prog.help = true;
+        } else if (a == "--version") {
+            prog.version = true;
+        } else if (a == "-v") {
+            prog.verbose = true;
+        } else if (a == "--list-devices") {
+            prog.list_devices = true;
+        } else if (a == "--device") {
+            prog.device = value_of(i);
+        } else if (a == "-d") {
+            format = parse_format(value_of(i));
+        } else if (a == "-o") {
+            const std::string& path = value_of(i);
+            need(a, 1);
+            check_output_path(path);
+            prog.steps.push_back({Step::Kind::Write, "-o " + path, path, format, {}, {}});
+        } else if (cmd == "--slopes") {
+            need(cmd, 1);
+            prog.steps.push_back(parse_slopes(a));
+        } else if (cmd == "--height") {
+            need(cmd, 1);
+            prog.steps.push_back(parse_height(a));
+        } else if (!a.empty() && a[0] == '-' && a != "-") {
+            throw UsageError("unknown option '" + a + "' (see relief --help)");
+        } else {
+            std::error_code ec;
+            if (!fs::exists(a, ec))
+                throw UsageError("cannot read '" + a + "': no such file");
+            prog.steps.push_back({Step::Kind::Read, a, a, {}, {}, {}});
+            ++depth;
+        }
+    }
+    for (Step& s : prog.steps) {
+        s.slopes.exec.device = prog.device;
+        s.height.exec.device = prog.device;
+    }
+    return prog;
+}
+
+} // namespace relief::cli

@@ -1,0 +1,174 @@
+// relief: the command line. Reads arguments left to right over a stack of
+// images (oiiotool style); see `relief --help`.
+#include <OpenImageIO/imagebuf.h>
+
+#include <chrono>
+#include <cstdio>
+#include <exception>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "command_line.h"
+#include "relief/relief.h"
+
+namespace {
+
+using relief::Severity;
+using relief::cli::Program;
+using relief::cli::Step;
+
+struct RuntimeError : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+class Runner {
+public:
+    explicit Runner(const Program& prog) : prog_(prog) {}
+
+    void run()
+    {
+        for (const Step& s : prog_.steps) {
+            auto t0 = std::chrono::steady_clock::now();
+            run_step(s);
+            if (prog_.verbose && s.kind != Step::Kind::Read) {
+                double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+                std::fprintf(stderr, "relief: %s: %.3f s\n", s.text.c_str(), sec);
+            }
+        }
+    }
+
+private:
+    void message(Severity s, const std::string& msg) const
+    {
+        if (s == Severity::Warning)
+            std::fprintf(stderr, "relief: warning: %s\n", msg.c_str());
+        else if (prog_.verbose)
+            std::fprintf(stderr, "relief: %s\n", msg.c_str());
+    }
+
+    relief::Execution execution(const Step& s) const
+    {
+        relief::Execution e;
+        e.device = prog_.device;
+        e.on_message = [this](Severity sev, const std::string& m) { message(sev, m); };
+        if (prog_.verbose) {
+            auto next = std::make_shared<int>(10);
+            std::string name = s.text.substr(0, s.text.find(':'));
+            e.on_progress = [name, next](double f) {
+                while (f * 100.0 >= *next && *next <= 100) {
+                    std::fprintf(stderr, "relief: %s: %d%%\n", name.c_str(), *next);
+                    *next += 10;
+                }
+            };
+        }
+        return e;
+    }
+
+    OIIO::ImageBuf pop()
+    {
+        OIIO::ImageBuf top = std::move(stack_.back());
+        stack_.pop_back();
+        return top;
+    }
+
+    void run_step(const Step& s)
+    {
+        switch (s.kind) {
+        case Step::Kind::Read: {
+            OIIO::ImageBuf img;
+            if (!relief::read_image(img, s.path))
+                throw RuntimeError(relief::geterror());
+            if (prog_.verbose) {
+                const auto& spec = img.spec();
+                std::fprintf(stderr, "relief: read %s: %dx%d, %d channel(s), %s\n", s.path.c_str(),
+                             spec.width, spec.height, spec.nchannels, img.nativespec().format.c_str());
+            }
+            stack_.push_back(std::move(img));
+            break;
+        }
+        case Step::Kind::Slopes: {
+            relief::SlopeOptions o = s.slopes;
+            o.exec = execution(s);
+            OIIO::ImageBuf in = pop(), out;
+            if (!relief::slopes(out, in, o))
+                throw RuntimeError(relief::geterror());
+            stack_.push_back(std::move(out));
+            break;
+        }
+        case Step::Kind::Height: {
+            relief::HeightOptions o = s.height;
+            o.exec = execution(s);
+            if (prog_.verbose)
+                message(Severity::Info, "height: method=rays " + relief::describe(o));
+            OIIO::ImageBuf in = pop(), out;
+            if (!relief::height(out, in, o))
+                throw RuntimeError(relief::geterror());
+            stack_.push_back(std::move(out));
+            break;
+        }
+        case Step::Kind::Write: {
+            relief::WriteOptions w;
+            w.format = s.format;
+            // The integer mapping is needed to read the file back: always say it.
+            w.on_message = [](Severity, const std::string& m) {
+                std::fprintf(stderr, "relief: %s\n", m.c_str());
+            };
+            if (!relief::write_image(stack_.back(), s.path, w))
+                throw RuntimeError(relief::geterror());
+            if (prog_.verbose)
+                std::fprintf(stderr, "relief: wrote %s\n", s.path.c_str());
+            break;
+        }
+        }
+    }
+
+    const Program& prog_;
+    std::vector<OIIO::ImageBuf> stack_;
+};
+
+int list_devices()
+{
+    auto devices = relief::list_devices();
+    if (devices.empty())
+        throw RuntimeError(relief::geterror());
+    for (const auto& d : devices)
+        std::printf("%s  %s / %s%s%s\n", d.id.c_str(), d.platform.c_str(), d.name.c_str(),
+                    d.is_gpu ? "  [GPU]" : "", d.has_fp64 ? "  fp64" : "");
+    return 0;
+}
+
+} // namespace
+
+int main(int argc, char** argv)
+{
+    std::vector<std::string> args(argv + 1, argv + argc);
+    Program prog;
+    try {
+        prog = relief::cli::parse_command_line(args);
+    } catch (const relief::cli::UsageError& e) {
+        std::fprintf(stderr, "relief: error: %s\n", e.what());
+        return 2;
+    }
+    if (prog.help) {
+        std::fputs(relief::cli::usage_text(), stdout);
+        return 0;
+    }
+    if (prog.version) {
+        std::printf("relief %s\n", relief::version());
+        return 0;
+    }
+    try {
+        if (prog.list_devices)
+            return list_devices();
+        if (prog.steps.empty()) {
+            std::fputs(relief::cli::usage_text(), stderr);
+            return 2;
+        }
+        Runner(prog).run();
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "relief: error: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}

@@ -1,0 +1,179 @@
+#include "compute_context.h"
+
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include "errors.h"
+#include "kernel_sources.h"
+#include "opencl_context.h"
+
+namespace relief::host {
+
+std::string kernel_source(const std::string& name)
+{
+    if (const char* dir = std::getenv("RELIEF_KERNEL_DIR"); dir && *dir) {
+        std::ifstream in(std::string(dir) + "/" + name, std::ios::binary);
+        if (!in)
+            throw Error("RELIEF_KERNEL_DIR is set but " + std::string(dir) + "/" + name +
+                        " cannot be read");
+        std::ostringstream ss;
+        ss << in.rdbuf();
+        return ss.str();
+    }
+    for (const auto& s : embedded_kernel_sources())
+        if (s.name == name)
+            return s.text;
+    throw Error("no embedded kernel named " + name);
+}
+
+std::string DeviceInfo::describe() const
+{
+    std::ostringstream ss;
+    ss << platform_index << ":" << device_index << " " << platform << " / " << name
+       << (is_gpu ? " (GPU)" : " (CPU/other)");
+    return ss.str();
+}
+
+namespace {
+
+std::vector<cl::Platform> platforms()
+{
+    std::vector<cl::Platform> list;
+    try {
+        cl::Platform::get(&list);
+    } catch (const cl::Error&) {
+        list.clear();  // CL_PLATFORM_NOT_FOUND_KHR: no ICD installed
+    }
+    return list;
+}
+
+cl::Device device_at(int platform_index, int device_index)
+{
+    auto plats = platforms();
+    std::vector<cl::Device> devs;
+    plats.at(platform_index).getDevices(CL_DEVICE_TYPE_ALL, &devs);
+    return devs.at(device_index);
+}
+
+} // namespace
+
+std::vector<DeviceInfo> list_devices()
+{
+    auto plats = platforms();
+    if (plats.empty())
+        throw NoDeviceError("no OpenCL platform found (install an OpenCL driver, e.g. the "
+                            "Debian package pocl-opencl-icd for the CPU)");
+    std::vector<DeviceInfo> out;
+    for (std::size_t p = 0; p < plats.size(); ++p) {
+        std::vector<cl::Device> devs;
+        try {
+            plats[p].getDevices(CL_DEVICE_TYPE_ALL, &devs);
+        } catch (const cl::Error&) {
+            continue;  // CL_DEVICE_NOT_FOUND on this platform
+        }
+        for (std::size_t d = 0; d < devs.size(); ++d) {
+            DeviceInfo info;
+            info.platform_index = int(p);
+            info.device_index = int(d);
+            info.platform = plats[p].getInfo<CL_PLATFORM_NAME>();
+            info.name = devs[d].getInfo<CL_DEVICE_NAME>();
+            info.is_gpu = (devs[d].getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_GPU) != 0;
+            info.has_fp64 = devs[d].getInfo<CL_DEVICE_DOUBLE_FP_CONFIG>() != 0;
+            out.push_back(info);
+        }
+    }
+    if (out.empty())
+        throw NoDeviceError("OpenCL found a platform but no device");
+    return out;
+}
+
+DeviceInfo choose_device(const std::string& spec)
+{
+    if (spec != "auto" && spec != "gpu" && spec != "cpu") {
+        auto colon = spec.find(':');
+        char* end = nullptr;
+        long p = -1, d = -1;
+        if (colon != std::string::npos && colon > 0 && colon + 1 < spec.size()) {
+            p = std::strtol(spec.c_str(), &end, 10);
+            if (end != spec.c_str() + colon)
+                p = -1;
+            d = std::strtol(spec.c_str() + colon + 1, &end, 10);
+            if (*end)
+                d = -1;
+        }
+        if (p < 0 || d < 0)
+            throw Error("bad device '" + spec +
+                        "': expected auto, gpu, cpu or <platform>:<device> (e.g. 0:0)");
+        for (const auto& info : list_devices())
+            if (info.platform_index == p && info.device_index == d)
+                return info;
+        throw NoDeviceError("no OpenCL device " + spec);
+    }
+    auto devices = list_devices();
+    for (const auto& info : devices)
+        if (info.is_gpu && spec != "cpu")
+            return info;
+    if (spec == "gpu")
+        throw NoDeviceError("no OpenCL GPU device found");
+    for (const auto& info : devices)
+        if (!info.is_gpu)
+            return info;
+    return devices.front();
+}
+
+std::shared_ptr<ComputeContext> ComputeContext::acquire(const std::string& spec)
+{
+    static std::mutex mutex;
+    static std::map<std::string, std::shared_ptr<ComputeContext>> contexts;
+    DeviceInfo info = choose_device(spec);
+    std::string key = std::to_string(info.platform_index) + ":" + std::to_string(info.device_index);
+    std::lock_guard<std::mutex> lock(mutex);
+    auto& slot = contexts[key];
+    if (!slot)
+        slot = std::make_shared<ComputeContext>(info);
+    return slot;
+}
+
+ComputeContext::ComputeContext(const DeviceInfo& device) : device_(device), impl_(new Impl)
+{
+    try {
+        impl_->device = device_at(device.platform_index, device.device_index);
+        impl_->context = cl::Context(impl_->device);
+        impl_->queue = cl::CommandQueue(impl_->context, impl_->device);
+    } catch (const cl::Error& e) {
+        throw Error("cannot open OpenCL device " + device.describe() + ": " + e.what() +
+                    " (error " + std::to_string(e.err()) + ")");
+    }
+}
+
+ComputeContext::~ComputeContext() = default;
+
+void ComputeContext::build_program(const std::string& file)
+{
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    impl_->program(file);
+}
+
+cl::Program& ComputeContext::Impl::program(const std::string& file)
+{
+    auto it = programs.find(file);
+    if (it != programs.end())
+        return it->second;
+    std::string source = kernel_source("common.h") + "\n#line 1 \"" + file + "\"\n" +
+                         kernel_source(file);
+    cl::Program prog(context, source);
+    try {
+        prog.build({device}, "-cl-std=CL1.2");
+    } catch (const cl::Error&) {
+        std::string log;
+        try {
+            log = prog.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device);
+        } catch (const cl::Error&) {
+        }
+        throw KernelBuildError("OpenCL kernel " + file + " failed to build:\n" + log, log);
+    }
+    return programs.emplace(file, prog).first->second;
+}
+
+} // namespace relief::host

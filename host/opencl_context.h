@@ -1,0 +1,38 @@
+#pragma once
+// OpenCL objects behind ComputeContext; included only by host/*.cpp.
+#include <CL/opencl.hpp>
+
+#include <cstddef>
+#include <map>
+#include <mutex>
+#include <string>
+
+#include "compute_context.h"
+#include "slope_stage.h"
+
+namespace relief::host {
+
+struct ComputeContext::Impl {
+    cl::Device device;
+    cl::Context context;
+    cl::CommandQueue queue;
+    std::mutex mutex;  // guards programs; also serialises stage launches
+    std::map<std::string, cl::Program> programs;
+
+    // The built program for kernels/<file> (common.h prepended); cached.
+    cl::Program& program(const std::string& file);
+};
+
+struct DeviceSlopes::Impl {
+    cl::Buffer buffer;  // cl_float2 per texel
+};
+
+// Global sizes must be multiples of the work-group size: PoCL and many
+// OpenCL 1.2 devices have no non-uniform work-groups. Kernels bound-check.
+constexpr std::size_t kGroupSize = 64;
+inline std::size_t padded(std::size_t n)
+{
+    return (n + kGroupSize - 1) / kGroupSize * kGroupSize;
+}
+
+} // namespace relief::host

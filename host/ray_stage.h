@@ -1,0 +1,30 @@
+#pragma once
+// Stage 2, radial ray integration (DESIGN.md §4.2): slopes -> displacement.
+#include <functional>
+
+#include "compute_context.h"
+#include "ray_walk.h"
+#include "slope_stage.h"
+
+namespace relief::host {
+
+enum class RayBoundary { Periodic, Clip };
+
+struct RayParams {
+    int rays = 32;            // J
+    double radius = 64.0;     // R, texels
+    double phase = 0.5;       // phi: angles 2*pi*(j + phi)/J
+    DirectionSet directions = DirectionSet::Exact;
+    RayBoundary boundary = RayBoundary::Periodic;
+};
+
+// Fraction done in [0, 1]; called from the calling thread between launches.
+using Progress = std::function<void(double)>;
+
+// Integrates the slope field with the reference kernel into `height_out`
+// (width*height floats, texel units, bumps positive, zero mean).
+void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
+                              const RayParams& params, float* height_out,
+                              const Progress& progress = {});
+
+} // namespace relief::host

@@ -1,0 +1,32 @@
+#pragma once
+// Per-direction walk tables for radial ray integration (DESIGN.md §4.2).
+//
+// A ray from a texel centre in direction d crosses a sequence of texels; the
+// sequence (as offsets from the origin texel) and the segment lengths are the
+// same for every origin, so each direction is walked once, here, in double.
+#include <vector>
+
+namespace relief::host {
+
+struct RaySegment {
+    int ox = 0, oy = 0;     // texel offset from the ray's origin texel
+    double t_in = 0.0;      // distance along the ray where the segment starts
+    double t_out = 0.0;     // ... and ends (texel units)
+    double ext_x = 0.0;     // (ext_x, ext_y) = d * (t_out - t_in)
+    double ext_y = 0.0;
+    // Area weight (t_out - t_in) * t_mid; 0 for the origin texel, which is
+    // excluded from its own mean.
+    double weight = 0.0;
+};
+
+// Walks the ray at `angle` radians (x right, y down) from the centre of texel
+// (0, 0) for `radius` texels. Segment 0 is the origin texel. Segments of zero
+// length (the ray grazing a texel corner) are dropped.
+std::vector<RaySegment> walk_ray(double angle, double radius);
+
+enum class DirectionSet { Exact };
+
+// Ray angles: Exact gives 2*pi*(j + phase)/rays, j = 0..rays-1.
+std::vector<double> ray_angles(int rays, double phase, DirectionSet set);
+
+} // namespace relief::host

@@ -1,0 +1,141 @@
+#include "slope_stage.h"
+
+#include <cmath>
+#include <vector>
+
+#include "errors.h"
+#include "opencl_context.h"
+
+namespace relief::host {
+
+namespace {
+
+std::size_t texel_count(int w, int h) { return std::size_t(w) * std::size_t(h); }
+
+// Sums of squared curl per row of cells, then the RMS per cell for each
+// convention. Row sums are added in a fixed order, so the result does not
+// depend on the device's thread count.
+void measure_curl(ComputeContext::Impl& cl_, const cl::Buffer& slopes, int w, int h,
+                  SlopeStats& stats)
+{
+    if (w < 2 || h < 2)
+        return;  // no cell: both norms stay 0 and the choice is ambiguous
+    int cell_rows = h - 1;
+    cl::Buffer sums(cl_.context, CL_MEM_WRITE_ONLY, sizeof(cl_float2) * cell_rows);
+    cl::Kernel k(cl_.program("ddm.cl"), "curl_row_sums");
+    k.setArg(0, slopes);
+    k.setArg(1, w);
+    k.setArg(2, cell_rows);
+    k.setArg(3, sums);
+    cl_.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(cell_rows)),
+                                   cl::NDRange(kGroupSize));
+    std::vector<cl_float2> host(cell_rows);
+    cl_.queue.enqueueReadBuffer(sums, CL_TRUE, 0, sizeof(cl_float2) * cell_rows, host.data());
+    double gl = 0.0, dx = 0.0;
+    for (const auto& s : host) {
+        gl += s.s[0];
+        dx += s.s[1];
+    }
+    double cells = double(w - 1) * double(h - 1);
+    stats.curl_opengl = std::sqrt(gl / cells);
+    stats.curl_directx = std::sqrt(dx / cells);
+}
+
+} // namespace
+
+DeviceSlopes derive_slopes(ComputeContext& ctx, const float* normals, const SlopeParams& p,
+                           SlopeStats& stats)
+{
+    if (p.width <= 0 || p.height <= 0)
+        throw Error("empty normal map");
+    if (p.channels != 2 && p.channels != 3)
+        throw Error("derive_slopes needs 2 or 3 values per texel");
+    auto& c = ctx.impl();
+    std::lock_guard<std::mutex> lock(c.mutex);
+    try {
+        const std::size_t n = texel_count(p.width, p.height);
+        const int texels = int(n);
+        if (n > std::size_t(INT32_MAX))
+            throw Error("normal map too large");
+        cl::Buffer in(c.context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                      sizeof(float) * n * p.channels, const_cast<float*>(normals));
+        auto impl = std::make_shared<DeviceSlopes::Impl>();
+        impl->buffer = cl::Buffer(c.context, CL_MEM_READ_WRITE, sizeof(cl_float2) * n);
+        cl_int zero[2] = {0, 0};
+        cl::Buffer counters(c.context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(zero),
+                            zero);
+
+        // Derive with OpenGL first; DirectX is the same field with gy negated.
+        const double a = p.max_angle_deg * M_PI / 180.0;
+        cl::Kernel k(c.program("ddm.cl"), "ddm_slopes");
+        k.setArg(0, in);
+        k.setArg(1, p.channels);
+        k.setArg(2, texels);
+        k.setArg(3, p.scale);
+        k.setArg(4, p.bias);
+        k.setArg(5, -1.0f);
+        k.setArg(6, float(std::cos(a)));
+        k.setArg(7, float(std::sin(a)));
+        k.setArg(8, impl->buffer);
+        k.setArg(9, counters);
+        c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(n)),
+                                     cl::NDRange(kGroupSize));
+        c.queue.enqueueReadBuffer(counters, CL_TRUE, 0, sizeof(zero), zero);
+        stats.invalid = zero[0];
+        stats.clamped = zero[1];
+
+        stats.chosen = p.convention;
+        if (p.convention == GreenConvention::Auto) {
+            measure_curl(c, impl->buffer, p.width, p.height, stats);
+            stats.auto_chosen = true;
+            double lo = std::min(stats.curl_opengl, stats.curl_directx);
+            double hi = std::max(stats.curl_opengl, stats.curl_directx);
+            stats.ambiguous = !(hi > kAmbiguousCurlRatio * lo);
+            stats.chosen = (!stats.ambiguous && stats.curl_directx < stats.curl_opengl)
+                               ? GreenConvention::DirectX
+                               : GreenConvention::OpenGL;
+        }
+        if (stats.chosen == GreenConvention::DirectX) {
+            cl::Kernel f(c.program("ddm.cl"), "flip_row_slope");
+            f.setArg(0, impl->buffer);
+            f.setArg(1, texels);
+            c.queue.enqueueNDRangeKernel(f, cl::NullRange, cl::NDRange(padded(n)),
+                                         cl::NDRange(kGroupSize));
+        }
+        c.queue.finish();
+        return DeviceSlopes(p.width, p.height, impl);
+    } catch (const cl::Error& e) {
+        throw Error(std::string("OpenCL error in the slope stage: ") + e.what() + " (" +
+                    std::to_string(e.err()) + ")");
+    }
+}
+
+DeviceSlopes upload_slopes(ComputeContext& ctx, const float* slopes, int width, int height)
+{
+    auto& c = ctx.impl();
+    std::lock_guard<std::mutex> lock(c.mutex);
+    try {
+        auto impl = std::make_shared<DeviceSlopes::Impl>();
+        impl->buffer = cl::Buffer(c.context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR,
+                                  sizeof(cl_float2) * texel_count(width, height),
+                                  const_cast<float*>(slopes));
+        return DeviceSlopes(width, height, impl);
+    } catch (const cl::Error& e) {
+        throw Error(std::string("OpenCL error uploading slopes: ") + e.what());
+    }
+}
+
+void read_slopes(ComputeContext& ctx, const DeviceSlopes& slopes, float* out)
+{
+    auto& c = ctx.impl();
+    std::lock_guard<std::mutex> lock(c.mutex);
+    try {
+        c.queue.enqueueReadBuffer(slopes.impl().buffer, CL_TRUE, 0,
+                                  sizeof(cl_float2) * texel_count(slopes.width(), slopes.height()),
+                                  out);
+    } catch (const cl::Error& e) {
+        throw Error(std::string("OpenCL error reading slopes: ") + e.what());
+    }
+}
+
+} // namespace relief::host

@@ -1,0 +1,52 @@
+// Radial ray integration, reference kernel (DESIGN.md §4.2).
+// common.h is prepended by the host.
+//
+// Every ray of one direction crosses the same texel offsets with the same
+// segment lengths, because all rays start at a texel centre; the host walks
+// each direction once and passes the table:
+//   dir_start[j] .. dir_start[j+1]  segments of direction j, in walk order;
+//   seg_offset[s] = texel offset (dx, dy) from the ray's origin;
+//   seg_data[s]   = (extent x, extent y, weight, cumulative weight).
+// Segment 0 of every direction is the origin texel: it raises the height
+// along the ray but has weight 0 (p is excluded from its own mean).
+// The displacement of p is minus the weighted mean of the midpoint heights
+// relative to p; the host removes the global mean afterwards.
+
+__kernel void rays_reference(__global const float2* slopes, int width, int height,
+                             int row0, int rows, int periodic, int directions,
+                             __global const int* dir_start,
+                             __global const int2* seg_offset,
+                             __global const float4* seg_data,
+                             __global float* displacement)
+{
+    int gid = get_global_id(0);
+    if (gid >= width * rows)
+        return;
+    int x = gid % width;
+    int y = row0 + gid / width;
+
+    float sum_a = 0.0f, sum_w = 0.0f;
+    for (int j = 0; j < directions; ++j) {
+        float h = 0.0f, a = 0.0f, w = 0.0f;
+        int end = dir_start[j + 1];
+        for (int s = dir_start[j]; s < end; ++s) {
+            int2 o = seg_offset[s];
+            int qx = x + o.x, qy = y + o.y;
+            if (periodic) {
+                qx = relief_wrap(qx, width);
+                qy = relief_wrap(qy, height);
+            } else if (qx < 0 || qx >= width || qy < 0 || qy >= height) {
+                break;  // clip: the ray leaves the texture here
+            }
+            float2 g = slopes[qy * width + qx];
+            float4 d = seg_data[s];
+            float dh = g.x * d.x + g.y * d.y;
+            a += d.z * (h + 0.5f * dh);
+            h += dh;
+            w = d.w;
+        }
+        sum_a += a;
+        sum_w += w;
+    }
+    displacement[y * width + x] = sum_w > 0.0f ? -sum_a / sum_w : 0.0f;
+}

@@ -1,0 +1,38 @@
+#pragma once
+// Reading and writing images the way relief needs them.
+#include <OpenImageIO/imagebuf.h>
+
+#include <string>
+
+#include "options.h"
+
+namespace relief {
+
+// Reads the first subimage of `path` as raw data: no colour conversion, and
+// alpha left unassociated (PNG readers otherwise premultiply RGB by alpha,
+// which corrupts normal maps whose alpha holds a height). Pixels are
+// converted to float in memory; dst.nativespec().format keeps the file's
+// type (UNORM decoding depends on it). Returns false and sets geterror() for
+// a missing, empty, truncated or non-image file.
+bool read_image(OIIO::ImageBuf& dst, const std::string& path);
+
+struct WriteOptions {
+    // Pixel type of the file: FLOAT (default), HALF, UINT16 or UINT8.
+    OIIO::TypeDesc format = OIIO::TypeDesc::FLOAT;
+    // Where to report the integer mapping (scale and mid-level).
+    std::function<void(Severity, const std::string&)> on_message;
+};
+
+// Writes `image` to `path` atomically: into a temporary file in the same
+// folder, renamed over `path` only when complete, so a failure leaves no
+// partial file and does not touch an existing one.
+//
+// Integer formats store relief's signed results (heights, slopes: images
+// with a relief:method attribute) as value = midlevel + data / scale, with
+// midlevel 0.5 and scale = 2 * max|data| (so the data fits [0, 1]); the file
+// records relief:value_scale and relief:value_midlevel, and data =
+// (value - midlevel) * scale. Other images are written as they are.
+bool write_image(const OIIO::ImageBuf& image, const std::string& path,
+                 const WriteOptions& options = {});
+
+} // namespace relief

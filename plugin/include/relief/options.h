@@ -1,0 +1,41 @@
+#pragma once
+// Option structs shared by relief's operations. Defaults are the documented
+// defaults of the command line.
+#include <functional>
+#include <string>
+
+namespace relief {
+
+// Which way the green channel of a tangent-space normal map points
+// (Substance's names): OpenGL = Y+ (green points to the top of the image),
+// DirectX = Y- (green points down). Auto picks the convention whose slope
+// field has the smaller curl and reports both curl norms.
+enum class NormalConvention { Auto, OpenGL, DirectX };
+
+// How float/half normal maps store their components: Signed = as stored, in
+// [-1, 1]; Unsigned = in [0, 1], decoded as 2v - 1 like UNORM integers.
+// Integer images are always UNORM (2v - 1).
+enum class FloatEncoding { Signed, Unsigned };
+
+struct NormalDecoding {
+    NormalConvention convention = NormalConvention::Auto;
+    // Normals tilted more than this (degrees from +z) are clamped to it, so
+    // slopes stay finite (tan(85°) = 11.4 texel per texel).
+    float max_angle = 85.0f;
+    FloatEncoding float_encoding = FloatEncoding::Signed;
+};
+
+enum class Severity { Info, Warning };
+
+struct Execution {
+    // OpenCL device: "auto" (a GPU if there is one, else the CPU), "gpu",
+    // "cpu" or "<platform>:<device>" (indices as `relief --list-devices` shows).
+    std::string device = "auto";
+    // Receives what an operation chose and any warning (one line each).
+    // Without it nothing is printed; the result's metadata records the same.
+    std::function<void(Severity, const std::string&)> on_message;
+    // Fraction done in [0, 1] for long operations.
+    std::function<void(double)> on_progress;
+};
+
+} // namespace relief

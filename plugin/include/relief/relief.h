@@ -1,0 +1,11 @@
+#pragma once
+// relief: normal maps to displacement, as OpenCL kernels behind an
+// ImageBufAlgo-style API. Every operation comes in two forms: one returns an
+// ImageBuf, the other writes `dst` and returns bool; errors via geterror().
+#include "relief/devices.h"
+#include "relief/errors.h"
+#include "relief/height.h"
+#include "relief/imageio.h"
+#include "relief/options.h"
+#include "relief/slopes.h"
+#include "relief/version.h"

@@ -1,0 +1,23 @@
+#include "relief/devices.h"
+
+#include <exception>
+
+#include "compute_context.h"
+#include "error_state.h"
+
+namespace relief {
+
+std::vector<DeviceDescription> list_devices()
+{
+    std::vector<DeviceDescription> out;
+    try {
+        for (const auto& d : host::list_devices())
+            out.push_back({std::to_string(d.platform_index) + ":" + std::to_string(d.device_index),
+                           d.platform, d.name, d.is_gpu, d.has_fp64});
+    } catch (const std::exception& e) {
+        detail::set_error(e.what());
+    }
+    return out;
+}
+
+} // namespace relief

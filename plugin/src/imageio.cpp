@@ -1,0 +1,173 @@
+// Reading raw image data and writing outputs atomically.
+#include "relief/imageio.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <system_error>
+#include <unistd.h>
+#include <vector>
+
+#include "error_state.h"
+
+namespace relief {
+
+namespace fs = std::filesystem;
+using OIIO::ImageBuf;
+using OIIO::ImageSpec;
+using OIIO::TypeDesc;
+
+bool read_image(ImageBuf& dst, const std::string& path)
+{
+    std::error_code ec;
+    if (!fs::exists(path, ec)) {
+        detail::set_error("cannot read '" + path + "': no such file");
+        return false;
+    }
+    if (fs::is_directory(path, ec)) {
+        detail::set_error("cannot read '" + path + "': it is a folder");
+        return false;
+    }
+    if (fs::file_size(path, ec) == 0) {
+        detail::set_error("cannot read '" + path + "': the file is empty");
+        return false;
+    }
+    ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    dst.reset(path, 0, 0, nullptr, &config);
+    if (!dst.read(0, 0, /*force=*/true, TypeDesc::FLOAT) || dst.has_error()) {
+        std::string why = dst.geterror();
+        if (why.empty())
+            why = OIIO::geterror();
+        detail::set_error("cannot read '" + path + "': " + (why.empty() ? "unknown error" : why));
+        dst.clear();
+        return false;
+    }
+    if (dst.spec().width <= 0 || dst.spec().height <= 0) {
+        detail::set_error("cannot read '" + path + "': the image has no pixels");
+        dst.clear();
+        return false;
+    }
+    return true;
+}
+
+namespace {
+
+// Extensions whose writers have no float pixels.
+bool integer_only_format(const std::string& ext)
+{
+    static const char* exts[] = {".png", ".jpg", ".jpeg", ".tga", ".bmp", ".ppm",
+                                 ".pgm", ".pnm", ".gif", ".webp", ".jp2"};
+    for (const char* e : exts)
+        if (ext == e)
+            return true;
+    return false;
+}
+
+std::string lowercase(std::string s)
+{
+    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+    return s;
+}
+
+void say(const WriteOptions& o, Severity s, const std::string& msg)
+{
+    if (o.on_message)
+        o.on_message(s, msg);
+}
+
+} // namespace
+
+bool write_image(const ImageBuf& image, const std::string& path, const WriteOptions& options)
+{
+    const fs::path target(path);
+    const std::string ext = lowercase(target.extension().string());
+    fs::path folder = target.parent_path();
+    if (folder.empty())
+        folder = ".";
+    std::error_code ec;
+    if (!fs::is_directory(folder, ec)) {
+        detail::set_error("cannot write '" + path + "': the folder '" + folder.string() +
+                          "' does not exist");
+        return false;
+    }
+    if (fs::is_directory(target, ec)) {
+        detail::set_error("cannot write '" + path + "': it is a folder");
+        return false;
+    }
+    if (!image.initialized() || image.has_error()) {
+        detail::set_error("cannot write '" + path + "': no valid image to write");
+        return false;
+    }
+    {
+        auto probe = OIIO::ImageOutput::create(path);
+        if (!probe) {
+            OIIO::geterror();  // consume OIIO's pending message; ours is clearer
+            detail::set_error("cannot write '" + path + "': unknown image format '" + ext +
+                              "' (use .exr, .tif, .png, ...)");
+            return false;
+        }
+    }
+
+    TypeDesc format = options.format;
+    if ((format == TypeDesc::FLOAT || format == TypeDesc::HALF) && integer_only_format(ext)) {
+        format = ext == ".png" ? TypeDesc::UINT16 : TypeDesc::UINT8;
+        say(options, Severity::Info,
+            "'" + path + "': " + ext + " has no float pixels; writing " + format.c_str());
+    }
+
+    // Signed results in an integer file: map [-m, m] to [0, 1] around 0.5.
+    ImageBuf mapped;
+    const ImageBuf* out = &image;
+    const bool integer = format.basetype == TypeDesc::UINT8 || format.basetype == TypeDesc::UINT16;
+    if (integer && !image.spec().get_string_attribute("relief:method").empty()) {
+        const ImageSpec& spec = image.spec();
+        std::vector<float> px(spec.image_pixels() * spec.nchannels);
+        image.get_pixels(image.roi(), TypeDesc::FLOAT, px.data());
+        double m = 0.0;
+        for (float v : px)
+            m = std::max(m, double(std::abs(v)));
+        const double scale = m > 0.0 ? 2.0 * m : 1.0;
+        const double mid = 0.5;
+        for (float& v : px)
+            v = float(mid + v / scale);
+        ImageSpec s = spec;
+        s.attribute("relief:value_scale", float(scale));
+        s.attribute("relief:value_midlevel", float(mid));
+        mapped.reset(s);
+        mapped.set_pixels(mapped.roi(), TypeDesc::FLOAT, px.data());
+        out = &mapped;
+        char msg[256];
+        std::snprintf(msg, sizeof msg,
+                      "'%s': %s values v hold data = (v - %.1f) * %.9g (scale %.9g %s, mid-level %.1f)",
+                      path.c_str(), format.c_str(), mid, scale, scale,
+                      spec.get_string_attribute("relief:height_unit", "units").c_str(), mid);
+        say(options, Severity::Info, msg);
+    }
+
+    // Same folder, same extension (OIIO picks the writer by extension), so
+    // the final rename is atomic and never crosses file systems.
+    static std::atomic<int> counter{0};
+    const fs::path tmp = folder / (target.stem().string() + ".relief-tmp-" +
+                                   std::to_string(::getpid()) + "-" +
+                                   std::to_string(counter++) + target.extension().string());
+    if (!out->write(tmp.string(), format)) {
+        std::string why = out->geterror();
+        fs::remove(tmp, ec);
+        detail::set_error("cannot write '" + path + "': " + (why.empty() ? OIIO::geterror() : why));
+        return false;
+    }
+    fs::rename(tmp, target, ec);
+    if (ec) {
+        fs::remove(tmp, ec);
+        detail::set_error("cannot write '" + path + "': rename failed: " + ec.message());
+        return false;
+    }
+    return true;
+}
+
+} // namespace relief

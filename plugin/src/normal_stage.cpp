@@ -1,0 +1,166 @@
+#include "normal_stage.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <stdexcept>
+#include <vector>
+
+namespace relief::detail {
+
+using OIIO::ImageBuf;
+using OIIO::ROI;
+using OIIO::TypeDesc;
+
+namespace {
+
+std::string format_double(const char* fmt, double v)
+{
+    char buf[64];
+    std::snprintf(buf, sizeof buf, fmt, v);
+    return buf;
+}
+
+void say(const Execution& exec, Severity s, const std::string& msg)
+{
+    if (exec.on_message)
+        exec.on_message(s, msg);
+}
+
+bool is_unorm(TypeDesc t)
+{
+    return t.basetype == TypeDesc::UINT8 || t.basetype == TypeDesc::UINT16 ||
+           t.basetype == TypeDesc::UINT32;
+}
+
+bool is_float(TypeDesc t)
+{
+    return t.basetype == TypeDesc::HALF || t.basetype == TypeDesc::FLOAT ||
+           t.basetype == TypeDesc::DOUBLE;
+}
+
+host::GreenConvention to_host(NormalConvention c)
+{
+    switch (c) {
+    case NormalConvention::OpenGL: return host::GreenConvention::OpenGL;
+    case NormalConvention::DirectX: return host::GreenConvention::DirectX;
+    default: return host::GreenConvention::Auto;
+    }
+}
+
+} // namespace
+
+const char* convention_name(host::GreenConvention c)
+{
+    return c == host::GreenConvention::DirectX ? "directx" : "opengl";
+}
+
+ROI resolve_roi(const ImageBuf& image, ROI roi)
+{
+    if (!image.initialized())
+        throw std::runtime_error("the input image is empty (nothing was read into it)");
+    if (image.has_error())
+        throw std::runtime_error(image.geterror());
+    ROI all = image.roi();
+    if (!roi.defined())
+        return all;
+    ROI r = OIIO::roi_intersection(roi, all);
+    r.zbegin = all.zbegin;
+    r.zend = all.zend;
+    if (r.width() <= 0 || r.height() <= 0)
+        throw std::runtime_error("the ROI does not overlap the image");
+    return r;
+}
+
+DerivedSlopes derive_slopes(const ImageBuf& normals, ROI roi, const NormalDecoding& decoding,
+                            const Execution& exec)
+{
+    roi = resolve_roi(normals, roi);
+    const int nch = normals.spec().nchannels;
+    if (nch < 2 || nch > 4)
+        throw std::runtime_error("unsupported channel count " + std::to_string(nch) +
+                                 ": a normal map needs 2 (XY), 3 (RGB) or 4 (RGBA) channels");
+    if (normals.spec().depth > 1)
+        throw std::runtime_error("volume images are not supported");
+    if (!(decoding.max_angle > 0.0f && decoding.max_angle < 90.0f))
+        throw std::runtime_error("max_angle must be in (0, 90) degrees");
+
+    host::SlopeParams p;
+    p.width = roi.width();
+    p.height = roi.height();
+    p.channels = std::min(nch, 3);
+    p.convention = to_host(decoding.convention);
+    p.max_angle_deg = decoding.max_angle;
+
+    const TypeDesc stored = normals.nativespec().format;
+    const bool unsigned_float = is_float(stored) && decoding.float_encoding == FloatEncoding::Unsigned;
+    if (is_unorm(stored) || unsigned_float) {
+        p.scale = 2.0f;
+        p.bias = -1.0f;
+    } else {
+        p.scale = 1.0f;  // float, half, and SNORM (OIIO reads it as [-1, 1])
+        p.bias = 0.0f;
+    }
+
+    std::vector<float> texels(std::size_t(p.width) * p.height * p.channels);
+    ROI read = roi;
+    read.chbegin = 0;
+    read.chend = p.channels;
+    if (!normals.get_pixels(read, TypeDesc::FLOAT, texels.data()))
+        throw std::runtime_error("cannot read the normal map's pixels: " + normals.geterror());
+
+    if (is_float(stored) && decoding.float_encoding == FloatEncoding::Signed) {
+        // A float map with no negative x or y component is almost surely
+        // stored in [0, 1]: decoding it as signed would tilt every texel.
+        float lo = 0.0f;
+        for (std::size_t i = 0; i < texels.size(); i += p.channels)
+            lo = std::min({lo, texels[i], texels[i + 1]});
+        if (lo >= 0.0f && texels.size() > 16)
+            say(exec, Severity::Warning,
+                "float normal map has no negative x or y component; if it is stored in "
+                "[0, 1], decode it with range=unsigned");
+    }
+
+    DerivedSlopes out{host::ComputeContext::acquire(exec.device),
+                      host::DeviceSlopes(0, 0, nullptr), {}};
+    say(exec, Severity::Info, "device: " + out.context->device().describe());
+    out.slopes = host::derive_slopes(*out.context, texels.data(), p, out.stats);
+
+    const auto& s = out.stats;
+    if (s.auto_chosen) {
+        double lo = std::min(s.curl_opengl, s.curl_directx);
+        double hi = std::max(s.curl_opengl, s.curl_directx);
+        std::string norms = "curl rms opengl " + format_double("%.4g", s.curl_opengl) +
+                            ", directx " + format_double("%.4g", s.curl_directx) + ", ratio " +
+                            (lo > 0 ? format_double("%.3g", hi / lo) : std::string("n/a"));
+        if (s.ambiguous)
+            say(exec, Severity::Warning,
+                "normal convention is ambiguous (" + norms + ", under " +
+                    format_double("%.3g", host::kAmbiguousCurlRatio) +
+                    "): assuming opengl; pass normal=opengl or normal=directx to be sure");
+        else
+            say(exec, Severity::Info,
+                std::string("normal convention: ") + convention_name(s.chosen) + " (" + norms + ")");
+    }
+    if (s.invalid > 0)
+        say(exec, Severity::Warning,
+            std::to_string(s.invalid) +
+                " texel(s) had NaN, infinite, zero-length or downward normals and were made flat");
+    if (s.clamped > 0)
+        say(exec, Severity::Info,
+            std::to_string(s.clamped) + " grazing normal(s) clamped to " +
+                format_double("%g", decoding.max_angle) + " degrees");
+    return out;
+}
+
+void tag_slope_metadata(OIIO::ImageSpec& spec, const host::SlopeStats& s)
+{
+    spec.attribute("relief:normal_convention", convention_name(s.chosen));
+    if (s.auto_chosen) {
+        spec.attribute("relief:curl_opengl", float(s.curl_opengl));
+        spec.attribute("relief:curl_directx", float(s.curl_directx));
+    }
+    spec.attribute("relief:invalid_normals", int(std::min<std::int64_t>(s.invalid, INT32_MAX)));
+    spec.attribute("relief:clamped_normals", int(std::min<std::int64_t>(s.clamped, INT32_MAX)));
+}
+
+} // namespace relief::detail
