@@ -109,15 +109,21 @@ DerivedSlopes derive_slopes(const ImageBuf& normals, ROI roi, const NormalDecodi
         throw std::runtime_error("cannot read the normal map's pixels: " + normals.geterror());
 
     if (is_float(stored) && decoding.float_encoding == FloatEncoding::Signed) {
-        // A float map with no negative x or y component is almost surely
-        // stored in [0, 1]: decoding it as signed would tilt every texel.
+        // Signed maps centre x and y on 0; a map stored in [0, 1] centres
+        // them on 0.5 and has no negative component. Decoding that as
+        // signed would tilt every texel.
         float lo = 0.0f;
-        for (std::size_t i = 0; i < texels.size(); i += p.channels)
+        double mean_x = 0.0, mean_y = 0.0;
+        for (std::size_t i = 0; i < texels.size(); i += p.channels) {
             lo = std::min({lo, texels[i], texels[i + 1]});
-        if (lo >= 0.0f && texels.size() > 16)
+            mean_x += texels[i];
+            mean_y += texels[i + 1];
+        }
+        const double count = double(texels.size() / p.channels);
+        if (lo >= 0.0f && mean_x / count > 0.25 && mean_y / count > 0.25)
             say(exec, Severity::Warning,
-                "float normal map has no negative x or y component; if it is stored in "
-                "[0, 1], decode it with range=unsigned");
+                "float normal map has no negative x or y component and centres on 0.5; if it "
+                "is stored in [0, 1], decode it with range=unsigned");
     }
 
     DerivedSlopes out{host::ComputeContext::acquire(exec.device),

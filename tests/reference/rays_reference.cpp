@@ -1,0 +1,74 @@
+#include "rays_reference.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace relief::reference {
+
+namespace {
+
+// Distances t in (0, radius) where the ray from the origin's centre crosses
+// a texel edge (lines x = k + 0.5 or y = k + 0.5), plus 0 and radius.
+std::vector<double> crossings(double d, double radius, std::vector<double> t)
+{
+    if (std::abs(d) > 1e-12)
+        for (int k = 0;; ++k) {
+            double tk = (k + 0.5) / std::abs(d);
+            if (tk >= radius)
+                break;
+            t.push_back(tk);
+        }
+    return t;
+}
+
+} // namespace
+
+std::vector<double> rays(const std::vector<double>& g, int w, int h, const RaySettings& s)
+{
+    std::vector<double> out(std::size_t(w) * h, 0.0);
+    for (int py = 0; py < h; ++py)
+        for (int px = 0; px < w; ++px) {
+            double sum_a = 0.0, sum_w = 0.0;
+            for (int j = 0; j < s.rays; ++j) {
+                const double angle = 2.0 * M_PI * (j + s.phase) / s.rays;
+                const double dx = std::cos(angle), dy = std::sin(angle);
+                std::vector<double> t = crossings(dx, s.radius, crossings(dy, s.radius, {0.0, s.radius}));
+                std::sort(t.begin(), t.end());
+                double height = 0.0;
+                bool origin = true;
+                for (std::size_t i = 0; i + 1 < t.size(); ++i) {
+                    const double t0 = t[i], t1 = t[i + 1];
+                    if (t1 - t0 <= 1e-9)
+                        continue;  // corner crossing: no extent
+                    const double tm = 0.5 * (t0 + t1);
+                    int qx = px + int(std::lround(dx * tm));
+                    int qy = py + int(std::lround(dy * tm));
+                    if (s.periodic) {
+                        qx = ((qx % w) + w) % w;
+                        qy = ((qy % h) + h) % h;
+                    } else if (qx < 0 || qx >= w || qy < 0 || qy >= h) {
+                        break;
+                    }
+                    const std::size_t q = std::size_t(qy) * w + qx;
+                    const double dh = (g[2 * q] * dx + g[2 * q + 1] * dy) * (t1 - t0);
+                    if (!origin) {  // the origin texel is not part of its own mean
+                        const double weight = (t1 - t0) * tm;
+                        sum_a += weight * (height + 0.5 * dh);
+                        sum_w += weight;
+                    }
+                    origin = false;
+                    height += dh;
+                }
+            }
+            out[std::size_t(py) * w + px] = sum_w > 0.0 ? -sum_a / sum_w : 0.0;
+        }
+    double mean = 0.0;
+    for (double v : out)
+        mean += v;
+    mean /= double(out.size());
+    for (double& v : out)
+        v -= mean;
+    return out;
+}
+
+} // namespace relief::reference

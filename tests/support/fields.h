@@ -1,0 +1,119 @@
+#pragma once
+// Analytic height fields with exact gradients, and normal maps made from
+// them in every encoding the DDM stage reads.
+#include <OpenImageIO/imagebuf.h>
+
+#include <cmath>
+#include <vector>
+
+namespace relief::test {
+
+struct Wave {
+    int kx, ky;        // whole periods across the width / height (tiles)
+    double amplitude;  // texels
+    double phase;
+};
+
+// h(x, y) = sum a cos(2*pi*(kx x / W + ky y / H) + phase), x, y texel centres.
+struct PeriodicField {
+    int width, height;
+    std::vector<Wave> waves;
+
+    double h(double x, double y) const
+    {
+        double v = 0;
+        for (const Wave& w : waves)
+            v += w.amplitude * std::cos(arg(w, x, y));
+        return v;
+    }
+    double gx(double x, double y) const
+    {
+        double v = 0;
+        for (const Wave& w : waves)
+            v -= w.amplitude * std::sin(arg(w, x, y)) * 2 * M_PI * w.kx / width;
+        return v;
+    }
+    double gy(double x, double y) const
+    {
+        double v = 0;
+        for (const Wave& w : waves)
+            v -= w.amplitude * std::sin(arg(w, x, y)) * 2 * M_PI * w.ky / height;
+        return v;
+    }
+    // h(p) - mean of h over the disk of radius R around p (exact: a wave's
+    // disk mean is the wave times 2 J1(kR) / (kR)).
+    double h_minus_disk_mean(double x, double y, double R) const
+    {
+        double v = 0;
+        for (const Wave& w : waves) {
+            double k = 2 * M_PI * std::hypot(double(w.kx) / width, double(w.ky) / height);
+            double kr = k * R;
+            double factor = kr > 0 ? 2.0 * std::cyl_bessel_j(1.0, kr) / kr : 1.0;
+            v += w.amplitude * std::cos(arg(w, x, y)) * (1.0 - factor);
+        }
+        return v;
+    }
+    std::vector<double> slopes() const
+    {
+        std::vector<double> g(2 * std::size_t(width) * height);
+        for (int y = 0; y < height; ++y)
+            for (int x = 0; x < width; ++x) {
+                g[2 * (std::size_t(y) * width + x)] = gx(x, y);
+                g[2 * (std::size_t(y) * width + x) + 1] = gy(x, y);
+            }
+        return g;
+    }
+
+private:
+    double arg(const Wave& w, double x, double y) const
+    {
+        return 2 * M_PI * (w.kx * x / width + w.ky * y / height) + w.phase;
+    }
+};
+
+enum class Green { OpenGL, DirectX };
+
+// Unit normal (image frame) of slope (gx, gy): n = (-gx, -gy, 1) / |.|, with
+// the green component stored per convention: OpenGL G' = -n_row, DirectX
+// G' = +n_row. Returns the decoded (signed) components R', G', B'.
+inline void encode_normal(double gx, double gy, Green green, double out[3])
+{
+    double len = std::sqrt(gx * gx + gy * gy + 1.0);
+    out[0] = -gx / len;
+    out[1] = (green == Green::OpenGL ? gy : -gy) / len;
+    out[2] = 1.0 / len;
+}
+
+// A normal map image of the slopes `g` in the given pixel type. Integer
+// types store (v + 1) / 2 (UNORM); float types store v, or (v + 1) / 2 when
+// unsigned_float. channels 2 drops z.
+inline OIIO::ImageBuf normal_image(const std::vector<double>& g, int w, int h, Green green,
+                                   OIIO::TypeDesc type, int channels = 3,
+                                   bool unsigned_float = false)
+{
+    OIIO::ImageBuf img(OIIO::ImageSpec(w, h, channels, type));
+    const bool unorm = type.basetype == OIIO::TypeDesc::UINT8 ||
+                       type.basetype == OIIO::TypeDesc::UINT16;
+    std::vector<float> px(std::size_t(w) * h * channels);
+    for (std::size_t i = 0; i < std::size_t(w) * h; ++i) {
+        double n[3];
+        encode_normal(g[2 * i], g[2 * i + 1], green, n);
+        for (int c = 0; c < channels; ++c)
+            px[i * channels + c] = float(unorm || unsigned_float ? (n[c] + 1.0) * 0.5 : n[c]);
+    }
+    img.set_pixels(img.roi(), OIIO::TypeDesc::FLOAT, px.data());
+    return img;
+}
+
+inline double rms(const std::vector<double>& a)
+{
+    double s = 0, m = 0;
+    for (double v : a)
+        m += v;
+    m /= double(a.size());
+    for (double v : a)
+        s += (v - m) * (v - m);
+    return std::sqrt(s / double(a.size()));
+}
+
+} // namespace relief::test

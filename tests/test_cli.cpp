@@ -1,0 +1,209 @@
+// The relief command line: the documented example, and every bad input
+// failing with a message, a non-zero exit and nothing left behind.
+#include <catch2/catch.hpp>
+
+#include <OpenImageIO/imagebuf.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "support/run_cli.h"
+
+namespace fs = std::filesystem;
+using relief::test::run_cli;
+using relief::test::slurp;
+
+namespace {
+
+const std::string kNormal = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
+
+fs::path scratch(const std::string& name)
+{
+    fs::path d = fs::path(RELIEF_TEST_TMP) / "cli" / name;
+    fs::remove_all(d);
+    fs::create_directories(d);
+    return d;
+}
+
+// Nothing named like the output, temporary files included, may remain.
+bool folder_is_empty_but(const fs::path& dir, const std::string& keep = "")
+{
+    for (const auto& e : fs::directory_iterator(dir))
+        if (e.path().filename() != keep)
+            return false;
+    return true;
+}
+
+} // namespace
+
+TEST_CASE("cli: the documented example writes a float EXR height map with metadata", "[cli]")
+{
+    auto dir = scratch("example");
+    auto out = dir / "height.exr";
+    auto r = run_cli("'" + kNormal + "' --height:method=rays:impl=reference:normal=directx:rays=16:"
+                     "radius=32:phase=0.5:boundary=clip -o '" + out.string() + "'");
+    INFO(r.err);
+    REQUIRE(r.rc == 0);
+    OIIO::ImageBuf h(out.string());
+    REQUIRE(h.read());
+    CHECK(h.spec().width == 512);
+    CHECK(h.spec().nchannels == 1);
+    CHECK(h.spec().format == OIIO::TypeDesc::FLOAT);
+    CHECK(h.spec().get_string_attribute("relief:method") == "rays");
+    CHECK(h.spec().get_string_attribute("relief:normal_convention") == "directx");
+    CHECK(h.spec().get_string_attribute("relief:height_unit") == "texel");
+    CHECK(h.spec().get_string_attribute("relief:parameters") ==
+          "impl=reference rays=16 radius=32 phase=0.5 directions=exact boundary=clip");
+    CHECK(folder_is_empty_but(dir, "height.exr"));
+}
+
+TEST_CASE("cli: -v reports device and convention; integer outputs state their scale", "[cli]")
+{
+    auto dir = scratch("verbose");
+    auto r = run_cli("-v '" + kNormal + "' --height:rays=8:radius=8 -o '" + (dir / "h.exr").string() +
+                     "' -d uint16 -o '" + (dir / "h16.png").string() + "' -d uint8 -o '" +
+                     (dir / "h8.tif").string() + "'");
+    INFO(r.err);
+    REQUIRE(r.rc == 0);
+    CHECK(r.err.find("device:") != std::string::npos);
+    CHECK(r.err.find("normal convention: directx") != std::string::npos);
+    CHECK(r.err.find("uint16 values v hold data = (v - 0.5) *") != std::string::npos);
+
+    OIIO::ImageBuf f((dir / "h.exr").string()), q((dir / "h8.tif").string());
+    REQUIRE(f.read());
+    REQUIRE(q.read());
+    CHECK(q.spec().format == OIIO::TypeDesc::UINT8);
+    const float scale = q.spec().get_float_attribute("relief:value_scale");
+    CHECK(q.spec().get_float_attribute("relief:value_midlevel") == 0.5f);
+    REQUIRE(scale > 0.0f);
+    float a = 0, b = 0;
+    for (int i = 0; i < 50; ++i) {
+        f.getpixel(i * 7, i * 5, &a, 1);
+        q.getpixel(i * 7, i * 5, &b, 1);
+        CHECK(std::abs((b - 0.5f) * scale - a) <= scale / 255.0f);
+    }
+}
+
+TEST_CASE("cli: --slopes pushes the 2-channel DDM", "[cli]")
+{
+    auto dir = scratch("slopes");
+    auto r = run_cli("'" + kNormal + "' --slopes:normal=auto -o '" + (dir / "s.exr").string() + "'");
+    REQUIRE(r.rc == 0);
+    OIIO::ImageBuf s((dir / "s.exr").string());
+    REQUIRE(s.read());
+    CHECK(s.spec().nchannels == 2);
+    CHECK(s.spec().get_string_attribute("relief:normal_convention") == "directx");
+}
+
+TEST_CASE("cli: results are bit-identical whatever the PoCL thread count", "[cli]")
+{
+    auto dir = scratch("determinism");
+    std::string a = (dir / "a.exr").string(), b = (dir / "b.exr").string();
+    std::string cmd = "'" + kNormal + "' --height:rays=12:radius=20:boundary=clip -o ";
+    REQUIRE(run_cli(cmd + "'" + a + "'", "POCL_MAX_PTHREAD_COUNT=1").rc == 0);
+    REQUIRE(run_cli(cmd + "'" + b + "'", "POCL_MAX_PTHREAD_COUNT=2").rc == 0);
+    OIIO::ImageBuf ia(a), ib(b);
+    REQUIRE(ia.read());
+    REQUIRE(ib.read());
+    std::vector<float> pa(512 * 512), pb(512 * 512);
+    ia.get_pixels(ia.roi(), OIIO::TypeDesc::FLOAT, pa.data());
+    ib.get_pixels(ib.roi(), OIIO::TypeDesc::FLOAT, pb.data());
+    CHECK(pa == pb);
+}
+
+TEST_CASE("cli: bad input fails with a clear message, a non-zero exit and no output", "[cli][errors]")
+{
+    auto dir = scratch("bad");
+    const std::string out = "'" + (dir / "out.exr").string() + "'";
+    {
+        std::ofstream(dir / "empty.png");
+        std::ofstream(dir / "text.png") << "this is not an image\n";
+        std::string png = slurp(kNormal);
+        std::ofstream(dir / "truncated.png", std::ios::binary) << png.substr(0, png.size() / 3);
+        OIIO::ImageBuf gray(OIIO::ImageSpec(16, 16, 1, OIIO::TypeDesc::UINT8));
+        REQUIRE(gray.write((dir / "gray.png").string()));
+    }
+    auto in = [&](const char* name) { return "'" + (dir / name).string() + "'"; };
+    struct Case {
+        const char* what;
+        std::string args;
+        std::string env;
+        const char* message;
+    };
+    const std::string ok = "'" + kNormal + "'";
+    fs::path kernels = dir / "kernels";
+    fs::create_directories(kernels);
+    for (const char* f : {"common.h", "ddm.cl", "rays_reference.cl"})
+        fs::copy_file(fs::path(RELIEF_KERNELS_DIR) / f, kernels / f);
+    std::ofstream(kernels / "rays_reference.cl") << "__kernel void rays_reference( { syntax error\n";
+    fs::create_directories(dir / "no_vendors");
+
+    const Case cases[] = {
+        {"missing file", in("missing.png") + " --height -o " + out, "", "no such file"},
+        {"empty file", in("empty.png") + " --height -o " + out, "", "empty"},
+        {"truncated file", in("truncated.png") + " --height -o " + out, "", "cannot read"},
+        {"not an image", in("text.png") + " --height -o " + out, "", "cannot read"},
+        {"one channel", in("gray.png") + " --height -o " + out, "", "channel count 1"},
+        {"unknown option", ok + " --frobnicate -o " + out, "", "unknown option"},
+        {"unknown modifier", ok + " --height:colour=red -o " + out, "", "unknown modifier 'colour'"},
+        {"negative rays", ok + " --height:rays=-3 -o " + out, "", "rays=-3"},
+        {"rays not a number", ok + " --height:rays=lots -o " + out, "", "rays=lots"},
+        {"radius garbage", ok + " --height:radius=12abc -o " + out, "", "radius=12abc"},
+        {"phase out of range", ok + " --height:phase=1.5 -o " + out, "", "phase=1.5"},
+        {"bad convention", ok + " --height:normal=sideways -o " + out, "", "normal=sideways"},
+        {"bad method", ok + " --height:method=magic -o " + out, "", "method=magic"},
+        {"bad type", ok + " --height -d int7 -o " + out, "", "int7"},
+        {"missing output folder", ok + " --height -o '" + (dir / "nowhere" / "h.exr").string() + "'", "",
+         "does not exist"},
+        {"unknown output format", ok + " --height -o '" + (dir / "h.xyz").string() + "'", "",
+         "unknown image format"},
+        {"empty stack", "--height -o " + out, "", "needs 1 image"},
+        {"-o without a value", ok + " --height -o", "", "needs a value"},
+        {"no OpenCL device", ok + " --height -o " + out,
+         "OCL_ICD_VENDORS='" + (dir / "no_vendors").string() + "'", "no OpenCL"},
+        {"no such device", ok + " --device 9:9 --height -o " + out, "", "no OpenCL device 9:9"},
+        {"kernel build failure", ok + " --height:rays=4:radius=4 -o " + out,
+         "RELIEF_KERNEL_DIR='" + kernels.string() + "'", "failed to build"},
+    };
+    for (const Case& c : cases) {
+        INFO(c.what << ": relief " << c.args);
+        auto r = run_cli(c.args, c.env);
+        INFO("stderr: " << r.err);
+        CHECK(r.rc != 0);
+        CHECK(r.rc < 128);  // an exit, not a signal
+        CHECK(r.err.find("relief: error:") != std::string::npos);
+        CHECK(r.err.find(c.message) != std::string::npos);
+        CHECK_FALSE(fs::exists(dir / "out.exr"));
+        for (const auto& e : fs::directory_iterator(dir))
+            CHECK(e.path().filename().string().find("relief-tmp") == std::string::npos);
+    }
+}
+
+TEST_CASE("cli: a failure never clobbers an existing output", "[cli][errors]")
+{
+    auto dir = scratch("clobber");
+    fs::path kernels = dir / "kernels";
+    fs::create_directories(kernels);
+    for (const char* f : {"common.h", "ddm.cl"})
+        fs::copy_file(fs::path(RELIEF_KERNELS_DIR) / f, kernels / f);
+    std::ofstream(kernels / "rays_reference.cl") << "not OpenCL\n";
+    std::ofstream(dir / "h.exr") << "precious";
+    auto r = run_cli("'" + kNormal + "' --height -o '" + (dir / "h.exr").string() + "'",
+                     "RELIEF_KERNEL_DIR='" + kernels.string() + "'");
+    CHECK(r.rc != 0);
+    CHECK(slurp(dir / "h.exr") == "precious");
+    int files = 0;
+    for (const auto& e : fs::directory_iterator(dir))
+        files += e.is_regular_file();
+    CHECK(files == 1);
+}
+
+TEST_CASE("cli: --help and --version exit 0", "[cli]")
+{
+    auto h = run_cli("--help");
+    CHECK(h.rc == 0);
+    CHECK(h.out.find("--height") != std::string::npos);
+    auto v = run_cli("--version");
+    CHECK(v.rc == 0);
+    CHECK(v.out.find("relief ") == 0);
+}

@@ -1,0 +1,49 @@
+// Host layer: device choice and kernel build failures.
+#include <catch2/catch.hpp>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "compute_context.h"
+#include "errors.h"
+
+using namespace relief::host;
+
+TEST_CASE("device specs: auto finds a device, malformed specs are refused", "[host]")
+{
+    auto devices = list_devices();
+    REQUIRE_FALSE(devices.empty());
+    auto chosen = choose_device("auto");
+    CHECK(chosen.platform_index >= 0);
+    CHECK_FALSE(chosen.describe().empty());
+    auto same = choose_device(std::to_string(chosen.platform_index) + ":" +
+                              std::to_string(chosen.device_index));
+    CHECK(same.name == chosen.name);
+    for (const char* bad : {"banana", "0:", ":0", "0:x", "-1:0", "1:2:3"})
+        CHECK_THROWS_AS(choose_device(bad), Error);
+    CHECK_THROWS_AS(choose_device("99:99"), NoDeviceError);
+}
+
+TEST_CASE("a kernel that does not compile raises KernelBuildError with the compiler's log",
+          "[host][errors]")
+{
+    namespace fs = std::filesystem;
+    fs::path dir = fs::path(RELIEF_TEST_TMP) / "broken_kernels";
+    fs::create_directories(dir);
+    fs::copy_file(fs::path(RELIEF_KERNELS_DIR) / "common.h", dir / "common.h",
+                  fs::copy_options::overwrite_existing);
+    std::ofstream(dir / "ddm.cl") << "__kernel void ddm_slopes(__global float* x) { x[0] = undeclared_name; }\n";
+
+    ::setenv("RELIEF_KERNEL_DIR", dir.c_str(), 1);
+    // A fresh context: acquire() would hand back one that already built ddm.cl.
+    ComputeContext ctx(choose_device("auto"));
+    try {
+        ctx.build_program("ddm.cl");
+        FAIL("the broken kernel built");
+    } catch (const KernelBuildError& e) {
+        CHECK(std::string(e.what()).find("ddm.cl") != std::string::npos);
+        CHECK(e.log().find("undeclared_name") != std::string::npos);
+    }
+    ::unsetenv("RELIEF_KERNEL_DIR");
+}

@@ -1,0 +1,138 @@
+// Real textures: the bundled samples always, the shared data set when it is
+// there (a fresh clone of the project does not have ../shared).
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "relief/relief.h"
+
+namespace fs = std::filesystem;
+using OIIO::TypeDesc;
+
+namespace {
+
+std::vector<double> channel0(const OIIO::ImageBuf& img)
+{
+    std::vector<float> px(img.spec().image_pixels() * img.spec().nchannels);
+    img.get_pixels(img.roi(), TypeDesc::FLOAT, px.data());
+    std::vector<double> out(img.spec().image_pixels());
+    for (std::size_t i = 0; i < out.size(); ++i)
+        out[i] = px[i * img.spec().nchannels];
+    return out;
+}
+
+// h - mean of h over the texels within `radius` (periodic), the ray method's
+// target for a known height map.
+std::vector<double> minus_disk_mean(const std::vector<double>& h, int w, int ht, int radius)
+{
+    std::vector<std::pair<int, int>> disk;
+    for (int dy = -radius; dy <= radius; ++dy)
+        for (int dx = -radius; dx <= radius; ++dx)
+            if (dx * dx + dy * dy <= radius * radius)
+                disk.push_back({dx, dy});
+    std::vector<double> out(h.size());
+    for (int y = 0; y < ht; ++y)
+        for (int x = 0; x < w; ++x) {
+            double s = 0;
+            for (auto [dx, dy] : disk)
+                s += h[std::size_t((y + dy + ht) % ht) * w + (x + dx + w) % w];
+            out[std::size_t(y) * w + x] = h[std::size_t(y) * w + x] - s / double(disk.size());
+        }
+    return out;
+}
+
+// NRMSE of `est` against `truth` after the best affine fit a*est + b, as a
+// fraction of truth's spread (max - min); also returns the fitted a.
+double nrmse_affine(const std::vector<double>& est, const std::vector<double>& truth, double& a)
+{
+    const double n = double(est.size());
+    double me = 0, mt = 0;
+    for (std::size_t i = 0; i < est.size(); ++i) {
+        me += est[i];
+        mt += truth[i];
+    }
+    me /= n;
+    mt /= n;
+    double see = 0, set = 0;
+    for (std::size_t i = 0; i < est.size(); ++i) {
+        see += (est[i] - me) * (est[i] - me);
+        set += (est[i] - me) * (truth[i] - mt);
+    }
+    a = set / see;
+    double sse = 0, lo = truth[0], hi = truth[0];
+    for (std::size_t i = 0; i < est.size(); ++i) {
+        double r = a * (est[i] - me) + mt - truth[i];
+        sse += r * r;
+        lo = std::min(lo, truth[i]);
+        hi = std::max(hi, truth[i]);
+    }
+    return std::sqrt(sse / n) / (hi - lo);
+}
+
+OIIO::ImageBuf read(const fs::path& p)
+{
+    OIIO::ImageBuf img;
+    REQUIRE(relief::read_image(img, p.string()));
+    return img;
+}
+
+std::string convention_of(const OIIO::ImageBuf& normals)
+{
+    auto s = relief::slopes(normals);
+    REQUIRE_FALSE(s.has_error());
+    return s.spec().get_string_attribute("relief:normal_convention");
+}
+
+} // namespace
+
+TEST_CASE("real samples: auto finds the green convention", "[real]")
+{
+    const fs::path data(RELIEF_TEST_DATA);
+    CHECK(convention_of(read(data / "gk_metal_tech_01" / "normal.png")) == "directx");
+    CHECK(convention_of(read(data / "dem_jacksboro" / "normal.png")) == "opengl");
+}
+
+TEST_CASE("real sample: ray heights match the author's height map, right way up", "[real]")
+{
+    const fs::path dir = fs::path(RELIEF_TEST_DATA) / "gk_metal_tech_01";
+    auto normals = read(dir / "normal.png");
+    relief::HeightOptions o;
+    o.rays = 32;
+    o.radius = 16;
+    auto est = relief::height(normals, o);
+    REQUIRE_FALSE(est.has_error());
+    auto truth_img = read(dir / "height.png");
+    const int w = truth_img.spec().width, h = truth_img.spec().height;
+    auto truth = minus_disk_mean(channel0(truth_img), w, h, 16);
+    double a = 0;
+    double e = nrmse_affine(channel0(est), truth, a);
+    INFO("NRMSE after affine fit: " << e << ", scale " << a);
+    CHECK(a > 0);  // not upside down
+    CHECK(e < 0.02);  // measured 0.0063
+}
+
+TEST_CASE("shared data set: auto finds every map's convention", "[real][shared]")
+{
+    const fs::path root(RELIEF_SHARED_DATA);
+    if (!fs::is_directory(root)) {
+        WARN("../shared/data is absent: skipped");
+        return;
+    }
+    int checked = 0;
+    for (const auto& entry : fs::directory_iterator(root)) {
+        if (!fs::exists(entry.path() / "meta.json"))
+            continue;
+        std::ifstream in(entry.path() / "meta.json");
+        std::stringstream ss;
+        ss << in.rdbuf();
+        const std::string meta = ss.str();
+        const std::string want = meta.find("\"green\": \"Y+") != std::string::npos ? "opengl" : "directx";
+        INFO(entry.path().filename().string());
+        CHECK(convention_of(read(entry.path() / "normal.png")) == want);
+        ++checked;
+    }
+    CHECK(checked >= 13);
+}
