@@ -73,8 +73,8 @@ TEST_CASE("cli: -v reports device and convention; integer outputs state their sc
     REQUIRE(f.read());
     REQUIRE(q.read());
     CHECK(q.spec().format == OIIO::TypeDesc::UINT8);
-    const float scale = q.spec().get_float_attribute("relief:value_scale");
-    CHECK(q.spec().get_float_attribute("relief:value_midlevel") == 0.5f);
+    const float scale = q.spec().get_float_attribute("relief:height_scale");
+    CHECK(q.spec().get_float_attribute("relief:height_midlevel") == 0.5f);
     REQUIRE(scale > 0.0f);
     float a = 0, b = 0;
     for (int i = 0; i < 50; ++i) {

@@ -136,8 +136,8 @@ bool write_image(const ImageBuf& image, const std::string& path, const WriteOpti
         for (float& v : px)
             v = float(mid + v / scale);
         ImageSpec s = spec;
-        s.attribute("relief:value_scale", float(scale));
-        s.attribute("relief:value_midlevel", float(mid));
+        s.attribute("relief:height_scale", float(scale));
+        s.attribute("relief:height_midlevel", float(mid));
         mapped.reset(s);
         mapped.set_pixels(mapped.roi(), TypeDesc::FLOAT, px.data());
         out = &mapped;
