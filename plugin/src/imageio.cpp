@@ -136,8 +136,17 @@ bool write_image(const ImageBuf& image, const std::string& path, const WriteOpti
         for (float& v : px)
             v = float(mid + v / scale);
         ImageSpec s = spec;
-        s.attribute("relief:height_scale", float(scale));
-        s.attribute("relief:height_midlevel", float(mid));
+        // As text: PNG and TIFF keep only string metadata.
+        char text[32];
+        std::snprintf(text, sizeof text, "%.9g", scale);
+        s.attribute("relief:height_scale", text);
+        std::snprintf(text, sizeof text, "%.9g", mid);
+        s.attribute("relief:height_midlevel", text);
+        // TIFF drops custom attributes but keeps the standard description.
+        std::snprintf(text, sizeof text, "%.9g", scale);
+        s.attribute("ImageDescription",
+                    std::string("relief: data = (value - 0.5) * ") + text + " " +
+                        std::string(spec.get_string_attribute("relief:height_unit", "units")));
         mapped.reset(s);
         mapped.set_pixels(mapped.roi(), TypeDesc::FLOAT, px.data());
         out = &mapped;

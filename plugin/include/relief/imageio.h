@@ -30,7 +30,8 @@ struct WriteOptions {
 // Integer formats store relief's signed results (heights, slopes: images
 // with a relief:method attribute) as value = midlevel + data / scale, with
 // midlevel 0.5 and scale = 2 * max|data| (so the data fits [0, 1]); the file
-// records relief:height_scale and relief:height_midlevel, and data =
+// records relief:height_scale and relief:height_midlevel (as text, which
+// every format keeps), and data =
 // (value - midlevel) * scale. Other images are written as they are.
 bool write_image(const OIIO::ImageBuf& image, const std::string& path,
                  const WriteOptions& options = {});
