@@ -43,7 +43,7 @@ private:
     {
         if (s == Severity::Warning)
             std::fprintf(stderr, "relief: warning: %s\n", msg.c_str());
-        else if (prog_.verbose)
+        else if (s == Severity::Notice || prog_.verbose)
             std::fprintf(stderr, "relief: %s\n", msg.c_str());
     }
 

@@ -87,11 +87,13 @@ TEST_CASE("cli: -v reports device and convention; integer outputs state their sc
     }
 }
 
-TEST_CASE("cli: --slopes pushes the 2-channel DDM", "[cli]")
+TEST_CASE("cli: --slopes pushes the 2-channel DDM and says which convention auto chose", "[cli]")
 {
     auto dir = scratch("slopes");
     auto r = run_cli("'" + kNormal + "' --slopes:normal=auto -o '" + (dir / "s.exr").string() + "'");
     REQUIRE(r.rc == 0);
+    CHECK(r.err.find("normal convention: directx (curl rms opengl") != std::string::npos);
+    CHECK(r.err.find("device:") == std::string::npos);  // details only with -v
     OIIO::ImageBuf s((dir / "s.exr").string());
     REQUIRE(s.read());
     CHECK(s.spec().nchannels == 2);

@@ -109,10 +109,11 @@ TEST_CASE("auto finds the convention of a flipped map and reports both curl norm
     const auto g = kField.slopes();
     for (Green green : {Green::OpenGL, Green::DirectX}) {
         auto img = test::normal_image(g, kField.width, kField.height, green, TypeDesc::UINT8);
-        std::vector<std::string> info, warnings;
+        std::vector<std::string> notices, warnings;
         SlopeOptions o = with(NormalConvention::Auto);
         o.exec.on_message = [&](Severity s, const std::string& m) {
-            (s == Severity::Warning ? warnings : info).push_back(m);
+            if (s != Severity::Info)
+                (s == Severity::Warning ? warnings : notices).push_back(m);
         };
         auto out = relief::slopes(img, o);
         REQUIRE_FALSE(out.has_error());
@@ -123,7 +124,7 @@ TEST_CASE("auto finds the convention of a flipped map and reports both curl norm
         CHECK((green == Green::OpenGL ? dx / gl : gl / dx) > 3.0f);
         CHECK(warnings.empty());
         bool reported = false;
-        for (const auto& m : info)
+        for (const auto& m : notices)
             reported |= m.find("normal convention: " + want) != std::string::npos;
         CHECK(reported);
         // The chosen field is the one that matches the analytic slopes.

@@ -144,7 +144,7 @@ DerivedSlopes derive_slopes(const ImageBuf& normals, ROI roi, const NormalDecodi
                     format_double("%.3g", host::kAmbiguousCurlRatio) +
                     "): assuming opengl; pass normal=opengl or normal=directx to be sure");
         else
-            say(exec, Severity::Info,
+            say(exec, Severity::Notice,
                 std::string("normal convention: ") + convention_name(s.chosen) + " (" + norms + ")");
     }
     if (s.invalid > 0)

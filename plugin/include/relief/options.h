@@ -25,7 +25,9 @@ struct NormalDecoding {
     FloatEncoding float_encoding = FloatEncoding::Signed;
 };
 
-enum class Severity { Info, Warning };
+// Info: details (device, counts); Notice: a choice made for the user that
+// they should see (the auto-detected convention); Warning: likely trouble.
+enum class Severity { Info, Notice, Warning };
 
 struct Execution {
     // OpenCL device: "auto" (a GPU if there is one, else the CPU), "gpu",
