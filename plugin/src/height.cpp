@@ -7,14 +7,12 @@
 #include <stdexcept>
 #include <vector>
 
-#include "error_state.h"
 #include "normal_stage.h"
 #include "ray_stage.h"
 
 namespace relief {
 
 using OIIO::ImageBuf;
-using OIIO::ImageSpec;
 using OIIO::ROI;
 using OIIO::TypeDesc;
 
@@ -60,21 +58,10 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
         host::integrate_rays_reference(*derived.context, derived.slopes, p, h.data(),
                                        options.exec.on_progress);
 
-        ImageSpec spec(roi.width(), roi.height(), 1, TypeDesc::FLOAT);
-        spec.x = roi.xbegin;
-        spec.y = roi.ybegin;
-        spec.channelnames = {"Y"};
-        spec.attribute("relief:method", "rays");
-        spec.attribute("relief:parameters", describe(options));
-        spec.attribute("relief:height_unit", "texel");
-        detail::tag_slope_metadata(spec, derived.stats);
-        dst.reset(spec);
-        dst.set_pixels(dst.roi(), TypeDesc::FLOAT, h.data());
+        detail::publish_result(dst, roi, {"Y"}, "rays", derived.stats, h.data(), describe(options));
         return true;
     } catch (const std::exception& e) {
-        detail::set_error(std::string("height: ") + e.what());
-        dst.errorfmt("height: {}", e.what());
-        return false;
+        return detail::fail(dst, "height", e);
     }
 }
 

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cstdio>
+
+#include "error_state.h"
 #include <stdexcept>
 #include <vector>
 
@@ -167,6 +169,29 @@ void tag_slope_metadata(OIIO::ImageSpec& spec, const host::SlopeStats& s)
     }
     spec.attribute("relief:invalid_normals", int(std::min<std::int64_t>(s.invalid, INT32_MAX)));
     spec.attribute("relief:clamped_normals", int(std::min<std::int64_t>(s.clamped, INT32_MAX)));
+}
+
+void publish_result(ImageBuf& dst, ROI roi, std::vector<std::string> channels, const char* method,
+                    const host::SlopeStats& stats, const float* pixels, const std::string& parameters)
+{
+    OIIO::ImageSpec spec(roi.width(), roi.height(), int(channels.size()), TypeDesc::FLOAT);
+    spec.x = roi.xbegin;
+    spec.y = roi.ybegin;
+    spec.channelnames = std::move(channels);
+    spec.attribute("relief:method", method);
+    if (!parameters.empty())
+        spec.attribute("relief:parameters", parameters);
+    spec.attribute("relief:height_unit", "texel");
+    tag_slope_metadata(spec, stats);
+    dst.reset(spec);
+    dst.set_pixels(dst.roi(), TypeDesc::FLOAT, pixels);
+}
+
+bool fail(ImageBuf& dst, const char* operation, const std::exception& e)
+{
+    set_error(std::string(operation) + ": " + e.what());
+    dst.errorfmt("{}: {}", operation, e.what());
+    return false;
 }
 
 } // namespace relief::detail

@@ -4,7 +4,9 @@
 #include <OpenImageIO/imagebuf.h>
 
 #include <memory>
+#include <exception>
 #include <string>
+#include <vector>
 
 #include "compute_context.h"
 #include "relief/options.h"
@@ -28,6 +30,15 @@ const char* convention_name(host::GreenConvention c);
 
 // Records what derive_slopes chose on an output image.
 void tag_slope_metadata(OIIO::ImageSpec& spec, const host::SlopeStats& stats);
+
+// The float result image of an operation over `roi`: the spec (channel
+// names, the method and unit, what the slope stage chose) and the pixels.
+void publish_result(OIIO::ImageBuf& dst, OIIO::ROI roi, std::vector<std::string> channels,
+                    const char* method, const host::SlopeStats& stats, const float* pixels,
+                    const std::string& parameters = "");
+
+// Records a failed operation in dst and geterror(); returns false.
+bool fail(OIIO::ImageBuf& dst, const char* operation, const std::exception& e);
 
 // Validates `roi` against `image` (undefined = the whole image).
 OIIO::ROI resolve_roi(const OIIO::ImageBuf& image, OIIO::ROI roi);

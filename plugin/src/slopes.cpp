@@ -4,13 +4,11 @@
 #include <exception>
 #include <vector>
 
-#include "error_state.h"
 #include "normal_stage.h"
 
 namespace relief {
 
 using OIIO::ImageBuf;
-using OIIO::ImageSpec;
 using OIIO::ROI;
 using OIIO::TypeDesc;
 
@@ -23,20 +21,11 @@ bool slopes(ImageBuf& dst, const ImageBuf& normals, const SlopeOptions& options,
         std::vector<float> g(std::size_t(roi.width()) * roi.height() * 2);
         host::read_slopes(*derived.context, derived.slopes, g.data());
 
-        ImageSpec spec(roi.width(), roi.height(), 2, TypeDesc::FLOAT);
-        spec.x = roi.xbegin;
-        spec.y = roi.ybegin;
-        spec.channelnames = {"gx", "gy"};
-        spec.attribute("relief:method", "slopes");
-        spec.attribute("relief:height_unit", "texel");  // slopes: texel per texel step
-        detail::tag_slope_metadata(spec, derived.stats);
-        dst.reset(spec);
-        dst.set_pixels(dst.roi(), TypeDesc::FLOAT, g.data());
+        // The unit of a slope is texel per texel step: heights in texels.
+        detail::publish_result(dst, roi, {"gx", "gy"}, "slopes", derived.stats, g.data());
         return true;
     } catch (const std::exception& e) {
-        detail::set_error(std::string("slopes: ") + e.what());
-        dst.errorfmt("slopes: {}", e.what());
-        return false;
+        return detail::fail(dst, "slopes", e);
     }
 }
 
