@@ -1,6 +1,7 @@
 #pragma once
 // Runs the relief executable and captures its exit code and stderr.
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -30,12 +31,17 @@ inline CliResult run_cli(const std::string& args, const std::string& env = "")
     namespace fs = std::filesystem;
     fs::path dir = fs::path(RELIEF_TEST_TMP);
     fs::create_directories(dir);
-    fs::path out = dir / "cli.stdout", err = dir / "cli.stderr";
+    // Per process: ctest runs test cases in parallel processes.
+    const std::string tag = std::to_string(::getpid());
+    fs::path out = dir / ("cli." + tag + ".stdout"), err = dir / ("cli." + tag + ".stderr");
     std::string cmd = env + " '" + std::string(RELIEF_CLI) + "' " + args + " >'" + out.string() +
                       "' 2>'" + err.string() + "' </dev/null";
     int status = std::system(cmd.c_str());
     int rc = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    return {rc, slurp(err), slurp(out)};
+    CliResult r{rc, slurp(err), slurp(out)};
+    fs::remove(out);
+    fs::remove(err);
+    return r;
 }
 
 } // namespace relief::test
