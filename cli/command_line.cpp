@@ -1,7 +1,5 @@
 #include "command_line.h"
 
-#include <OpenImageIO/imageio.h>
-
 #include <charconv>
 #include <cmath>
 #include <filesystem>
@@ -201,23 +199,6 @@ OIIO::TypeDesc parse_format(const std::string& t)
     throw UsageError("-d " + t + ": unknown type (float, half, uint16, uint8)");
 }
 
-void check_output_path(const std::string& path)
-{
-    fs::path p(path);
-    fs::path folder = p.parent_path().empty() ? fs::path(".") : p.parent_path();
-    std::error_code ec;
-    if (!fs::is_directory(folder, ec))
-        throw UsageError("-o " + path + ": the folder '" + folder.string() + "' does not exist");
-    if (fs::is_directory(p, ec))
-        throw UsageError("-o " + path + ": it is a folder");
-    auto out = OIIO::ImageOutput::create(path);
-    if (!out) {
-        OIIO::geterror();
-        throw UsageError("-o " + path + ": unknown image format '" + p.extension().string() +
-                         "' (use .exr, .tif, .png, ...)");
-    }
-}
-
 } // namespace
 
 Program parse_command_line(const std::vector<std::string>& args)
@@ -254,7 +235,8 @@ Program parse_command_line(const std::vector<std::string>& args)
         } else if (a == "-o") {
             const std::string& path = value_of(i);
             need(a, 1);
-            check_output_path(path);
+            if (!check_output_path(path))
+                throw UsageError("-o " + path + ": " + geterror());
             prog.steps.push_back({Step::Kind::Write, "-o " + path, path, format, {}, {}});
         } else if (cmd == "--slopes") {
             need(cmd, 1);

@@ -8,7 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "relief/errors.h"
 #include "relief/height.h"
+#include "relief/imageio.h"
 #include "relief/slopes.h"
 
 namespace relief::cli {

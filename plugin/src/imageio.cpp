@@ -82,10 +82,9 @@ void say(const WriteOptions& o, Severity s, const std::string& msg)
 
 } // namespace
 
-bool write_image(const ImageBuf& image, const std::string& path, const WriteOptions& options)
+bool check_output_path(const std::string& path)
 {
     const fs::path target(path);
-    const std::string ext = lowercase(target.extension().string());
     fs::path folder = target.parent_path();
     if (folder.empty())
         folder = ".";
@@ -99,19 +98,27 @@ bool write_image(const ImageBuf& image, const std::string& path, const WriteOpti
         detail::set_error("cannot write '" + path + "': it is a folder");
         return false;
     }
+    if (!OIIO::ImageOutput::create(path)) {
+        OIIO::geterror();  // consume OIIO's pending message; ours is clearer
+        detail::set_error("cannot write '" + path + "': unknown image format '" +
+                          target.extension().string() + "' (use .exr, .tif, .png, ...)");
+        return false;
+    }
+    return true;
+}
+
+bool write_image(const ImageBuf& image, const std::string& path, const WriteOptions& options)
+{
+    if (!check_output_path(path))
+        return false;
     if (!image.initialized() || image.has_error()) {
         detail::set_error("cannot write '" + path + "': no valid image to write");
         return false;
     }
-    {
-        auto probe = OIIO::ImageOutput::create(path);
-        if (!probe) {
-            OIIO::geterror();  // consume OIIO's pending message; ours is clearer
-            detail::set_error("cannot write '" + path + "': unknown image format '" + ext +
-                              "' (use .exr, .tif, .png, ...)");
-            return false;
-        }
-    }
+    const fs::path target(path);
+    const fs::path folder = target.parent_path().empty() ? fs::path(".") : target.parent_path();
+    const std::string ext = lowercase(target.extension().string());
+    std::error_code ec;
 
     TypeDesc format = options.format;
     if ((format == TypeDesc::FLOAT || format == TypeDesc::HALF) && integer_only_format(ext)) {

@@ -76,7 +76,6 @@ ROI resolve_roi(const ImageBuf& image, ROI roi)
 DerivedSlopes derive_slopes(const ImageBuf& normals, ROI roi, const NormalDecoding& decoding,
                             const Execution& exec)
 {
-    roi = resolve_roi(normals, roi);
     const int nch = normals.spec().nchannels;
     if (nch < 2 || nch > 4)
         throw std::runtime_error("unsupported channel count " + std::to_string(nch) +

@@ -20,6 +20,7 @@ struct DerivedSlopes {
     host::SlopeStats stats;
 };
 
+// `roi` must come from resolve_roi().
 // Throws std::exception with a user-facing message on bad input or device
 // trouble. Reports the chosen device, convention and counts through exec.
 DerivedSlopes derive_slopes(const OIIO::ImageBuf& normals, OIIO::ROI roi,

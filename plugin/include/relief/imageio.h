@@ -16,6 +16,12 @@ namespace relief {
 // a missing, empty, truncated or non-image file.
 bool read_image(OIIO::ImageBuf& dst, const std::string& path);
 
+// Whether an image could be written to `path`: its folder exists, it is not
+// a folder, and its extension names a format OIIO can write. Returns false
+// and sets geterror() otherwise. write_image() checks this first; front ends
+// call it early to refuse a bad output before any work.
+bool check_output_path(const std::string& path);
+
 struct WriteOptions {
     // Pixel type of the file: FLOAT (default), HALF, UINT16 or UINT8.
     OIIO::TypeDesc format = OIIO::TypeDesc::FLOAT;
