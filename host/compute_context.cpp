@@ -155,16 +155,17 @@ void ComputeContext::build_program(const std::string& file)
     impl_->program(file);
 }
 
-cl::Program& ComputeContext::Impl::program(const std::string& file)
+cl::Program& ComputeContext::Impl::program(const std::string& file, const std::string& options)
 {
-    auto it = programs.find(file);
+    const std::string key = file + " " + options;
+    auto it = programs.find(key);
     if (it != programs.end())
         return it->second;
     std::string source = kernel_source("common.h") + "\n#line 1 \"" + file + "\"\n" +
                          kernel_source(file);
     cl::Program prog(context, source);
     try {
-        prog.build({device}, "-cl-std=CL1.2");
+        prog.build({device}, ("-cl-std=CL1.2 " + options).c_str());
     } catch (const cl::Error&) {
         std::string log;
         try {
@@ -173,7 +174,7 @@ cl::Program& ComputeContext::Impl::program(const std::string& file)
         }
         throw KernelBuildError("OpenCL kernel " + file + " failed to build:\n" + log, log);
     }
-    return programs.emplace(file, prog).first->second;
+    return programs.emplace(key, prog).first->second;
 }
 
 } // namespace relief::host

@@ -19,8 +19,9 @@ struct ComputeContext::Impl {
     std::mutex mutex;  // guards programs; also serialises stage launches
     std::map<std::string, cl::Program> programs;
 
-    // The built program for kernels/<file> (common.h prepended); cached.
-    cl::Program& program(const std::string& file);
+    // The built program for kernels/<file> (common.h prepended), compiled
+    // with extra `options` (e.g. "-DRELIEF_FP64"); cached per file + options.
+    cl::Program& program(const std::string& file, const std::string& options = "");
 };
 
 struct DeviceSlopes::Impl {

@@ -1,6 +1,8 @@
 #include "ray_stage.h"
 
 #include <algorithm>
+#include <cmath>
+#include <numeric>
 #include <vector>
 
 #include "errors.h"
@@ -19,10 +21,18 @@ struct PackedTables {
 PackedTables pack_tables(const RayParams& p)
 {
     PackedTables t;
-    for (double angle : ray_angles(p.rays, p.phase, p.directions)) {
+    std::vector<std::vector<RaySegment>> walks;
+    if (p.directions == DirectionSet::Rational) {
+        for (const RationalDirection& d : rational_directions(p.rays, p.phase))
+            walks.push_back(walk_rational_ray(d, p.radius));
+    } else {
+        for (double angle : ray_angles(p.rays, p.phase, p.directions))
+            walks.push_back(walk_ray(angle, p.radius));
+    }
+    for (const auto& walk : walks) {
         t.dir_start.push_back(cl_int(t.offsets.size()));
         double cumulative = 0.0;
-        for (const RaySegment& s : walk_ray(angle, p.radius)) {
+        for (const RaySegment& s : walk) {
             cumulative += s.weight;
             t.offsets.push_back(cl_int2{{s.ox, s.oy}});
             t.data.push_back(cl_float4{{float(s.ext_x), float(s.ext_y), float(s.weight),
@@ -40,7 +50,190 @@ cl::Buffer constant_buffer(cl::Context& ctx, std::vector<T>& v)
                       v.data());
 }
 
+void remove_mean(float* v, std::size_t n)
+{
+    // Summed in a fixed order: deterministic whatever the thread count.
+    double sum = 0.0;
+    for (std::size_t i = 0; i < n; ++i)
+        sum += v[i];
+    const float mean = float(sum / double(n));
+    for (std::size_t i = 0; i < n; ++i)
+        v[i] -= mean;
+}
+
+// One period of a rational direction, as the fast kernels read it.
+struct PeriodTable {
+    std::vector<cl_int2> offsets;
+    std::vector<cl_float4> data;  // (extent x, extent y, length, mid-distance)
+    double w0 = 0, w1 = 0;        // sum of lengths, of length * mid-distance
+    double pw0 = 0, pw1 = 0;      // the same over the partial last period
+    double partial = 0;           // R - K*L
+    int whole = 0;                // K
+};
+
+PeriodTable period_table(const RationalDirection& d, double radius)
+{
+    PeriodTable t;
+    const double L = d.length();
+    t.whole = int(std::floor(radius / L));
+    t.partial = radius - t.whole * L;
+    if (t.partial < 1e-9 * L)
+        t.partial = 0;  // walk_rational_ray makes no empty last period either
+    for (const RaySegment& s : walk_ray(d.angle(), L)) {
+        const double len = s.t_out - s.t_in, mid = 0.5 * (s.t_in + s.t_out);
+        t.offsets.push_back(cl_int2{{s.ox, s.oy}});
+        t.data.push_back(cl_float4{{float(s.ext_x), float(s.ext_y), float(len), float(mid)}});
+        t.w0 += len;
+        t.w1 += len * mid;
+        if (s.t_in < t.partial) {
+            const double cut = std::min(s.t_out, t.partial) - s.t_in;
+            t.pw0 += cut;
+            t.pw1 += cut * (s.t_in + 0.5 * cut);
+        }
+    }
+    return t;
+}
+
+// First texels of the chains q, q + (a, b), ...: under periodic boundaries
+// the chains are cycles of equal length (one representative each); under
+// clip they start where q - (a, b) leaves the image.
+std::vector<cl_int2> chain_starts(const RationalDirection& d, int w, int h, bool periodic,
+                                  int& cycle)
+{
+    std::vector<cl_int2> starts;
+    if (periodic) {
+        // A cycle visits the rows y + m*b, i.e. every row of its class modulo
+        // gy = gcd(b, H), and returns to its row after H/gy steps, moved by
+        // a*H/gy columns; so it meets row y < gy in the columns of one class
+        // modulo gx = gcd(a*H/gy mod W, W).
+        const long long gy = std::gcd<long long>(std::abs(d.b), h);
+        const long long shift = ((long long)(d.a) * (h / gy)) % w;
+        const long long gx = std::gcd<long long>((shift + w) % w, w);
+        for (long long y = 0; y < gy; ++y)
+            for (long long x = 0; x < gx; ++x)
+                starts.push_back(cl_int2{{int(x), int(y)}});
+        const long long n = (long long)w * h;
+        cycle = int(n / (long long)starts.size());
+        if ((long long)cycle * (long long)starts.size() != n)
+            throw Error("internal error: chain cycles do not cover the texture");
+        return starts;
+    }
+    cycle = 0;
+    int x0 = 0, x1 = 0;  // the columns whose predecessor is left or right of the image
+    if (d.a > 0)
+        x1 = std::min(d.a, w);
+    else if (d.a < 0)
+        x0 = std::max(w + d.a, 0), x1 = w;
+    for (int y = 0; y < h; ++y)
+        for (int x = x0; x < x1; ++x)
+            starts.push_back(cl_int2{{x, y}});
+    int y0 = 0, y1 = 0;
+    if (d.b > 0)
+        y1 = std::min(d.b, h);
+    else if (d.b < 0)
+        y0 = std::max(h + d.b, 0), y1 = h;
+    for (int y = y0; y < y1; ++y)
+        for (int x = 0; x < w; ++x)
+            if (x < x0 || x >= x1)
+                starts.push_back(cl_int2{{x, y}});
+    return starts;
+}
+
 } // namespace
+
+void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& p,
+                         float* height_out, const Progress& progress)
+{
+    if (p.rays < 1 || !(p.radius > 0.0))
+        throw Error("ray integration needs rays >= 1 and radius > 0");
+    const int w = slopes.width(), h = slopes.height();
+    const std::size_t n = std::size_t(w) * std::size_t(h);
+    const bool periodic = p.boundary == RayBoundary::Periodic;
+    const bool fp64 = ctx.device().has_fp64 && !p.force_float;
+    auto& c = ctx.impl();
+    std::lock_guard<std::mutex> lock(c.mutex);
+    try {
+        cl::Program& prog = c.program("rays_fast.cl", fp64 ? "-DRELIEF_FP64" : "");
+        cl::Buffer sums(c.context, CL_MEM_READ_WRITE, sizeof(cl_float4) * n);
+        cl::Buffer partial1(c.context, CL_MEM_READ_WRITE, sizeof(cl_float) * n);
+        cl::Buffer accum(c.context, CL_MEM_READ_WRITE, sizeof(cl_float2) * n);
+        cl::Buffer out(c.context, CL_MEM_WRITE_ONLY, sizeof(float) * n);
+        c.queue.enqueueFillBuffer(accum, cl_float2{{0.0f, 0.0f}}, 0, sizeof(cl_float2) * n);
+
+        cl::Kernel period_sums(prog, "rays_period_sums");
+        cl::Kernel windows(prog, "rays_chain_windows");
+        const auto dirs = rational_directions(p.rays, p.phase);
+        for (std::size_t j = 0; j < dirs.size(); ++j) {
+            const RationalDirection& d = dirs[j];
+            PeriodTable t = period_table(d, p.radius);
+            int cycle = 0;
+            std::vector<cl_int2> starts = chain_starts(d, w, h, periodic, cycle);
+            cl::Buffer offsets = constant_buffer(c.context, t.offsets);
+            cl::Buffer data = constant_buffer(c.context, t.data);
+            cl::Buffer start_buf = constant_buffer(c.context, starts);
+            const cl_int segs = cl_int(t.offsets.size());
+
+            int a = 0;
+            period_sums.setArg(a++, slopes.impl().buffer);
+            period_sums.setArg(a++, cl_int(w));
+            period_sums.setArg(a++, cl_int(h));
+            period_sums.setArg(a++, cl_int(periodic));
+            period_sums.setArg(a++, cl_int(d.a));
+            period_sums.setArg(a++, cl_int(d.b));
+            period_sums.setArg(a++, segs);
+            period_sums.setArg(a++, offsets);
+            period_sums.setArg(a++, data);
+            period_sums.setArg(a++, cl_float(t.partial));
+            period_sums.setArg(a++, sums);
+            period_sums.setArg(a++, partial1);
+            c.queue.enqueueNDRangeKernel(period_sums, cl::NullRange, cl::NDRange(padded(n)),
+                                         cl::NDRange(kGroupSize));
+
+            a = 0;
+            windows.setArg(a++, slopes.impl().buffer);
+            windows.setArg(a++, cl_int(w));
+            windows.setArg(a++, cl_int(h));
+            windows.setArg(a++, cl_int(periodic));
+            windows.setArg(a++, cl_int(d.a));
+            windows.setArg(a++, cl_int(d.b));
+            windows.setArg(a++, start_buf);
+            windows.setArg(a++, cl_int(starts.size()));
+            windows.setArg(a++, cl_int(cycle));
+            windows.setArg(a++, cl_int(t.whole));
+            windows.setArg(a++, cl_float(d.length()));
+            windows.setArg(a++, cl_float(t.w0));
+            windows.setArg(a++, cl_float(t.w1));
+            windows.setArg(a++, cl_float(t.pw0));
+            windows.setArg(a++, cl_float(t.pw1));
+            windows.setArg(a++, cl_float(t.partial));
+            windows.setArg(a++, segs);
+            windows.setArg(a++, offsets);
+            windows.setArg(a++, data);
+            windows.setArg(a++, sums);
+            windows.setArg(a++, partial1);
+            windows.setArg(a++, cl_int(fp64 ? 0 : std::max(1, p.float_reanchor)));
+            windows.setArg(a++, accum);
+            c.queue.enqueueNDRangeKernel(windows, cl::NullRange,
+                                         cl::NDRange(padded(starts.size())),
+                                         cl::NDRange(kGroupSize));
+            // The tables above go out of scope with this iteration.
+            c.queue.finish();
+            if (progress)
+                progress(double(j + 1) / double(dirs.size()));
+        }
+        cl::Kernel finish(prog, "rays_finish");
+        finish.setArg(0, accum);
+        finish.setArg(1, cl_int(n));
+        finish.setArg(2, out);
+        c.queue.enqueueNDRangeKernel(finish, cl::NullRange, cl::NDRange(padded(n)),
+                                     cl::NDRange(kGroupSize));
+        c.queue.enqueueReadBuffer(out, CL_TRUE, 0, sizeof(float) * n, height_out);
+    } catch (const cl::Error& e) {
+        throw Error(std::string("OpenCL error in the fast ray stage: ") + e.what() + " (" +
+                    std::to_string(e.err()) + ")");
+    }
+    remove_mean(height_out, n);
+}
 
 void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
                               const RayParams& p, float* height_out, const Progress& progress)
@@ -91,13 +284,7 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
                     std::to_string(e.err()) + ")");
     }
 
-    // Zero mean, summed in a fixed order (deterministic whatever the threads).
-    double sum = 0.0;
-    for (std::size_t i = 0; i < n; ++i)
-        sum += height_out[i];
-    const float mean = float(sum / double(n));
-    for (std::size_t i = 0; i < n; ++i)
-        height_out[i] -= mean;
+    remove_mean(height_out, n);
 }
 
 } // namespace relief::host

@@ -16,6 +16,10 @@ struct RayParams {
     double phase = 0.5;       // phi: angles 2*pi*(j + phi)/J
     DirectionSet directions = DirectionSet::Exact;
     RayBoundary boundary = RayBoundary::Periodic;
+    // Fast kernel only: keep the chain sums in float with re-anchoring even
+    // where the device has fp64 (the path for devices without it; tests).
+    bool force_float = false;
+    int float_reanchor = 32;  // chain steps between re-anchors in float
 };
 
 // Fraction done in [0, 1]; called from the calling thread between launches.
@@ -26,5 +30,11 @@ using Progress = std::function<void(double)>;
 void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
                               const RayParams& params, float* height_out,
                               const Progress& progress = {});
+
+// The fast kernel (DESIGN.md §4.3): rational directions only; same result as
+// integrate_rays_reference with DirectionSet::Rational to rounding, at a cost
+// independent of the radius.
+void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& params,
+                         float* height_out, const Progress& progress = {});
 
 } // namespace relief::host

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 
 namespace relief::host {
 
@@ -55,12 +56,80 @@ std::vector<RaySegment> walk_ray(double angle, double radius)
     return segs;
 }
 
-std::vector<double> ray_angles(int rays, double phase, DirectionSet)
+std::vector<double> ray_angles(int rays, double phase, DirectionSet set)
 {
     std::vector<double> a(rays);
+    if (set == DirectionSet::Rational) {
+        auto dirs = rational_directions(rays, phase);
+        for (int j = 0; j < rays; ++j)
+            a[j] = dirs[j].angle();
+        return a;
+    }
     for (int j = 0; j < rays; ++j)
         a[j] = 2.0 * M_PI * (j + phase) / rays;
     return a;
+}
+
+double RationalDirection::length() const
+{
+    return std::hypot(double(a), double(b));
+}
+
+double RationalDirection::angle() const
+{
+    return std::atan2(double(b), double(a));
+}
+
+int rational_step_limit(int rays)
+{
+    return std::max(2, (rays + 3) / 4);
+}
+
+std::vector<RationalDirection> rational_directions(int rays, double phase)
+{
+    const int limit = rational_step_limit(rays);
+    std::vector<RationalDirection> candidates;
+    for (int b = -limit; b <= limit; ++b)
+        for (int a = -limit; a <= limit; ++a)
+            if ((a || b) && std::gcd(a, b) == 1)
+                candidates.push_back({a, b});
+    std::vector<RationalDirection> out;
+    for (int j = 0; j < rays; ++j) {
+        const double target = 2.0 * M_PI * (j + phase) / rays;
+        RationalDirection best;
+        double best_err = std::numeric_limits<double>::infinity();
+        for (const auto& c : candidates) {
+            double err = std::abs(std::remainder(c.angle() - target, 2.0 * M_PI));
+            if (err < best_err - 1e-12 ||
+                (err < best_err + 1e-12 && c.length() < best.length())) {
+                best = c;
+                best_err = err;
+            }
+        }
+        out.push_back(best);
+    }
+    return out;
+}
+
+std::vector<RaySegment> walk_rational_ray(const RationalDirection& d, double radius)
+{
+    const double L = d.length();
+    const std::vector<RaySegment> period = walk_ray(d.angle(), L);
+    std::vector<RaySegment> out;
+    for (int m = 0; m * L < radius - 1e-9 * L; ++m) {
+        const double t0 = m * L;
+        const double span = std::min(L, radius - t0);
+        const std::vector<RaySegment> part = span < L ? walk_ray(d.angle(), span) : period;
+        for (RaySegment s : part) {
+            s.ox += m * d.a;
+            s.oy += m * d.b;
+            s.t_in += t0;
+            s.t_out += t0;
+            s.weight = out.empty() ? 0.0 : (s.t_out - s.t_in) * 0.5 * (s.t_in + s.t_out);
+            out.push_back(s);
+        }
+    }
+    return out;
 }
 
 } // namespace relief::host

@@ -24,9 +24,34 @@ struct RaySegment {
 // length (the ray grazing a texel corner) are dropped.
 std::vector<RaySegment> walk_ray(double angle, double radius);
 
-enum class DirectionSet { Exact };
+enum class DirectionSet { Exact, Rational };
 
 // Ray angles: Exact gives 2*pi*(j + phase)/rays, j = 0..rays-1.
 std::vector<double> ray_angles(int rays, double phase, DirectionSet set);
+
+// A rational direction (DESIGN.md §4.3): the primitive integer step (a, b);
+// the ray through a texel centre passes through the centre of the texel
+// (a, b) further on after one period of length |(a, b)|.
+struct RationalDirection {
+    int a = 1, b = 0;
+    double length() const;
+    double angle() const;
+};
+
+// The largest |a|, |b| a rational direction may use for `rays` directions:
+// max(2, ceil(rays / 4)). Bigger steps fit the uniform angles better but
+// cost more stencil work per texel (the fast kernel's cost grows with
+// |a| + |b|, not with the radius).
+int rational_step_limit(int rays);
+
+// For each j, the primitive (a, b) with max(|a|, |b|) <= the step limit
+// closest in angle to 2*pi*(j + phase)/rays (ties: the shorter vector).
+std::vector<RationalDirection> rational_directions(int rays, double phase);
+
+// The walk of one rational ray from the origin texel's centre to distance
+// `radius`, split at every period boundary t = m*L: the texel at each chain
+// point p + m*(a, b) contributes two half-segments, one to each period.
+// Segment 0 is the origin's first half (weight 0).
+std::vector<RaySegment> walk_rational_ray(const RationalDirection& d, double radius);
 
 } // namespace relief::host

@@ -23,6 +23,33 @@ std::vector<double> crossings(double d, double radius, std::vector<double> t)
 
 } // namespace
 
+void rational_step(int j, const RaySettings& s, int& best_a, int& best_b)
+{
+    const int limit = std::max(2, (s.rays + 3) / 4);
+    const double target = 2.0 * M_PI * (j + s.phase) / s.rays;
+    double best = 1e300, best_len = 1e300;
+    for (int b = -limit; b <= limit; ++b)
+        for (int a = -limit; a <= limit; ++a) {
+            int g = std::abs(a), r = std::abs(b);
+            while (r) {
+                int t = g % r;
+                g = r;
+                r = t;
+            }
+            if (g != 1)
+                continue;
+            double diff = std::fmod(std::abs(std::atan2(double(b), double(a)) - target), 2.0 * M_PI);
+            double err = std::min(diff, 2.0 * M_PI - diff);
+            double len = std::hypot(double(a), double(b));
+            if (err < best - 1e-12 || (err < best + 1e-12 && len < best_len)) {
+                best = err;
+                best_len = len;
+                best_a = a;
+                best_b = b;
+            }
+        }
+}
+
 std::vector<double> rays(const std::vector<double>& g, int w, int h, const RaySettings& s)
 {
     std::vector<double> out(std::size_t(w) * h, 0.0);
@@ -30,9 +57,22 @@ std::vector<double> rays(const std::vector<double>& g, int w, int h, const RaySe
         for (int px = 0; px < w; ++px) {
             double sum_a = 0.0, sum_w = 0.0;
             for (int j = 0; j < s.rays; ++j) {
-                const double angle = 2.0 * M_PI * (j + s.phase) / s.rays;
-                const double dx = std::cos(angle), dy = std::sin(angle);
-                std::vector<double> t = crossings(dx, s.radius, crossings(dy, s.radius, {0.0, s.radius}));
+                double dx, dy;
+                std::vector<double> t{0.0, s.radius};
+                if (s.rational) {
+                    int a = 1, b = 0;
+                    rational_step(j, s, a, b);
+                    const double len = std::hypot(double(a), double(b));
+                    dx = a / len;
+                    dy = b / len;
+                    for (int m = 1; m * len < s.radius; ++m)
+                        t.push_back(m * len);  // the split at every period boundary
+                } else {
+                    const double angle = 2.0 * M_PI * (j + s.phase) / s.rays;
+                    dx = std::cos(angle);
+                    dy = std::sin(angle);
+                }
+                t = crossings(dx, s.radius, crossings(dy, s.radius, t));
                 std::sort(t.begin(), t.end());
                 double height = 0.0;
                 bool origin = true;

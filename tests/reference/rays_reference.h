@@ -12,7 +12,14 @@ struct RaySettings {
     double radius = 64.0;
     double phase = 0.5;
     bool periodic = true;
+    // Rational directions (DESIGN.md §4.3): the primitive integer step closest
+    // in angle, |a|, |b| <= max(2, ceil(rays/4)); the walk is split at every
+    // period boundary t = m*|(a, b)|.
+    bool rational = false;
 };
+
+// The rational step chosen for direction j (independent of the host's).
+void rational_step(int j, const RaySettings& settings, int& a, int& b);
 
 // slopes: gx, gy per texel (row-major). Returns the zero-mean displacement.
 std::vector<double> rays(const std::vector<double>& slopes, int width, int height,

@@ -1,0 +1,195 @@
+// Rational directions and the fast ray kernel (DESIGN.md §4.3): the reference
+// kernel with rational directions against the golden model, and the fast
+// kernel against the reference kernel for the same direction set.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+
+#include "compute_context.h"
+#include "ray_stage.h"
+#include "ray_walk.h"
+#include "reference/rays_reference.h"
+#include "slope_stage.h"
+#include "support/fields.h"
+
+using namespace relief;
+
+namespace {
+
+struct Run {
+    int rays = 16;
+    double radius = 10.0;
+    double phase = 0.5;
+    bool periodic = true;
+    bool fast = true;
+    bool force_float = false;
+};
+
+std::vector<float> run_rays(const std::vector<float>& g, int w, int h, const Run& r)
+{
+    auto ctx = host::ComputeContext::acquire("auto");
+    auto slopes = host::upload_slopes(*ctx, g.data(), w, h);
+    host::RayParams p;
+    p.rays = r.rays;
+    p.radius = r.radius;
+    p.phase = r.phase;
+    p.directions = host::DirectionSet::Rational;
+    p.boundary = r.periodic ? host::RayBoundary::Periodic : host::RayBoundary::Clip;
+    p.force_float = r.force_float;
+    std::vector<float> out(std::size_t(w) * h);
+    if (r.fast)
+        host::integrate_rays_fast(*ctx, slopes, p, out.data());
+    else
+        host::integrate_rays_reference(*ctx, slopes, p, out.data());
+    return out;
+}
+
+// Smooth slopes plus non-integrable noise.
+std::vector<float> rough_slopes(int w, int h, unsigned seed, double noise_std = 0.3)
+{
+    test::PeriodicField f{w, h, {{1, 1, 2.0, 0.4}, {2, -1, 1.0, 1.3}}};
+    auto g = f.slopes();
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> noise(0.0, noise_std);
+    std::vector<float> out(g.size());
+    for (std::size_t i = 0; i < g.size(); ++i)
+        out[i] = float(g[i] + noise(rng));
+    return out;
+}
+
+template <class A, class B>
+double max_diff(const A& a, const B& b)
+{
+    double m = 0;
+    for (std::size_t i = 0; i < a.size(); ++i)
+        m = std::max(m, std::abs(double(a[i]) - double(b[i])));
+    return m;
+}
+
+template <class A>
+double stddev(const A& a)
+{
+    double s = 0, s2 = 0;
+    for (auto v : a) {
+        s += v;
+        s2 += double(v) * v;
+    }
+    const double n = double(a.size());
+    return std::sqrt(std::max(0.0, s2 / n - (s / n) * (s / n)));
+}
+
+bool all_finite(const std::vector<float>& v)
+{
+    for (float x : v)
+        if (!std::isfinite(x))
+            return false;
+    return true;
+}
+
+} // namespace
+
+TEST_CASE("rational directions are primitive steps near the uniform angles", "[rays][fast]")
+{
+    for (int rays : {1, 4, 8, 32, 64}) {
+        auto dirs = host::rational_directions(rays, 0.5);
+        REQUIRE(int(dirs.size()) == rays);
+        const int limit = host::rational_step_limit(rays);
+        for (int j = 0; j < rays; ++j) {
+            const auto& d = dirs[j];
+            CHECK(std::gcd(d.a, d.b) == 1);
+            CHECK(std::max(std::abs(d.a), std::abs(d.b)) <= limit);
+            int a = 0, b = 0;
+            reference::RaySettings s;
+            s.rays = rays;
+            s.phase = 0.5;
+            reference::rational_step(j, s, a, b);
+            CHECK(a == d.a);
+            CHECK(b == d.b);
+            // Within the angular gap of the step limit (Farey spacing).
+            const double err = std::abs(std::remainder(d.angle() - 2 * M_PI * (j + 0.5) / rays, 2 * M_PI));
+            CHECK(err <= 1.0 / limit + 1e-9);
+        }
+    }
+}
+
+TEST_CASE("reference kernel with rational directions equals the golden model", "[rays][fast]")
+{
+    struct Case {
+        int w, h, rays;
+        double radius, phase;
+        bool periodic;
+    };
+    const Case cases[] = {
+        {37, 29, 8, 5.0, 0.5, true},
+        {37, 29, 16, 23.7, 0.5, true},  // longer than the texture: wraps
+        {37, 29, 12, 9.5, 0.25, false},
+        {24, 24, 8, 11.0, 0.0, true},   // (1, 1): through corners
+        {17, 1, 6, 8.0, 0.5, false},
+    };
+    for (const Case& c : cases) {
+        INFO(c.w << "x" << c.h << " rays=" << c.rays << " radius=" << c.radius
+                  << (c.periodic ? " periodic" : " clip"));
+        auto gf = rough_slopes(c.w, c.h, 11u + c.rays);
+        std::vector<double> g(gf.begin(), gf.end());
+        reference::RaySettings s{c.rays, c.radius, c.phase, c.periodic};
+        s.rational = true;
+        auto ref = reference::rays(g, c.w, c.h, s);
+        Run r;
+        r.rays = c.rays;
+        r.radius = c.radius;
+        r.phase = c.phase;
+        r.periodic = c.periodic;
+        r.fast = false;
+        auto got = run_rays(gf, c.w, c.h, r);
+        double scale = 0;
+        for (double v : ref)
+            scale = std::max(scale, std::abs(v));
+        CHECK(max_diff(got, ref) <= 1e-5 * scale);
+    }
+}
+
+TEST_CASE("fast kernel equals the reference kernel for the same directions", "[rays][fast]")
+{
+    struct Case {
+        int w, h, rays;
+        double radius, phase;
+        bool periodic;
+    };
+    const Case cases[] = {
+        {37, 29, 8, 5.0, 0.5, true},
+        {37, 29, 16, 23.7, 0.5, true},   // K > cycle length for some directions
+        {37, 29, 12, 9.5, 0.25, false},  // clip: exits inside a period
+        {37, 29, 16, 60.0, 0.5, false},  // clip, rays longer than the texture
+        {24, 24, 8, 11.0, 0.0, true},
+        {23, 31, 7, 0.4, 0.0, true},     // shorter than half a texel: partial origin
+        {23, 31, 7, 1.0, 0.0, false},    // exactly one period on the axes
+        {1, 17, 6, 8.0, 0.5, true},
+        {17, 1, 6, 8.0, 0.5, false},
+        {1, 1, 8, 4.0, 0.5, true},
+        {1, 1, 8, 4.0, 0.5, false},
+        {64, 48, 32, 40.0, 0.5, true},
+        {64, 48, 32, 40.0, 0.5, false},
+    };
+    for (const Case& c : cases) {
+        for (bool force_float : {false, true}) {
+            INFO(c.w << "x" << c.h << " rays=" << c.rays << " radius=" << c.radius
+                      << (c.periodic ? " periodic" : " clip") << (force_float ? " float" : " fp64"));
+            auto g = rough_slopes(c.w, c.h, 5u + c.rays);
+            Run r;
+            r.rays = c.rays;
+            r.radius = c.radius;
+            r.phase = c.phase;
+            r.periodic = c.periodic;
+            r.force_float = force_float;
+            r.fast = false;
+            auto ref = run_rays(g, c.w, c.h, r);
+            r.fast = true;
+            auto got = run_rays(g, c.w, c.h, r);
+            REQUIRE(all_finite(got));
+            const double sd = stddev(ref);
+            INFO("max diff " << max_diff(got, ref) << ", std " << sd);
+            CHECK(max_diff(got, ref) <= 1e-4 * sd + 1e-7);
+        }
+    }
+}
