@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "errors.h"
+#include "field_ops.h"
 #include "opencl_context.h"
 
 namespace relief::host {
@@ -48,17 +49,6 @@ cl::Buffer constant_buffer(cl::Context& ctx, std::vector<T>& v)
 {
     return cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(T) * v.size(),
                       v.data());
-}
-
-void remove_mean(float* v, std::size_t n)
-{
-    // Summed in a fixed order: deterministic whatever the thread count.
-    double sum = 0.0;
-    for (std::size_t i = 0; i < n; ++i)
-        sum += v[i];
-    const float mean = float(sum / double(n));
-    for (std::size_t i = 0; i < n; ++i)
-        v[i] -= mean;
 }
 
 // One period of a rational direction, as the fast kernels read it.

@@ -1,0 +1,113 @@
+#include "poisson_stage.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "errors.h"
+#include "fft_plan.h"
+#include "field_ops.h"
+#include "opencl_context.h"
+
+namespace relief::host {
+
+double highpass_sigma(double highpass)
+{
+    return highpass > 0.0 ? highpass * std::sqrt(2.0 * std::log(2.0)) / (2.0 * M_PI) : 0.0;
+}
+
+void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes, const PoissonParams& p,
+                       float* height_out)
+{
+    if (p.highpass < 0.0 || !std::isfinite(p.highpass))
+        throw Error("highpass must be a radius >= 0 texels");
+    const int w = slopes.width(), h = slopes.height();
+    const std::size_t n = std::size_t(w) * std::size_t(h);
+    if (n == 1) {  // one texel: nothing to integrate
+        height_out[0] = 0.0f;
+        return;
+    }
+    // A one-texel-wide texture is solved transposed: a 1-D transform.
+    const bool transposed = w == 1;
+    const int n0 = transposed ? h : w, n1 = transposed ? 1 : h;
+    const bool periodic = p.boundary == PoissonBoundary::Periodic;
+    const auto kind = periodic ? FftPlan::Kind::RealToComplex : FftPlan::Kind::Dct2;
+    const std::size_t stride = FftPlan::row_stride(kind, n0);
+    const std::size_t bytes = sizeof(float) * stride * n1;
+    const float sigma = float(highpass_sigma(p.highpass));
+
+    auto& c = ctx.impl();
+    std::lock_guard<std::mutex> lock(c.mutex);
+    try {
+        cl::Program& prog = c.program("poisson.cl");
+        cl::Buffer gx(c.context, CL_MEM_READ_WRITE, bytes);
+        cl::Buffer gy(c.context, CL_MEM_READ_WRITE, bytes);
+        FftPlan plan(c.context, c.device, kind, n0, n1, gx);
+        const std::size_t grid = padded(std::size_t(n0) * n1);
+
+        cl::Kernel split(prog, "poisson_split");
+        int a = 0;
+        split.setArg(a++, slopes.impl().buffer);
+        split.setArg(a++, cl_int(w));
+        split.setArg(a++, cl_int(n0));
+        split.setArg(a++, cl_int(n1));
+        split.setArg(a++, cl_int(transposed));
+        split.setArg(a++, cl_int(stride));
+        split.setArg(a++, cl_int(!periodic));
+        split.setArg(a++, gx);
+        split.setArg(a++, gy);
+        c.queue.enqueueNDRangeKernel(split, cl::NullRange, cl::NDRange(grid),
+                                     cl::NDRange(kGroupSize));
+        plan.forward(c.queue, gx);
+        plan.forward(c.queue, gy);
+
+        cl::Buffer* solution = &gx;
+        cl::Buffer result;
+        if (periodic) {
+            cl::Kernel divide(prog, "poisson_periodic_divide");
+            divide.setArg(0, gx);
+            divide.setArg(1, gy);
+            divide.setArg(2, cl_int(n0));
+            divide.setArg(3, cl_int(n1));
+            divide.setArg(4, sigma);
+            c.queue.enqueueNDRangeKernel(divide, cl::NullRange,
+                                         cl::NDRange(padded(std::size_t(n0 / 2 + 1) * n1)),
+                                         cl::NDRange(kGroupSize));
+        } else {
+            // The coefficients are read at mirrored indices: out of place.
+            result = cl::Buffer(c.context, CL_MEM_READ_WRITE, bytes);
+            cl::Kernel divide(prog, "poisson_free_divide");
+            divide.setArg(0, gx);
+            divide.setArg(1, gy);
+            divide.setArg(2, cl_int(n0));
+            divide.setArg(3, cl_int(n1));
+            divide.setArg(4, sigma);
+            divide.setArg(5, result);
+            c.queue.enqueueNDRangeKernel(divide, cl::NullRange, cl::NDRange(grid),
+                                         cl::NDRange(kGroupSize));
+            solution = &result;
+        }
+        plan.inverse(c.queue, *solution);
+
+        cl::Buffer out(c.context, CL_MEM_WRITE_ONLY, sizeof(float) * n);
+        cl::Kernel gather(prog, "poisson_gather");
+        a = 0;
+        gather.setArg(a++, *solution);
+        gather.setArg(a++, cl_int(stride));
+        gather.setArg(a++, cl_int(n0));
+        gather.setArg(a++, cl_int(n1));
+        gather.setArg(a++, cl_int(w));
+        gather.setArg(a++, cl_int(transposed));
+        gather.setArg(a++, out);
+        c.queue.enqueueNDRangeKernel(gather, cl::NullRange, cl::NDRange(grid),
+                                     cl::NDRange(kGroupSize));
+        c.queue.enqueueReadBuffer(out, CL_TRUE, 0, sizeof(float) * n, height_out);
+    } catch (const cl::Error& e) {
+        throw Error(std::string("OpenCL error in the Poisson stage: ") + e.what() + " (" +
+                    std::to_string(e.err()) + ")");
+    }
+    // The transforms already drop the mean; this removes their rounding.
+    remove_mean(height_out, n);
+}
+
+} // namespace relief::host

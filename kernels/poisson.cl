@@ -1,0 +1,100 @@
+// Least-squares (Poisson) integration by Frankot–Chellappa projection
+// (DESIGN.md §4.4). common.h is prepended by the host; VkFFT does the
+// transforms between these kernels.
+//
+// The solve works on an n0 x n1 grid: the texture itself, or its transpose
+// when the texture is one texel wide (so that a 1-D texture is always a 1-D
+// transform along axis 0).
+//
+// periodic: h = sum of exp(i w.x); slopes in the same basis; per frequency
+//           H = -i (wx Gx + wy Gy) / |w|^2.
+// free:     h = sum of a_kl cos(wk (x+1/2)) cos(wl (y+1/2)), wk = pi k / n0
+//           (the even extension across the edges: zero normal slope there).
+//           gx is then a sine series in x: its coefficients are a DCT-II of
+//           (-1)^x gx read at k' = n0 - k, since
+//           sin(wk (x+1/2)) = (-1)^x cos(w_{n0-k} (x+1/2)).
+//           a_kl = -(wk Bkl + wl Ckl) / (wk^2 + wl^2).
+// Nyquist terms (a derivative with no sign) and the mean are dropped.
+// highpass: the solution is multiplied by 1 - exp(-|w|^2 sigma^2 / 2), i.e.
+// a Gaussian blur of itself is subtracted.
+
+inline float2 texel_slope(__global const float2* slopes, int width, int i, int j, int transposed)
+{
+    // Axis 0 of the grid is x, or y when transposed.
+    float2 g = transposed ? slopes[i * width + j] : slopes[j * width + i];
+    return transposed ? (float2)(g.y, g.x) : g;
+}
+
+__kernel void poisson_split(__global const float2* slopes, int width, int n0, int n1,
+                            int transposed, int stride, int alternate, __global float* gx,
+                            __global float* gy)
+{
+    int gid = get_global_id(0);
+    if (gid >= n0 * n1)
+        return;
+    int i = gid % n0, j = gid / n0;
+    float2 g = texel_slope(slopes, width, i, j, transposed);
+    if (alternate) {  // free: the (-1)^x and (-1)^y of the sine series
+        g.x = (i & 1) ? -g.x : g.x;
+        g.y = (j & 1) ? -g.y : g.y;
+    }
+    gx[j * stride + i] = g.x;
+    gy[j * stride + i] = g.y;
+}
+
+inline float highpass_gain(float w2, float sigma)
+{
+    return sigma > 0.0f ? -expm1(-0.5f * w2 * sigma * sigma) : 1.0f;
+}
+
+// In place on gx's spectrum: n0/2 + 1 complex values per row.
+__kernel void poisson_periodic_divide(__global float2* gx, __global const float2* gy, int n0,
+                                      int n1, float sigma)
+{
+    int columns = n0 / 2 + 1;
+    int gid = get_global_id(0);
+    if (gid >= columns * n1)
+        return;
+    int kx = gid % columns, ky = gid / columns;
+    int sy = ky < (n1 + 1) / 2 ? ky : ky - n1;  // signed frequency
+    int nyquist = (2 * kx == n0) || (n1 > 1 && 2 * ky == n1);
+    float wx = 2.0f * M_PI_F * kx / n0, wy = 2.0f * M_PI_F * sy / n1;
+    float w2 = wx * wx + wy * wy;
+    if (nyquist || w2 == 0.0f) {
+        gx[gid] = (float2)(0.0f, 0.0f);
+        return;
+    }
+    float2 a = gx[gid], b = gy[gid];
+    // s = wx Gx + wy Gy;  H = -i s / |w|^2 = (s.im, -s.re) / |w|^2
+    float2 s = wx * a + wy * b;
+    float scale = highpass_gain(w2, sigma) / w2;
+    gx[gid] = (float2)(s.y * scale, -s.x * scale);
+}
+
+__kernel void poisson_free_divide(__global const float* dx, __global const float* dy, int n0,
+                                  int n1, float sigma, __global float* out)
+{
+    int gid = get_global_id(0);
+    if (gid >= n0 * n1)
+        return;
+    int k = gid % n0, l = gid / n0;
+    float wk = M_PI_F * k / n0, wl = M_PI_F * l / n1;
+    float w2 = wk * wk + wl * wl;
+    float b = k > 0 ? dx[l * n0 + (n0 - k)] : 0.0f;
+    float c = l > 0 ? dy[(n1 - l) * n0 + k] : 0.0f;
+    out[gid] = w2 > 0.0f ? -(wk * b + wl * c) * highpass_gain(w2, sigma) / w2 : 0.0f;
+}
+
+__kernel void poisson_gather(__global const float* grid, int stride, int n0, int n1, int width,
+                             int transposed, __global float* height)
+{
+    int gid = get_global_id(0);
+    if (gid >= n0 * n1)
+        return;
+    int i = gid % n0, j = gid / n0;
+    float v = grid[j * stride + i];
+    if (transposed)
+        height[i * width + j] = v;
+    else
+        height[j * width + i] = v;
+}

@@ -1,0 +1,107 @@
+#include "poisson_reference.h"
+
+#include <cmath>
+#include <complex>
+
+namespace relief::reference {
+
+namespace {
+
+using cd = std::complex<double>;
+
+// In-place DFT of every row (axis 0) or column (axis 1) of a w x h grid;
+// sign -1 forward, +1 inverse (unnormalised).
+void dft_axis(std::vector<cd>& a, int w, int h, int axis, int sign)
+{
+    const int n = axis == 0 ? w : h, lines = axis == 0 ? h : w;
+    std::vector<cd> line(n), out(n);
+    for (int l = 0; l < lines; ++l) {
+        for (int i = 0; i < n; ++i)
+            line[i] = axis == 0 ? a[std::size_t(l) * w + i] : a[std::size_t(i) * w + l];
+        for (int k = 0; k < n; ++k) {
+            cd s = 0;
+            for (int i = 0; i < n; ++i)
+                s += line[i] * std::polar(1.0, sign * 2.0 * M_PI * double(k) * i / n);
+            out[k] = s;
+        }
+        for (int i = 0; i < n; ++i)
+            (axis == 0 ? a[std::size_t(l) * w + i] : a[std::size_t(i) * w + l]) = out[i];
+    }
+}
+
+double signed_omega(int k, int n)
+{
+    const int s = k < (n + 1) / 2 ? k : k - n;
+    return 2.0 * M_PI * s / n;
+}
+
+std::vector<double> periodic_fc(const std::vector<double>& gx, const std::vector<double>& gy,
+                                int w, int h, double sigma)
+{
+    std::vector<cd> X(gx.begin(), gx.end()), Y(gy.begin(), gy.end());
+    for (auto* a : {&X, &Y}) {
+        dft_axis(*a, w, h, 0, -1);
+        dft_axis(*a, w, h, 1, -1);
+    }
+    std::vector<cd> H(X.size());
+    for (int ky = 0; ky < h; ++ky)
+        for (int kx = 0; kx < w; ++kx) {
+            const std::size_t i = std::size_t(ky) * w + kx;
+            const bool nyquist = (w > 1 && 2 * kx == w) || (h > 1 && 2 * ky == h);
+            const double wx = signed_omega(kx, w), wy = signed_omega(ky, h);
+            const double w2 = wx * wx + wy * wy;
+            if (nyquist || w2 == 0.0)
+                continue;
+            const double gain = sigma > 0 ? 1.0 - std::exp(-0.5 * w2 * sigma * sigma) : 1.0;
+            H[i] = cd(0, -1) * (wx * X[i] + wy * Y[i]) / w2 * gain;
+        }
+    dft_axis(H, w, h, 0, +1);
+    dft_axis(H, w, h, 1, +1);
+    std::vector<double> out(H.size());
+    for (std::size_t i = 0; i < H.size(); ++i)
+        out[i] = H[i].real() / (double(w) * h);
+    return out;
+}
+
+} // namespace
+
+std::vector<double> poisson(const std::vector<double>& g, int w, int h, const PoissonSettings& s)
+{
+    std::vector<double> out;
+    if (s.periodic) {
+        std::vector<double> gx(std::size_t(w) * h), gy(gx.size());
+        for (std::size_t i = 0; i < gx.size(); ++i) {
+            gx[i] = g[2 * i];
+            gy[i] = g[2 * i + 1];
+        }
+        out = periodic_fc(gx, gy, w, h, s.highpass_sigma);
+    } else {
+        // Even extension of the height: gx is odd across the vertical edges
+        // and even across the horizontal ones; gy the other way round.
+        const int W = 2 * w, H = 2 * h;
+        std::vector<double> gx(std::size_t(W) * H), gy(gx.size());
+        for (int y = 0; y < H; ++y)
+            for (int x = 0; x < W; ++x) {
+                const bool fx = x >= w, fy = y >= h;
+                const int sx = fx ? W - 1 - x : x, sy = fy ? H - 1 - y : y;
+                const std::size_t src = std::size_t(sy) * w + sx, dst = std::size_t(y) * W + x;
+                gx[dst] = (fx ? -1.0 : 1.0) * g[2 * src];
+                gy[dst] = (fy ? -1.0 : 1.0) * g[2 * src + 1];
+            }
+        // Dimensions of size 1 stay size 1 (nothing to integrate along them).
+        std::vector<double> ext = periodic_fc(gx, gy, W, H, s.highpass_sigma);
+        out.resize(std::size_t(w) * h);
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x)
+                out[std::size_t(y) * w + x] = ext[std::size_t(y) * W + x];
+    }
+    double mean = 0;
+    for (double v : out)
+        mean += v;
+    mean /= double(out.size());
+    for (double& v : out)
+        v -= mean;
+    return out;
+}
+
+} // namespace relief::reference

@@ -1,0 +1,168 @@
+// Least-squares (Poisson) integration: the device solver against the double
+// golden model and against analytic truth.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+
+#include "compute_context.h"
+#include "poisson_stage.h"
+#include "reference/poisson_reference.h"
+#include "slope_stage.h"
+#include "support/fields.h"
+
+using namespace relief;
+
+namespace {
+
+std::vector<float> solve(const std::vector<double>& g, int w, int h, bool periodic,
+                         double highpass = 0.0)
+{
+    auto ctx = host::ComputeContext::acquire("auto");
+    std::vector<float> gf(g.begin(), g.end());
+    auto slopes = host::upload_slopes(*ctx, gf.data(), w, h);
+    host::PoissonParams p;
+    p.boundary = periodic ? host::PoissonBoundary::Periodic : host::PoissonBoundary::Free;
+    p.highpass = highpass;
+    std::vector<float> out(std::size_t(w) * h);
+    host::integrate_poisson(*ctx, slopes, p, out.data());
+    return out;
+}
+
+std::vector<double> noisy_slopes(int w, int h, unsigned seed)
+{
+    test::PeriodicField f{w, h, {{1, 1, 2.0, 0.4}, {2, -1, 1.0, 1.3}}};
+    auto g = f.slopes();
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> noise(0.0, 0.3);
+    for (double& v : g)
+        v += noise(rng);
+    return g;
+}
+
+template <class A>
+double spread(const A& a)
+{
+    double lo = 1e300, hi = -1e300;
+    for (auto v : a) {
+        lo = std::min(lo, double(v));
+        hi = std::max(hi, double(v));
+    }
+    return hi - lo;
+}
+
+template <class A, class B>
+double rmse(const A& a, const B& b)
+{
+    double s = 0;
+    for (std::size_t i = 0; i < a.size(); ++i)
+        s += (double(a[i]) - double(b[i])) * (double(a[i]) - double(b[i]));
+    return std::sqrt(s / double(a.size()));
+}
+
+template <class A, class B>
+double max_diff(const A& a, const B& b)
+{
+    double m = 0;
+    for (std::size_t i = 0; i < a.size(); ++i)
+        m = std::max(m, std::abs(double(a[i]) - double(b[i])));
+    return m;
+}
+
+} // namespace
+
+TEST_CASE("Poisson solver equals the double-precision golden model", "[poisson]")
+{
+    struct Case {
+        int w, h;
+    };
+    const Case cases[] = {{37, 29}, {24, 24}, {31, 7}, {2, 3}, {1, 17}, {17, 1}, {64, 40}};
+    for (const Case& c : cases)
+        for (bool periodic : {true, false})
+            for (double highpass : {0.0, 8.0}) {
+                INFO(c.w << "x" << c.h << (periodic ? " periodic" : " free") << " highpass "
+                          << highpass);
+                auto g = noisy_slopes(c.w, c.h, 3u + c.w);
+                reference::PoissonSettings s;
+                s.periodic = periodic;
+                s.highpass_sigma = host::highpass_sigma(highpass);
+                auto ref = reference::poisson(g, c.w, c.h, s);
+                auto got = solve(g, c.w, c.h, periodic, highpass);
+                INFO("max diff " << max_diff(got, ref) << ", spread " << spread(ref));
+                CHECK(max_diff(got, ref) <= 1e-4 * spread(ref) + 1e-6);
+            }
+}
+
+TEST_CASE("a 1x1 texture integrates to zero", "[poisson]")
+{
+    for (bool periodic : {true, false})
+        CHECK(solve({0.3, -0.2}, 1, 1, periodic)[0] == 0.0f);
+}
+
+TEST_CASE("periodic: band-limited fields are recovered exactly", "[poisson]")
+{
+    const test::PeriodicField f{256, 192, {{1, 0, 4.0, 0.2}, {3, 2, 2.0, 1.0}, {-7, 5, 0.5, 2.5},
+                                           {20, -11, 0.1, 0.3}}};
+    auto got = solve(f.slopes(), f.width, f.height, true);
+    std::vector<double> truth(got.size());
+    double mean = 0;
+    for (int y = 0; y < f.height; ++y)
+        for (int x = 0; x < f.width; ++x)
+            mean += truth[std::size_t(y) * f.width + x] = f.h(x, y);
+    mean /= double(truth.size());
+    for (double& v : truth)
+        v -= mean;
+    const double rel = rmse(got, truth) / spread(truth);
+    INFO("RMSE / spread = " << rel);
+    CHECK(rel <= 1e-4);
+}
+
+TEST_CASE("free: fields with zero normal slope at the edges are recovered exactly", "[poisson]")
+{
+    // h = sum a cos(pi k (x + 1/2) / W) cos(pi l (y + 1/2) / H): a non-tiling
+    // field (odd k or l) whose even extension is smooth.
+    const int w = 200, h = 150;
+    struct Term {
+        int k, l;
+        double a;
+    };
+    const Term terms[] = {{1, 0, 3.0}, {1, 1, 2.0}, {3, 2, 1.0}, {9, 4, 0.2}, {0, 5, 0.4}};
+    std::vector<double> g(2 * std::size_t(w) * h), truth(std::size_t(w) * h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const std::size_t i = std::size_t(y) * w + x;
+            for (const Term& t : terms) {
+                const double wx = M_PI * t.k / w, wy = M_PI * t.l / h;
+                const double cx = std::cos(wx * (x + 0.5)), cy = std::cos(wy * (y + 0.5));
+                truth[i] += t.a * cx * cy;
+                g[2 * i] += -t.a * wx * std::sin(wx * (x + 0.5)) * cy;
+                g[2 * i + 1] += -t.a * wy * cx * std::sin(wy * (y + 0.5));
+            }
+        }
+    double mean = 0;
+    for (double v : truth)
+        mean += v;
+    mean /= double(truth.size());
+    for (double& v : truth)
+        v -= mean;
+    auto got = solve(g, w, h, false);
+    const double rel = rmse(got, truth) / spread(truth);
+    INFO("RMSE / spread = " << rel);
+    CHECK(rel <= 1e-4);
+}
+
+TEST_CASE("highpass removes long wavelengths and keeps short ones", "[poisson]")
+{
+    // Wavelengths 256 and 8 texels; highpass=32 halves wavelength 32.
+    const test::PeriodicField longw{256, 256, {{1, 0, 5.0, 0.0}}};
+    const test::PeriodicField shortw{256, 256, {{32, 0, 1.0, 0.0}}};
+    auto a = solve(longw.slopes(), 256, 256, true, 32.0);
+    auto b = solve(shortw.slopes(), 256, 256, true, 32.0);
+    auto gain = [](double wavelength) {
+        const double w = 2 * M_PI / wavelength, s = host::highpass_sigma(32.0);
+        return 1.0 - std::exp(-0.5 * w * w * s * s);
+    };
+    CHECK(std::abs(gain(32.0) - 0.5) < 1e-12);
+    CHECK(spread(a) == Approx(10.0 * gain(256.0)).epsilon(1e-3));  // ~0.011 of the wave left
+    CHECK(spread(b) == Approx(2.0 * gain(8.0)).epsilon(1e-3));     // ~all of it kept
+}
