@@ -31,13 +31,21 @@ Modifiers (:key=value) of --slopes and --height:
   max_angle=DEG         clamp grazing normals to DEG from +z (default 85)
   range=signed|unsigned float/half normals in [-1,1] (default) or [0,1]
 Modifiers of --height:
-  method=rays           radial ray integration (DESIGN.md 4.2)
-  impl=reference        the reference kernel
-  rays=J                ray directions (default 32)
-  radius=R              ray length in texels (default 64)
-  phase=PHI             angles 2*pi*(j+PHI)/J, PHI in [0,1) (default 0.5)
-  directions=exact      uniform angles
-  boundary=periodic|clip  tiling texture (default) or rays stop at the edge
+  method=auto|poisson|rays  auto (default): poisson, or rays when a ray
+                        modifier below is given
+  boundary=auto|periodic|free|clip  periodic: the texture tiles; free (clip
+                        for rays): it does not; auto (default): periodic when
+                        the slopes are continuous across the wrap seams
+  method=poisson: least squares (Frankot-Chellappa, DESIGN.md 4.4)
+    highpass=R          relief balance: remove structure larger than R
+                        texels (default 0 = off)
+  method=rays: radial ray integration (DESIGN.md 4.2, 4.3)
+    impl=fast|reference fast (default): cost independent of the radius
+    rays=J              ray directions (default 32)
+    radius=R            ray length in texels (default 64)
+    phase=PHI           angles 2*pi*(j+PHI)/J, PHI in [0,1) (default 0.5)
+    directions=rational|exact  integer steps nearest the angles (default),
+                        or the angles themselves (impl=reference only)
 Options:
   --device DEV          auto (default: a GPU if any, else the CPU), gpu, cpu,
                         or PLATFORM:DEVICE as --list-devices numbers them
@@ -45,6 +53,7 @@ Options:
   -v                    say what was chosen (device, convention), progress, times
   --help, --version
 Example:
+  relief normal.png --height -o height.exr
   relief normal.png --height:normal=directx:rays=16:radius=32:boundary=clip -o height.exr
 )";
 }
@@ -159,15 +168,23 @@ Step parse_height(const std::string& arg)
 {
     Step s{Step::Kind::Height, arg, {}, {}, {}, {}};
     HeightOptions& h = s.height;
+    bool ray_option = false, poisson_option = false;
+    std::string method = "auto", boundary;
     for (const auto& [key, v] : split_modifiers(arg).values) {
         if (apply_decoding(h.normals, arg, key, v))
             continue;
+        const bool ray_key = key == "impl" || key == "directions" || key == "rays" ||
+                             key == "radius" || key == "phase";
+        ray_option |= ray_key;
         if (key == "method")
-            choice(arg, key, v, {"rays"});
+            method = choice(arg, key, v, {"auto", "rays", "poisson"});
         else if (key == "impl")
-            choice(arg, key, v, {"reference"});
+            h.impl = choice(arg, key, v, {"fast", "reference"}) == "fast" ? RayImpl::Fast
+                                                                          : RayImpl::Reference;
         else if (key == "directions")
-            choice(arg, key, v, {"exact"});
+            h.directions = choice(arg, key, v, {"rational", "exact"}) == "rational"
+                               ? RayDirections::Rational
+                               : RayDirections::Exact;
         else if (key == "rays")
             h.rays = parse_int(arg, key, v, 1, 4096);
         else if (key == "radius")
@@ -176,13 +193,34 @@ Step parse_height(const std::string& arg)
         else if (key == "phase")
             h.phase = float(parse_in_range(arg, key, v, 0, false, 1, true, "in [0, 1)"));
         else if (key == "boundary")
-            h.boundary = choice(arg, key, v, {"periodic", "clip"}) == "clip" ? Boundary::Clip
-                                                                              : Boundary::Periodic;
-        else
+            boundary = choice(arg, key, v, {"auto", "periodic", "free", "clip"});
+        else if (key == "highpass") {
+            poisson_option = true;
+            h.highpass = float(parse_in_range(arg, key, v, 0, false, 1e9, false,
+                                              "a radius in texels >= 0 (0 = off)"));
+        } else
             unknown_modifier(arg, key,
-                             "method, impl, normal, max_angle, range, rays, radius, phase, "
-                             "directions, boundary");
+                             "method, boundary, normal, max_angle, range, impl, rays, radius, "
+                             "phase, directions, highpass");
     }
+    if (method == "auto")
+        method = ray_option ? "rays" : "auto";
+    if (method == "rays" && poisson_option)
+        throw UsageError(arg + ": highpass applies to method=poisson, not to rays");
+    if (method == "poisson" && ray_option)
+        throw UsageError(arg + ": impl, directions, rays, radius and phase apply to method=rays");
+    if (method == "rays" && boundary == "free")
+        throw UsageError(arg + ": rays take boundary=periodic, clip or auto");
+    if (method != "rays" && boundary == "clip")
+        throw UsageError(arg + ": method=poisson takes boundary=periodic, free or auto");
+    if (method == "rays" && h.impl == RayImpl::Fast && h.directions == RayDirections::Exact)
+        throw UsageError(arg + ": impl=fast needs directions=rational (or use impl=reference)");
+    h.method = method == "rays" ? HeightMethod::Rays
+             : method == "poisson" ? HeightMethod::Poisson
+                                   : HeightMethod::Auto;
+    h.boundary = boundary == "periodic" ? Boundary::Periodic
+               : boundary == "free" || boundary == "clip" ? Boundary::Free
+                                                          : Boundary::Auto;
     return s;
 }
 

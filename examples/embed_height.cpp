@@ -18,7 +18,7 @@ int main(int argc, char** argv)
     }
 
     relief::HeightOptions opt;  // documented defaults: auto convention, 32 rays, radius 64
-    opt.boundary = relief::Boundary::Periodic;
+    opt.boundary = relief::Boundary::Auto;
     opt.exec.on_message = [](relief::Severity s, const std::string& m) {
         std::fprintf(stderr, "%s%s\n", s == relief::Severity::Warning ? "warning: " : "", m.c_str());
     };

@@ -53,7 +53,8 @@ TEST_CASE("cli: the documented example writes a float EXR height map with metada
     CHECK(h.spec().get_string_attribute("relief:normal_convention") == "directx");
     CHECK(h.spec().get_string_attribute("relief:height_unit") == "texel");
     CHECK(h.spec().get_string_attribute("relief:parameters") ==
-          "impl=reference rays=16 radius=32 phase=0.5 directions=exact boundary=clip");
+          "method=rays impl=reference rays=16 radius=32 phase=0.5 directions=rational "
+          "boundary=clip");
     CHECK(folder_is_empty_but(dir, "height.exr"));
 }
 
@@ -138,9 +139,9 @@ TEST_CASE("cli: bad input fails with a clear message, a non-zero exit and no out
     const std::string ok = "'" + kNormal + "'";
     fs::path kernels = dir / "kernels";
     fs::create_directories(kernels);
-    for (const char* f : {"common.h", "ddm.cl", "rays_reference.cl"})
+    for (const char* f : {"common.h", "ddm.cl", "rays_reference.cl", "rays_fast.cl", "poisson.cl"})
         fs::copy_file(fs::path(RELIEF_KERNELS_DIR) / f, kernels / f);
-    std::ofstream(kernels / "rays_reference.cl") << "__kernel void rays_reference( { syntax error\n";
+    std::ofstream(kernels / "rays_fast.cl") << "__kernel void rays_period_sums( { syntax error\n";
     fs::create_directories(dir / "no_vendors");
 
     const Case cases[] = {
@@ -157,6 +158,14 @@ TEST_CASE("cli: bad input fails with a clear message, a non-zero exit and no out
         {"phase out of range", ok + " --height:phase=1.5 -o " + out, "", "phase=1.5"},
         {"bad convention", ok + " --height:normal=sideways -o " + out, "", "normal=sideways"},
         {"bad method", ok + " --height:method=magic -o " + out, "", "method=magic"},
+        {"ray option with poisson", ok + " --height:method=poisson:rays=8 -o " + out, "",
+         "apply to method=rays"},
+        {"highpass with rays", ok + " --height:rays=8:highpass=4 -o " + out, "",
+         "highpass applies to method=poisson"},
+        {"fast with exact angles", ok + " --height:directions=exact -o " + out, "",
+         "impl=fast needs directions=rational"},
+        {"clip for poisson", ok + " --height:boundary=clip -o " + out, "", "boundary=periodic, free"},
+        {"negative highpass", ok + " --height:highpass=-2 -o " + out, "", "highpass=-2"},
         {"bad type", ok + " --height -d int7 -o " + out, "", "int7"},
         {"missing output folder", ok + " --height -o '" + (dir / "nowhere" / "h.exr").string() + "'", "",
          "does not exist"},

@@ -166,6 +166,7 @@ TEST_CASE("a bump comes out positive (not upside down) through the public API", 
     for (auto green : {test::Green::OpenGL, test::Green::DirectX}) {
         auto img = test::normal_image(g, n, n, green, OIIO::TypeDesc::UINT8);
         HeightOptions o;
+        o.method = HeightMethod::Rays;
         o.rays = 16;
         o.radius = 24;
         auto out = relief::height(img, o);  // normal=auto

@@ -100,6 +100,7 @@ TEST_CASE("real sample: ray heights match the author's height map, right way up"
     const fs::path dir = fs::path(RELIEF_TEST_DATA) / "gk_metal_tech_01";
     auto normals = read(dir / "normal.png");
     relief::HeightOptions o;
+    o.method = relief::HeightMethod::Rays;
     o.rays = 32;
     o.radius = 16;
     auto est = relief::height(normals, o);
@@ -112,6 +113,20 @@ TEST_CASE("real sample: ray heights match the author's height map, right way up"
     INFO("NRMSE after affine fit: " << e << ", scale " << a);
     CHECK(a > 0);  // not upside down
     CHECK(e < 0.02);  // measured 0.0063
+}
+
+TEST_CASE("real sample: Poisson heights match the author's height map", "[real][poisson]")
+{
+    const fs::path dir = fs::path(RELIEF_TEST_DATA) / "gk_metal_tech_01";
+    auto est = relief::height(read(dir / "normal.png"));  // method=auto: poisson
+    REQUIRE_FALSE(est.has_error());
+    CHECK(est.spec().get_string_attribute("relief:method") == "poisson");
+    auto truth = channel0(read(dir / "height.png"));
+    double a = 0;
+    double e = nrmse_affine(channel0(est), truth, a);
+    INFO("NRMSE after affine fit: " << e << ", scale " << a);
+    CHECK(a > 0);
+    CHECK(e < 0.02);
 }
 
 TEST_CASE("shared data set: auto finds every map's convention", "[real][shared]")

@@ -8,7 +8,9 @@
 #include <vector>
 
 #include "normal_stage.h"
+#include "poisson_stage.h"
 #include "ray_stage.h"
+#include "tiling.h"
 
 namespace relief {
 
@@ -16,15 +18,17 @@ using OIIO::ImageBuf;
 using OIIO::ROI;
 using OIIO::TypeDesc;
 
-std::string describe(const HeightOptions& o)
-{
-    std::ostringstream ss;
-    ss << "impl=reference rays=" << o.rays << " radius=" << o.radius << " phase=" << o.phase
-       << " directions=exact boundary=" << (o.boundary == Boundary::Clip ? "clip" : "periodic");
-    return ss.str();
-}
-
 namespace {
+
+const char* name(Boundary b, bool rays)
+{
+    switch (b) {
+    case Boundary::Auto: return "auto";
+    case Boundary::Periodic: return "periodic";
+    case Boundary::Free: return rays ? "clip" : "free";
+    }
+    return "?";
+}
 
 void validate(const HeightOptions& o)
 {
@@ -35,9 +39,50 @@ void validate(const HeightOptions& o)
         throw std::invalid_argument("radius must be in (0, 65536] texels");
     if (!(o.phase >= 0.0f && o.phase < 1.0f))
         throw std::invalid_argument("phase must be in [0, 1)");
+    if (!(o.highpass >= 0.0f) || !std::isfinite(o.highpass))
+        throw std::invalid_argument("highpass must be a radius >= 0 texels (0 = off)");
+    if (o.method == HeightMethod::Rays && o.impl == RayImpl::Fast &&
+        o.directions == RayDirections::Exact)
+        throw std::invalid_argument(
+            "impl=fast needs directions=rational (exact angles need impl=reference)");
+    if (o.method == HeightMethod::Rays && o.highpass > 0.0f)
+        throw std::invalid_argument("highpass applies to method=poisson, not to rays");
+}
+
+// Resolves boundary=auto from the slopes' seams, and says why.
+Boundary choose_boundary(const HeightOptions& o, const detail::DerivedSlopes& d, bool rays)
+{
+    if (o.boundary != Boundary::Auto)
+        return o.boundary;
+    const int w = d.slopes.width(), h = d.slopes.height();
+    std::vector<float> g(2 * std::size_t(w) * h);
+    host::read_slopes(*d.context, d.slopes, g.data());
+    const host::TilingEvidence e = host::tiling_evidence(g.data(), w, h);
+    const Boundary b = e.tiles ? Boundary::Periodic : Boundary::Free;
+    detail::say(o.exec, Severity::Notice,
+        std::string("boundary: ") + name(b, rays) + " (slope jump across the wrap seams / " +
+            "typical jump inside: x " + detail::format_double("%.3g", e.seam_ratio_x) + ", y " +
+            detail::format_double("%.3g", e.seam_ratio_y) + (e.tiles ? ", both" : ", not both") + " <= " +
+            detail::format_double("%.3g", host::kTilingSeamRatio) + ")");
+    return b;
 }
 
 } // namespace
+
+std::string describe(const HeightOptions& o)
+{
+    std::ostringstream ss;
+    const bool rays = o.method == HeightMethod::Rays;
+    ss << "method=" << (rays ? "rays" : o.method == HeightMethod::Poisson ? "poisson" : "auto");
+    if (rays)
+        ss << " impl=" << (o.impl == RayImpl::Fast ? "fast" : "reference") << " rays=" << o.rays
+           << " radius=" << o.radius << " phase=" << o.phase << " directions="
+           << (o.directions == RayDirections::Rational ? "rational" : "exact");
+    ss << " boundary=" << name(o.boundary, rays);
+    if (!rays)
+        ss << " highpass=" << o.highpass;
+    return ss.str();
+}
 
 bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options, ROI roi,
             int /*nthreads*/)
@@ -47,18 +92,40 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
         roi = detail::resolve_roi(normals, roi);
         auto derived = detail::derive_slopes(normals, roi, options.normals, options.exec);
 
-        host::RayParams p;
-        p.rays = options.rays;
-        p.radius = options.radius;
-        p.phase = options.phase;
-        p.directions = host::DirectionSet::Exact;
-        p.boundary = options.boundary == Boundary::Clip ? host::RayBoundary::Clip
-                                                        : host::RayBoundary::Periodic;
-        std::vector<float> h(std::size_t(roi.width()) * roi.height());
-        host::integrate_rays_reference(*derived.context, derived.slopes, p, h.data(),
-                                       options.exec.on_progress);
+        HeightOptions chosen = options;
+        if (chosen.method == HeightMethod::Auto) {
+            chosen.method = HeightMethod::Poisson;
+            detail::say(options.exec, Severity::Info, "method: poisson (the default; method=rays for rays)");
+        }
+        const bool rays = chosen.method == HeightMethod::Rays;
+        chosen.boundary = choose_boundary(chosen, derived, rays);
 
-        detail::publish_result(dst, roi, {"Y"}, "rays", derived.stats, h.data(), describe(options));
+        std::vector<float> h(std::size_t(roi.width()) * roi.height());
+        if (rays) {
+            host::RayParams p;
+            p.rays = chosen.rays;
+            p.radius = chosen.radius;
+            p.phase = chosen.phase;
+            p.directions = chosen.directions == RayDirections::Rational
+                               ? host::DirectionSet::Rational
+                               : host::DirectionSet::Exact;
+            p.boundary = chosen.boundary == Boundary::Free ? host::RayBoundary::Clip
+                                                           : host::RayBoundary::Periodic;
+            if (chosen.impl == RayImpl::Fast)
+                host::integrate_rays_fast(*derived.context, derived.slopes, p, h.data(),
+                                          options.exec.on_progress);
+            else
+                host::integrate_rays_reference(*derived.context, derived.slopes, p, h.data(),
+                                               options.exec.on_progress);
+        } else {
+            host::PoissonParams p;
+            p.boundary = chosen.boundary == Boundary::Free ? host::PoissonBoundary::Free
+                                                           : host::PoissonBoundary::Periodic;
+            p.highpass = chosen.highpass;
+            host::integrate_poisson(*derived.context, derived.slopes, p, h.data());
+        }
+        detail::publish_result(dst, roi, {"Y"}, rays ? "rays" : "poisson", derived.stats, h.data(),
+                               describe(chosen));
         return true;
     } catch (const std::exception& e) {
         return detail::fail(dst, "height", e);

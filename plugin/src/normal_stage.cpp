@@ -13,8 +13,6 @@ using OIIO::ImageBuf;
 using OIIO::ROI;
 using OIIO::TypeDesc;
 
-namespace {
-
 std::string format_double(const char* fmt, double v)
 {
     char buf[64];
@@ -27,6 +25,8 @@ void say(const Execution& exec, Severity s, const std::string& msg)
     if (exec.on_message)
         exec.on_message(s, msg);
 }
+
+namespace {
 
 bool is_unorm(TypeDesc t)
 {

@@ -26,6 +26,12 @@ struct DerivedSlopes {
 DerivedSlopes derive_slopes(const OIIO::ImageBuf& normals, OIIO::ROI roi,
                             const NormalDecoding& decoding, const Execution& exec);
 
+// Passes one line to exec.on_message, if any.
+void say(const Execution& exec, Severity severity, const std::string& message);
+
+// printf-style formatting of one number ("%.3g").
+std::string format_double(const char* fmt, double v);
+
 // "opengl" / "directx"
 const char* convention_name(host::GreenConvention c);
 

@@ -6,22 +6,33 @@
 
 namespace relief {
 
-enum class HeightMethod { Rays };
-enum class RayImpl { Reference };
-enum class RayDirections { Exact };
-enum class Boundary { Periodic, Clip };
+// Auto: Poisson with an automatic boundary, unless ray options are given.
+enum class HeightMethod { Auto, Rays, Poisson };
+// Fast: cost independent of the radius (DESIGN.md §4.3), rational directions
+// only. Reference: walks every ray (§4.2), either direction set.
+enum class RayImpl { Fast, Reference };
+// Rational: primitive integer steps (a, b) closest to the uniform angles.
+// Exact: the uniform angles 2*pi*(j + phase)/J themselves.
+enum class RayDirections { Rational, Exact };
+// Periodic: the texture tiles (rays wrap; Poisson on a torus). Free: it does
+// not (rays stop at the edge, "clip"; Poisson with zero normal slope at the
+// edges, Neumann). Auto: periodic when the slopes are as continuous across
+// the wrap seams as inside the texture, else free; the choice is reported.
+enum class Boundary { Auto, Periodic, Free };
 
 struct HeightOptions {
     NormalDecoding normals;
-    HeightMethod method = HeightMethod::Rays;
-    // Radial ray integration (DESIGN.md §4.2).
-    RayImpl impl = RayImpl::Reference;
+    HeightMethod method = HeightMethod::Auto;
+    Boundary boundary = Boundary::Auto;
+    // Radial ray integration (method=rays).
+    RayImpl impl = RayImpl::Fast;
     int rays = 32;         // J, number of ray directions (1..4096)
     float radius = 64.0f;  // R, ray length in texels
     float phase = 0.5f;    // angles 2*pi*(j + phase)/J, phase in [0, 1)
-    RayDirections directions = RayDirections::Exact;
-    // Periodic: the texture tiles, rays wrap. Clip: rays stop at the edge.
-    Boundary boundary = Boundary::Periodic;
+    RayDirections directions = RayDirections::Rational;
+    // Least squares (method=poisson): relief balance, removes structure
+    // larger than this many texels (0 = off).
+    float highpass = 0.0f;
     Execution exec;
 };
 
@@ -36,7 +47,9 @@ OIIO::ImageBuf height(const OIIO::ImageBuf& normals, const HeightOptions& option
 bool height(OIIO::ImageBuf& dst, const OIIO::ImageBuf& normals,
             const HeightOptions& options = {}, OIIO::ROI roi = {}, int nthreads = 0);
 
-// "impl=reference rays=32 radius=64 phase=0.5 directions=exact boundary=periodic"
+// "method=rays impl=fast rays=32 radius=64 phase=0.5 directions=rational boundary=periodic"
+// or "method=poisson boundary=free highpass=0"; the values as given (auto
+// stays auto; the result's relief:parameters records what was chosen).
 std::string describe(const HeightOptions& options);
 
 } // namespace relief
