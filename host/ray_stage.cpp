@@ -55,13 +55,15 @@ cl::Buffer constant_buffer(cl::Context& ctx, std::vector<T>& v)
 struct PeriodTable {
     std::vector<cl_int2> offsets;
     std::vector<cl_float4> data;  // (extent x, extent y, length, mid-distance)
+    std::vector<cl_float4> cut;   // cut at the partial length: (l', l'/l, l' * mid', 0)
+    std::vector<cl_int> linear;   // offsets as index steps in a row-major image
     double w0 = 0, w1 = 0;        // sum of lengths, of length * mid-distance
     double pw0 = 0, pw1 = 0;      // the same over the partial last period
     double partial = 0;           // R - K*L
     int whole = 0;                // K
 };
 
-PeriodTable period_table(const RationalDirection& d, double radius)
+PeriodTable period_table(const RationalDirection& d, double radius, int width)
 {
     PeriodTable t;
     const double L = d.length();
@@ -73,13 +75,14 @@ PeriodTable period_table(const RationalDirection& d, double radius)
         const double len = s.t_out - s.t_in, mid = 0.5 * (s.t_in + s.t_out);
         t.offsets.push_back(cl_int2{{s.ox, s.oy}});
         t.data.push_back(cl_float4{{float(s.ext_x), float(s.ext_y), float(len), float(mid)}});
+        t.linear.push_back(cl_int(s.oy * width + s.ox));
         t.w0 += len;
         t.w1 += len * mid;
-        if (s.t_in < t.partial) {
-            const double cut = std::min(s.t_out, t.partial) - s.t_in;
-            t.pw0 += cut;
-            t.pw1 += cut * (s.t_in + 0.5 * cut);
-        }
+        const double cut = std::clamp(t.partial - s.t_in, 0.0, len);
+        t.cut.push_back(cl_float4{{float(cut), float(cut / len),
+                                   float(cut * (s.t_in + 0.5 * cut)), 0.0f}});
+        t.pw0 += cut;
+        t.pw1 += cut * (s.t_in + 0.5 * cut);
     }
     return t;
 }
@@ -143,9 +146,13 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
     auto& c = ctx.impl();
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
-        cl::Program& prog = c.program("rays_fast.cl", fp64 ? "-DRELIEF_FP64" : "");
+        // CPUs walk several neighbouring chains per work-item (cache reuse).
+        const int lanes = ctx.device().is_gpu ? 1 : 16;
+        cl::Program& prog =
+            c.program("rays_fast.cl", std::string(fp64 ? "-DRELIEF_FP64 " : "") +
+                                          "-DRELIEF_LANES=" + std::to_string(lanes));
         cl::Buffer sums(c.context, CL_MEM_READ_WRITE, sizeof(cl_float4) * n);
-        cl::Buffer partial1(c.context, CL_MEM_READ_WRITE, sizeof(cl_float) * n);
+        cl::Buffer tail(c.context, CL_MEM_READ_WRITE, sizeof(cl_float2) * n);
         cl::Buffer accum(c.context, CL_MEM_READ_WRITE, sizeof(cl_float2) * n);
         cl::Buffer out(c.context, CL_MEM_WRITE_ONLY, sizeof(float) * n);
         c.queue.enqueueFillBuffer(accum, cl_float2{{0.0f, 0.0f}}, 0, sizeof(cl_float2) * n);
@@ -155,11 +162,13 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
         const auto dirs = rational_directions(p.rays, p.phase);
         for (std::size_t j = 0; j < dirs.size(); ++j) {
             const RationalDirection& d = dirs[j];
-            PeriodTable t = period_table(d, p.radius);
+            PeriodTable t = period_table(d, p.radius, w);
             int cycle = 0;
             std::vector<cl_int2> starts = chain_starts(d, w, h, periodic, cycle);
             cl::Buffer offsets = constant_buffer(c.context, t.offsets);
             cl::Buffer data = constant_buffer(c.context, t.data);
+            cl::Buffer cut = constant_buffer(c.context, t.cut);
+            cl::Buffer linear = constant_buffer(c.context, t.linear);
             cl::Buffer start_buf = constant_buffer(c.context, starts);
             const cl_int segs = cl_int(t.offsets.size());
 
@@ -173,9 +182,11 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
             period_sums.setArg(a++, segs);
             period_sums.setArg(a++, offsets);
             period_sums.setArg(a++, data);
-            period_sums.setArg(a++, cl_float(t.partial));
+            period_sums.setArg(a++, cut);
+            period_sums.setArg(a++, linear);
+            period_sums.setArg(a++, cl_float(std::min<double>(t.data[0].s[2], p.radius)));
             period_sums.setArg(a++, sums);
-            period_sums.setArg(a++, partial1);
+            period_sums.setArg(a++, tail);
             c.queue.enqueueNDRangeKernel(period_sums, cl::NullRange, cl::NDRange(padded(n)),
                                          cl::NDRange(kGroupSize));
 
@@ -200,11 +211,11 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
             windows.setArg(a++, offsets);
             windows.setArg(a++, data);
             windows.setArg(a++, sums);
-            windows.setArg(a++, partial1);
+            windows.setArg(a++, tail);
             windows.setArg(a++, cl_int(fp64 ? 0 : std::max(1, p.float_reanchor)));
             windows.setArg(a++, accum);
             c.queue.enqueueNDRangeKernel(windows, cl::NullRange,
-                                         cl::NDRange(padded(starts.size())),
+                                         cl::NDRange(padded((starts.size() + lanes - 1) / lanes)),
                                          cl::NDRange(kGroupSize));
             // The tables above go out of scope with this iteration.
             c.queue.finish();

@@ -9,8 +9,11 @@
 
 // Wraps an integer coordinate into [0, n) for periodic textures; offsets may
 // exceed n when a ray is longer than the texture.
+// In-range values (the common case) skip the integer division.
 inline int relief_wrap(int v, int n)
 {
+    if ((uint)v < (uint)n)
+        return v;
     v %= n;
     return v < 0 ? v + n : v;
 }

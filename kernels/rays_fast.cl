@@ -4,8 +4,8 @@
 //
 // One rational direction (a, b) of period L = |(a, b)| per launch pair:
 //   rays_period_sums   per texel q, the sums over one period of the walk
-//                      starting at q (S, U0, U1) and over the partial last
-//                      period (P0, P1);
+//                      starting at q (S, U0, U1), over the partial last
+//                      period (P0, P1), and q's own first half-segment's term;
 //   rays_chain_windows one work-item per chain q0, q0 + (a, b), ...: slides a
 //                      window of K periods along the chain, keeping the
 //                      polynomial moments that the ray sum needs, and adds
@@ -40,44 +40,58 @@ inline int texel_index(int x, int y, int w, int h, int periodic)
     return y * w + x;
 }
 
+// seg_cut[i] = (l'_i, l'_i / l_i, l'_i * tau'_i, 0): segment i cut at
+// `partial` (l' = 0 past it); seg_linear[i] = o_i.y * width + o_i.x.
 __kernel void rays_period_sums(__global const float2* slopes, int width, int height,
                                int periodic, int step_x, int step_y, int segments,
                                __constant int2* seg_offset, __constant float4* seg_data,
-                               float partial, __global float4* sums, __global float* partial1)
+                               __constant float4* seg_cut, __constant int* seg_linear,
+                               float origin_len, __global float4* sums, __global float2* tail)
 {
     int gid = get_global_id(0);
     if (gid >= width * height)
         return;
     int x = gid % width, y = gid / width;
     float s = 0.0f, u0 = 0.0f, u1 = 0.0f, p0 = 0.0f, p1 = 0.0f;
+    // The origin's own first half-segment (length origin_len = min(l_0, R))
+    // is not part of its own mean; its term is subtracted by the chain kernel.
+    const float4 d0 = seg_data[0];
+    const float2 g0 = slopes[gid];
+    const float c0 = (g0.x * d0.x + g0.y * d0.y) * (origin_len / d0.z);
+    const float origin = 0.25f * origin_len * origin_len * c0;
+    // The period's texels lie in the box from q to q + (a, b).
+    const int interior = x + min(0, step_x) >= 0 && x + max(0, step_x) < width &&
+                         y + min(0, step_y) >= 0 && y + max(0, step_y) < height;
     // Under clip a period leaving the image is never used whole; the chain
     // kernel walks such ends itself.
-    if (periodic || inside(x + step_x, y + step_y, width, height)) {
+    if (interior || periodic) {
         float run = 0.0f, prun = 0.0f;
         for (int i = 0; i < segments; ++i) {
-            int2 o = seg_offset[i];
-            float4 d = seg_data[i];
-            float2 g = slopes[texel_index(x + o.x, y + o.y, width, height, periodic)];
-            float c = g.x * d.x + g.y * d.y;
-            float u = run + 0.5f * c;
+            float2 g;
+            if (interior) {  // most texels: no wrapping, no branches
+                g = slopes[gid + seg_linear[i]];
+            } else {
+                int2 o = seg_offset[i];
+                g = slopes[texel_index(x + o.x, y + o.y, width, height, 1)];
+            }
+            const float4 d = seg_data[i];
+            const float4 cut = seg_cut[i];
+            const float c = g.x * d.x + g.y * d.y;
+            const float u = run + 0.5f * c;
             u0 += d.z * u;
             u1 += d.z * d.w * u;
             run += c;
             // The partial last period: the same walk cut at `partial`.
-            float start = d.w - 0.5f * d.z;
-            if (start < partial) {
-                float len = fmin(d.z, partial - start);
-                float cp = c * (len / d.z);
-                float up = prun + 0.5f * cp;
-                p0 += len * up;
-                p1 += len * (start + 0.5f * len) * up;
-                prun += cp;
-            }
+            const float cp = c * cut.y;
+            const float up = prun + 0.5f * cp;
+            p0 += cut.x * up;
+            p1 += cut.z * up;
+            prun += cp;
         }
         s = run;
     }
     sums[gid] = (float4)(s, u0, u1, p0);
-    partial1[gid] = p1;
+    tail[gid] = (float2)(p1, origin);
 }
 
 // Weighted height sum and weight of the walk from chain point qe = p + m*(a, b)
@@ -146,96 +160,167 @@ inline Window window_from_scratch(__global const float4* sums, int width, int he
     return win;
 }
 
+// The state of one chain walk.
+typedef struct {
+    Window win;
+    int x, y;    // p = q_k
+    int nx, ny;  // q_{k+K}, kept wrapped
+    int k;
+    int done;
+} Chain;
+
+typedef struct {
+    __global const float2* slopes;
+    int width, height, periodic, step_x, step_y, cycle, k_whole;
+    float period, w0, w1, pw0, pw1, partial;
+    int segments;
+    __constant int2* seg_offset;
+    __constant float4* seg_data;
+    __global const float4* sums;
+    __global const float2* tail;
+    int reanchor;
+    __global float2* accum;
+    acc_t origin_w;
+} ChainArgs;
+
+inline void chain_begin(Chain* c, int2 start, const ChainArgs* g)
+{
+    c->x = start.x;
+    c->y = start.y;
+    c->nx = start.x + g->k_whole * g->step_x;
+    c->ny = start.y + g->k_whole * g->step_y;
+    if (g->periodic) {
+        c->nx = relief_wrap(c->nx, g->width);
+        c->ny = relief_wrap(c->ny, g->height);
+    }
+    c->k = 0;
+    c->done = 0;
+}
+
+// Adds the ray sum of chain point q_k to accum and slides the window on.
+inline void chain_step(Chain* c, const ChainArgs* g)
+{
+    const int width = g->width, height = g->height, periodic = g->periodic;
+    const int step_x = g->step_x, step_y = g->step_y, k_whole = g->k_whole;
+    const float partial = g->partial;
+    if (periodic ? c->k == g->cycle : !inside(c->x, c->y, width, height)) {
+        c->done = 1;
+        return;
+    }
+    const int x = c->x, y = c->y;
+    Window win = c->win;
+    if (c->k == 0 || (g->reanchor > 0 && c->k % g->reanchor == 0))
+        win = window_from_scratch(g->sums, width, height, periodic, step_x, step_y, x, y,
+                                  k_whole);
+    const acc_t L = g->period, K = k_whole;
+    const acc_t n = (acc_t)win.count;
+    acc_t a = (acc_t)g->w0 * L * (0.5 * n * (n - 1.0) * win.s0 - 0.5 * (win.s2 + win.s1)) +
+              (acc_t)g->w1 * ((n - 1.0) * win.s0 - win.s1) + L * win.u1 + win.v0;
+    acc_t w = (acc_t)g->w0 * L * 0.5 * n * (n - 1.0) + (acc_t)g->w1 * n;
+
+    // The end of the ray past the whole periods.
+    const int whole = win.count == k_whole;
+    const int ex = whole ? c->nx : x + win.count * step_x;
+    const int ey = whole ? c->ny : y + win.count * step_y;
+    const acc_t m_l = n * L;
+    // q_{k+K}'s sums: the partial last period here, the window's next entry below.
+    float4 next = (float4)(0.0f);
+    const int next_whole = whole && (periodic || inside(ex + step_x, ey + step_y, width, height));
+    const int e = ey * width + ex;
+    if (next_whole) {
+        next = g->sums[e];
+        if (partial > 0.0f) {
+            a += win.s0 * (m_l * g->pw0 + g->pw1) + m_l * next.w + g->tail[e].x;
+            w += m_l * g->pw0 + g->pw1;
+        }
+    } else if (!whole || partial > 0.0f) {
+        end_walk(g->slopes, width, height, periodic, ex, ey, m_l, win.s0,
+                 whole ? partial : g->period + 1.0f, g->segments, g->seg_offset, g->seg_data,
+                 &a, &w);
+    }
+    const int p = y * width + x;
+    a -= g->tail[p].y;
+    w -= g->origin_w;
+    float2 acc = g->accum[p];
+    g->accum[p] = (float2)(acc.x + (float)a, acc.y + (float)w);
+
+    // Slide the window one period on: drop m = 0, shift m -> m - 1, and
+    // take in the period K - 1 when the chain still has it.
+    const float4 f0 = win.count > 0 ? g->sums[p] : (float4)(0.0f);  // m = 0 is p itself
+    const acc_t s0 = win.s0, s1 = win.s1, u0 = win.u0;
+    win.s2 = win.s2 - 2.0 * s1 + s0 - f0.x;
+    win.s1 = s1 - s0 + f0.x;
+    win.s0 = s0 - f0.x;
+    win.u1 = win.u1 - u0 + f0.y;
+    win.u0 = u0 - f0.y;
+    win.v0 -= f0.z;
+    win.nonzero -= nonzero_sums(f0);
+    win.count -= win.count > 0;
+    if (k_whole > 0 && next_whole) {
+        const acc_t m = K - 1.0;
+        win.s0 += next.x;
+        win.s1 += m * next.x;
+        win.s2 += m * m * next.x;
+        win.u0 += next.y;
+        win.u1 += m * next.y;
+        win.v0 += next.z;
+        win.nonzero += nonzero_sums(next);
+        win.count += 1;
+    }
+    // A window over flat texels sums to exactly zero, not to the rounding
+    // left behind by the texels that slid out.
+    if (win.nonzero == 0)
+        win.s0 = win.s1 = win.s2 = win.u0 = win.u1 = win.v0 = 0;
+    c->win = win;
+
+    c->x += step_x;
+    c->y += step_y;
+    c->nx += step_x;
+    c->ny += step_y;
+    if (periodic) {
+        c->x = relief_wrap(c->x, width);
+        c->y = relief_wrap(c->y, height);
+        c->nx = relief_wrap(c->nx, width);
+        c->ny = relief_wrap(c->ny, height);
+    }
+    c->k += 1;
+}
+
+// RELIEF_LANES chains per work-item, walked in lockstep: neighbouring chains
+// start at neighbouring texels, so on a CPU, where one work-item runs at a
+// time, the lanes share cache lines. GPUs get the same from neighbouring
+// work-items and use one lane.
+#ifndef RELIEF_LANES
+#define RELIEF_LANES 1
+#endif
+
 __kernel void rays_chain_windows(__global const float2* slopes, int width, int height,
                                  int periodic, int step_x, int step_y,
                                  __global const int2* chain_start, int chains, int cycle,
                                  int k_whole, float period, float w0, float w1, float pw0,
                                  float pw1, float partial, int segments,
                                  __constant int2* seg_offset, __constant float4* seg_data,
-                                 __global const float4* sums, __global const float* partial1,
+                                 __global const float4* sums, __global const float2* tail,
                                  int reanchor, __global float2* accum)
 {
-    int id = get_global_id(0);
-    if (id >= chains)
+    const int first = get_global_id(0) * RELIEF_LANES;
+    if (first >= chains)
         return;
-    int x = chain_start[id].x, y = chain_start[id].y;
-    const acc_t L = period, K = k_whole;
-    // The origin's own first half-segment is not part of its mean.
-    const float4 d0 = seg_data[0];
-    const float origin_len = fmin(d0.z, partial > 0.0f && k_whole == 0 ? partial : d0.z);
-
-    Window win;
-    for (int k = 0;; ++k) {
-        if (periodic ? k == cycle : !inside(x, y, width, height))
-            break;
-        if (k == 0 || (reanchor > 0 && k % reanchor == 0))
-            win = window_from_scratch(sums, width, height, periodic, step_x, step_y, x, y,
-                                      k_whole);
-        const acc_t n = (acc_t)win.count;
-        acc_t a = (acc_t)w0 * L * (0.5 * n * (n - 1.0) * win.s0 - 0.5 * (win.s2 + win.s1)) +
-                  (acc_t)w1 * ((n - 1.0) * win.s0 - win.s1) + L * win.u1 + win.v0;
-        acc_t w = (acc_t)w0 * L * 0.5 * n * (n - 1.0) + (acc_t)w1 * n;
-
-        // The end of the ray past the whole periods.
-        const int ex = x + win.count * step_x, ey = y + win.count * step_y;
-        const acc_t m_l = n * L;
-        if (win.count == k_whole &&
-            (periodic || inside(ex + step_x, ey + step_y, width, height))) {
-            if (partial > 0.0f) {
-                int e = texel_index(ex, ey, width, height, periodic);
-                a += win.s0 * (m_l * pw0 + pw1) + m_l * sums[e].w + partial1[e];
-                w += m_l * pw0 + pw1;
+    const float origin_len = fmin(seg_data[0].z, (float)(k_whole * period + partial));
+    const ChainArgs g = {slopes, width, height, periodic, step_x, step_y, cycle, k_whole,
+                         period, w0, w1, pw0, pw1, partial, segments, seg_offset, seg_data,
+                         sums, tail, reanchor, accum, 0.5 * (acc_t)origin_len * origin_len};
+    Chain lane[RELIEF_LANES];
+    const int lanes = min(RELIEF_LANES, chains - first);
+    for (int l = 0; l < lanes; ++l)
+        chain_begin(&lane[l], chain_start[first + l], &g);
+    for (int busy = lanes; busy > 0;) {
+        busy = 0;
+        for (int l = 0; l < lanes; ++l)
+            if (!lane[l].done) {
+                chain_step(&lane[l], &g);
+                busy += !lane[l].done;
             }
-        } else {
-            end_walk(slopes, width, height, periodic, ex, ey, m_l, win.s0,
-                     win.count == k_whole ? partial : period + 1.0f, segments, seg_offset,
-                     seg_data, &a, &w);
-        }
-        const int p = y * width + x;
-        float2 g = slopes[p];
-        acc_t c0 = (g.x * d0.x + g.y * d0.y) * (origin_len / d0.z);
-        a -= (acc_t)origin_len * 0.5 * origin_len * 0.5 * c0;
-        w -= (acc_t)origin_len * 0.5 * origin_len;
-        float2 acc = accum[p];
-        accum[p] = (float2)(acc.x + (float)a, acc.y + (float)w);
-
-        // Slide the window one period on: drop m = 0, shift m -> m - 1, and
-        // take in the period K - 1 when the chain still has it.
-        const float4 f0 = win.count > 0 ? sums[p] : (float4)(0.0f);  // m = 0 is p itself
-        const acc_t s0 = win.s0, s1 = win.s1, u0 = win.u0;
-        win.s2 = win.s2 - 2.0 * s1 + s0 - f0.x;
-        win.s1 = s1 - s0 + f0.x;
-        win.s0 = s0 - f0.x;
-        win.u1 = win.u1 - u0 + f0.y;
-        win.u0 = u0 - f0.y;
-        win.v0 -= f0.z;
-        win.nonzero -= nonzero_sums(f0);
-        win.count -= win.count > 0;
-        const int nx = x + k_whole * step_x, ny = y + k_whole * step_y;  // q_{k+K}
-        if (k_whole > 0 &&
-            (periodic || inside(nx + step_x, ny + step_y, width, height))) {
-            const float4 f = sums[texel_index(nx, ny, width, height, periodic)];
-            const acc_t m = K - 1.0;
-            win.s0 += f.x;
-            win.s1 += m * f.x;
-            win.s2 += m * m * f.x;
-            win.u0 += f.y;
-            win.u1 += m * f.y;
-            win.v0 += f.z;
-            win.nonzero += nonzero_sums(f);
-            win.count += 1;
-        }
-        // A window over flat texels sums to exactly zero, not to the rounding
-        // left behind by the texels that slid out.
-        if (win.nonzero == 0)
-            win.s0 = win.s1 = win.s2 = win.u0 = win.u1 = win.v0 = 0;
-
-        x += step_x;
-        y += step_y;
-        if (periodic) {
-            x = relief_wrap(x, width);
-            y = relief_wrap(y, height);
-        }
     }
 }
 
