@@ -100,7 +100,7 @@ private:
             relief::HeightOptions o = s.height;
             o.exec = execution(s);
             if (prog_.verbose)
-                message(Severity::Info, "height: method=rays " + relief::describe(o));
+                message(Severity::Info, "height: " + relief::describe(o));
             OIIO::ImageBuf in = pop(), out;
             if (!relief::height(out, in, o))
                 throw RuntimeError(relief::geterror());

@@ -1,0 +1,390 @@
+// Run time against error for every integration method (issue 3, DESIGN §5).
+//
+//   bench_height [--sizes 512,1024,2048,4096] [--runs 3] [--budget 120]
+//                [--out bench-results] [--no-real]
+//
+// For each size, writes a float normal map of a smooth periodic field with
+// exact normals, then times whole `relief` processes (fork + exec, warm PoCL
+// kernel cache; the first run of each size with an empty cache is reported
+// as cold) and measures the error of the result against exact truth:
+//   rays     RMSE against h - mean_disk_R(h) (exact via Bessel J1), / std
+//   poisson  RMSE against h - mean(h), / std; highpass against the filtered h
+// With ../shared/data present, the real normal/height pairs there are run
+// too and scored by NRMSE after the best affine fit (DESIGN §5).
+// Reference-kernel runs predicted to take longer than --budget seconds are
+// listed as skipped. Writes results.csv, results.md and plot.gp (gnuplot:
+// run time against error, log axes, one curve per method) into --out.
+#include <OpenImageIO/imagebuf.h>
+
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Wave {
+    int kx, ky;
+    double a, phase;
+};
+const Wave kWaves[] = {{1, 0, 8.0, 0.2}, {2, 3, 3.0, 1.0}, {-5, 2, 1.5, 2.5}, {9, 7, 0.6, 0.4}};
+
+struct Timing {
+    double wall = 0;    // seconds
+    double rss_mb = 0;  // peak resident set of the process
+};
+
+// Runs argv with POCL_CACHE_DIR=cache; exits on failure.
+Timing run(const std::vector<std::string>& argv, const std::string& cache)
+{
+    auto t0 = std::chrono::steady_clock::now();
+    pid_t pid = fork();
+    if (pid == 0) {
+        setenv("POCL_CACHE_DIR", cache.c_str(), 1);
+        std::vector<char*> a;
+        for (const auto& s : argv)
+            a.push_back(const_cast<char*>(s.c_str()));
+        a.push_back(nullptr);
+        if (!std::freopen("/dev/null", "w", stderr))
+            _exit(127);
+        execv(a[0], a.data());
+        _exit(127);
+    }
+    int status = 0;
+    struct rusage ru {};
+    wait4(pid, &status, 0, &ru);
+    Timing t;
+    t.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    t.rss_mb = ru.ru_maxrss / 1024.0;
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+        std::string cmd;
+        for (const auto& s : argv)
+            cmd += s + " ";
+        std::fprintf(stderr, "bench: command failed: %s\n", cmd.c_str());
+        std::exit(1);
+    }
+    return t;
+}
+
+std::vector<float> read_channel0(const std::string& path, int& w, int& h)
+{
+    OIIO::ImageBuf img(path);
+    if (!img.read(0, 0, true, OIIO::TypeDesc::FLOAT)) {
+        std::fprintf(stderr, "bench: cannot read %s\n", path.c_str());
+        std::exit(1);
+    }
+    w = img.spec().width;
+    h = img.spec().height;
+    std::vector<float> v(std::size_t(w) * h);
+    OIIO::ROI roi = img.roi();
+    roi.chbegin = 0;
+    roi.chend = 1;
+    img.get_pixels(roi, OIIO::TypeDesc::FLOAT, v.data());
+    return v;
+}
+
+double rel_rmse(const std::vector<float>& got, const std::vector<double>& truth)
+{
+    double se = 0, st = 0, mean = 0;
+    for (double t : truth)
+        mean += t;
+    mean /= double(truth.size());
+    double gmean = 0;
+    for (float g : got)
+        gmean += g;
+    gmean /= double(got.size());
+    for (std::size_t i = 0; i < got.size(); ++i) {
+        const double d = (got[i] - gmean) - (truth[i] - mean);
+        se += d * d;
+        st += (truth[i] - mean) * (truth[i] - mean);
+    }
+    return std::sqrt(se / st);
+}
+
+// NRMSE after the best affine fit a*est + b, as a fraction of truth's spread.
+double nrmse_affine(const std::vector<float>& est, const std::vector<float>& truth)
+{
+    const double n = double(est.size());
+    double se = 0, st = 0, see = 0, set = 0;
+    for (std::size_t i = 0; i < est.size(); ++i) {
+        se += est[i];
+        st += truth[i];
+    }
+    se /= n;
+    st /= n;
+    for (std::size_t i = 0; i < est.size(); ++i) {
+        see += (est[i] - se) * (est[i] - se);
+        set += (est[i] - se) * (truth[i] - st);
+    }
+    const double a = see > 0 ? set / see : 0.0;
+    double err = 0, lo = 1e300, hi = -1e300;
+    for (std::size_t i = 0; i < est.size(); ++i) {
+        const double d = a * (est[i] - se) - (truth[i] - st);
+        err += d * d;
+        lo = std::min(lo, double(truth[i]));
+        hi = std::max(hi, double(truth[i]));
+    }
+    return std::sqrt(err / n) / std::max(hi - lo, 1e-30);
+}
+
+struct Case {
+    std::string method;  // poisson-periodic, rays-fast, ...
+    std::string mods;    // --height modifiers
+    int rays = 0;
+    double radius = 0;
+    double highpass = 0;
+    bool reference = false;
+};
+
+std::vector<Case> analytic_cases()
+{
+    std::vector<Case> cases;
+    cases.push_back({"poisson periodic", "method=poisson:boundary=periodic"});
+    cases.push_back({"poisson free", "method=poisson:boundary=free"});
+    Case hp{"poisson highpass=64", "method=poisson:boundary=periodic:highpass=64"};
+    hp.highpass = 64;
+    cases.push_back(hp);
+    for (bool reference : {false, true})
+        for (int rays : {8, 16, 32, 64})
+            for (double radius : {16.0, 32.0, 64.0, 128.0, 256.0}) {
+                Case c;
+                c.method = std::string(reference ? "rays reference" : "rays fast") +
+                           " J=" + std::to_string(rays);
+                c.mods = std::string("method=rays:boundary=periodic:impl=") +
+                         (reference ? "reference" : "fast") + ":rays=" + std::to_string(rays) +
+                         ":radius=" + std::to_string(int(radius));
+                c.rays = rays;
+                c.radius = radius;
+                c.reference = reference;
+                cases.push_back(c);
+            }
+    return cases;
+}
+
+double median(std::vector<double> v)
+{
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+}
+
+} // namespace
+
+int main(int argc, char** argv)
+{
+    std::vector<int> sizes{512, 1024, 2048, 4096};
+    int runs = 3;
+    double budget = 120;
+    fs::path out = "bench-results";
+    bool real = true;
+    for (int i = 1; i < argc; ++i) {
+        std::string a = argv[i];
+        auto value = [&]() -> std::string {
+            if (i + 1 >= argc) {
+                std::fprintf(stderr, "bench: %s needs a value\n", a.c_str());
+                std::exit(2);
+            }
+            return argv[++i];
+        };
+        if (a == "--sizes") {
+            sizes.clear();
+            std::stringstream ss(value());
+            for (std::string s; std::getline(ss, s, ',');)
+                sizes.push_back(std::atoi(s.c_str()));
+        } else if (a == "--runs")
+            runs = std::max(1, std::atoi(value().c_str()));
+        else if (a == "--budget")
+            budget = std::atof(value().c_str());
+        else if (a == "--out")
+            out = value();
+        else if (a == "--no-real")
+            real = false;
+        else {
+            std::fprintf(stderr, "usage: %s [--sizes a,b] [--runs N] [--budget S] [--out DIR] [--no-real]\n",
+                         argv[0]);
+            return 2;
+        }
+    }
+    fs::create_directories(out);
+    const fs::path work = out / "work";
+    fs::create_directories(work);
+    std::ofstream csv(out / "results.csv");
+    csv << "data,size,method,modifiers,cold_s,median_s,min_s,max_s,peak_rss_mb,error,error_measure\n";
+    std::ofstream md(out / "results.md");
+    md << "| data | size | method | modifiers | cold s | median s | peak RSS MB | error | measure |\n"
+       << "|---|---|---|---|---|---|---|---|---|\n";
+    auto record = [&](const std::string& data, int size, const Case& c, double cold,
+                      const std::vector<double>& t, double rss, double err, const char* measure) {
+        char line[512];
+        std::snprintf(line, sizeof line, "%s,%d,%s,%s,%.3f,%.3f,%.3f,%.3f,%.0f,%.3e,%s\n", data.c_str(),
+                      size, c.method.c_str(), c.mods.c_str(), cold, median(t),
+                      *std::min_element(t.begin(), t.end()), *std::max_element(t.begin(), t.end()),
+                      rss, err, measure);
+        csv << line;
+        csv.flush();
+        std::snprintf(line, sizeof line, "| %s | %d | %s | `%s` | %.3f | %.3f | %.0f | %.2e | %s |\n",
+                      data.c_str(), size, c.method.c_str(), c.mods.c_str(), cold, median(t), rss, err,
+                      measure);
+        md << line;
+        md.flush();
+        std::printf("%s", line);
+        std::fflush(stdout);
+    };
+    auto skip = [&](const std::string& data, int size, const Case& c, double predicted) {
+        char line[512];
+        std::snprintf(line, sizeof line, "| %s | %d | %s | `%s` | skipped: predicted %.0f s > budget | | | | |\n",
+                      data.c_str(), size, c.method.c_str(), c.mods.c_str(), predicted);
+        md << line;
+        std::printf("%s", line);
+    };
+
+    double reference_rate = 0;  // seconds per texel * ray * radius, once measured
+    for (int n : sizes) {
+        double overhead = 1e300;  // the fastest run of this size: start-up, I/O
+        // The field's normals (OpenGL, float, exact).
+        std::vector<float> px(std::size_t(n) * n * 3);
+        for (int y = 0; y < n; ++y)
+            for (int x = 0; x < n; ++x) {
+                double gx = 0, gy = 0;
+                for (const Wave& w : kWaves) {
+                    double arg = 2 * M_PI * (w.kx * double(x) + w.ky * double(y)) / n + w.phase;
+                    gx -= w.a * std::sin(arg) * 2 * M_PI * w.kx / n;
+                    gy -= w.a * std::sin(arg) * 2 * M_PI * w.ky / n;
+                }
+                double len = std::sqrt(gx * gx + gy * gy + 1);
+                std::size_t i = std::size_t(y) * n + x;
+                px[3 * i] = float(-gx / len);
+                px[3 * i + 1] = float(gy / len);  // OpenGL: green = -(row component)
+                px[3 * i + 2] = float(1 / len);
+            }
+        const std::string normal = (work / "normal.exr").string();
+        const std::string height = (work / "height.exr").string();
+        OIIO::ImageBuf img(OIIO::ImageSpec(n, n, 3, OIIO::TypeDesc::FLOAT));
+        img.set_pixels(img.roi(), OIIO::TypeDesc::FLOAT, px.data());
+        if (!img.write(normal)) {
+            std::fprintf(stderr, "bench: cannot write %s\n", normal.c_str());
+            return 1;
+        }
+        const std::string cache = (work / ("pocl-cache-" + std::to_string(n))).string();
+        fs::remove_all(cache);
+        bool first = true;
+        for (const Case& c : analytic_cases()) {
+            const double work_units = double(n) * n * c.rays * c.radius;
+            if (c.reference && reference_rate > 0 && reference_rate * work_units > budget) {
+                skip("analytic", n, c, overhead + reference_rate * work_units);
+                continue;
+            }
+            const std::vector<std::string> cmd{RELIEF_CLI, normal,
+                                               "--height:normal=opengl:" + c.mods, "-o", height};
+            // Cold: only the first case of each size runs with an empty cache.
+            Timing cold = run(cmd, cache);
+            std::vector<double> t;
+            double rss = cold.rss_mb;
+            for (int r = 0; r < runs; ++r) {
+                Timing w = run(cmd, cache);
+                t.push_back(w.wall);
+                rss = std::max(rss, w.rss_mb);
+            }
+            overhead = std::min(overhead, median(t));
+            if (c.reference && median(t) > 2 * overhead)
+                reference_rate = std::max(reference_rate, (median(t) - overhead) / work_units);
+            int w = 0, h = 0;
+            auto got = read_channel0(height, w, h);
+            std::vector<double> truth(got.size());
+            for (int y = 0; y < n; ++y)
+                for (int x = 0; x < n; ++x) {
+                    double v = 0;
+                    for (const Wave& wv : kWaves) {
+                        double arg = 2 * M_PI * (wv.kx * double(x) + wv.ky * double(y)) / n + wv.phase;
+                        double k = 2 * M_PI * std::hypot(wv.kx, wv.ky) / n;
+                        double gain = 1.0;
+                        if (c.radius > 0)
+                            gain = 1.0 - 2.0 * std::cyl_bessel_j(1.0, k * c.radius) / (k * c.radius);
+                        if (c.highpass > 0) {
+                            double s = c.highpass * std::sqrt(2 * std::log(2.0)) / (2 * M_PI);
+                            gain = 1.0 - std::exp(-0.5 * k * k * s * s);
+                        }
+                        v += wv.a * std::cos(arg) * gain;
+                    }
+                    truth[std::size_t(y) * n + x] = v;
+                }
+            record("analytic", n, c, first ? cold.wall : NAN, t, rss, rel_rmse(got, truth),
+                   "RMSE/std vs exact");
+            first = false;
+        }
+    }
+
+    const fs::path shared = fs::path(RELIEF_SHARED_DATA);
+    if (real && fs::is_directory(shared)) {
+        const std::string cache = (work / "pocl-cache-real").string();
+        std::vector<fs::path> dirs;
+        for (const auto& e : fs::directory_iterator(shared))
+            if (fs::exists(e.path() / "normal.png") && fs::exists(e.path() / "height.png"))
+                dirs.push_back(e.path());
+        std::sort(dirs.begin(), dirs.end());
+        const std::vector<Case> cases{{"poisson auto", "method=poisson"},
+                                      {"rays fast J=32", "method=rays:rays=32:radius=64"}};
+        for (const auto& d : dirs) {
+            int w = 0, h = 0;
+            auto truth = read_channel0((d / "height.png").string(), w, h);
+            for (const Case& c : cases) {
+                const std::string height = (work / "real.exr").string();
+                const std::vector<std::string> cmd{RELIEF_CLI, (d / "normal.png").string(),
+                                                   "--height:" + c.mods, "-o", height};
+                Timing cold = run(cmd, cache);
+                std::vector<double> t;
+                double rss = cold.rss_mb;
+                for (int r = 0; r < runs; ++r) {
+                    Timing tw = run(cmd, cache);
+                    t.push_back(tw.wall);
+                    rss = std::max(rss, tw.rss_mb);
+                }
+                int ew = 0, eh = 0;
+                auto est = read_channel0(height, ew, eh);
+                if (ew != w || eh != h) {
+                    std::fprintf(stderr, "bench: %s: height.png is %dx%d, normal map %dx%d: skipped\n",
+                                 d.filename().c_str(), w, h, ew, eh);
+                    break;
+                }
+                record(d.filename().string(), w, c, NAN, t, rss, nrmse_affine(est, truth),
+                       "NRMSE vs height.png (affine fit)");
+            }
+        }
+    }
+
+    // Run time against error, one curve per method, per size.
+    std::ofstream gp(out / "plot.gp");
+    gp << "# gnuplot " << (out / "plot.gp").string() << "  -> plot.png\n"
+       << "set terminal pngcairo size 1400,900\nset output '" << (out / "plot.png").string() << "'\n"
+       << "set datafile separator ','\nset logscale xy\nset format x '10^{%L}'\nset format y '%g'\nset grid\nset key outside right\n"
+       << "set xlabel 'error (RMSE / std against exact truth)'\nset ylabel 'whole-process time, s (median, warm)'\n"
+       << "set title 'relief: run time against error (analytic fields)'\nplot ";
+    bool any = false;
+    std::vector<std::string> methods{"poisson periodic", "poisson free", "poisson highpass=64"};
+    for (const char* impl : {"rays fast", "rays reference"})
+        for (int rays : {8, 16, 32, 64})
+            methods.push_back(std::string(impl) + " J=" + std::to_string(rays));
+    for (int n : sizes)
+        for (const auto& m : methods) {
+            gp << (any ? ", \\\n  " : "") << "'" << (out / "results.csv").string()
+               << "' using (strcol(1) eq 'analytic' && $2 == " << n << " && strcol(3) eq '" << m
+               << "' ? $10 : 1/0):6 with linespoints title '" << m << " " << n << "^2'";
+            any = true;
+        }
+    gp << "\n";
+    fs::remove_all(work);
+    std::printf("wrote %s, %s, %s\n", (out / "results.csv").c_str(), (out / "results.md").c_str(),
+                (out / "plot.gp").c_str());
+    return 0;
+}
