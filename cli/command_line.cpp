@@ -26,6 +26,10 @@ Arguments are read left to right over a stack of images, like oiiotool:
   -d TYPE               pixel type for the following -o: float (default),
                         half, uint16, uint8; integer files store
                         data = (value - 0.5) * scale, scale printed and stored
+  --compression NAME    file compression for the following -o, by OIIO's
+                        names (zip, piz, none...); default none for float
+                        EXR (float heights barely compress), else the
+                        format's own
 Modifiers (:key=value) of --slopes and --height:
   normal=auto|opengl|directx   green convention (auto: the one with less curl)
   max_angle=DEG         clamp grazing normals to DEG from +z (default 85)
@@ -157,7 +161,7 @@ bool apply_decoding(NormalDecoding& d, const std::string& arg, const std::string
 
 Step parse_slopes(const std::string& arg)
 {
-    Step s{Step::Kind::Slopes, arg, {}, {}, {}, {}};
+    Step s{Step::Kind::Slopes, arg, {}, {}, {}, {}, {}};
     for (const auto& [key, v] : split_modifiers(arg).values)
         if (!apply_decoding(s.slopes.normals, arg, key, v))
             unknown_modifier(arg, key, "normal, max_angle, range");
@@ -166,7 +170,7 @@ Step parse_slopes(const std::string& arg)
 
 Step parse_height(const std::string& arg)
 {
-    Step s{Step::Kind::Height, arg, {}, {}, {}, {}};
+    Step s{Step::Kind::Height, arg, {}, {}, {}, {}, {}};
     HeightOptions& h = s.height;
     bool ray_option = false, poisson_option = false;
     std::string method = "auto", boundary;
@@ -243,6 +247,7 @@ Program parse_command_line(const std::vector<std::string>& args)
 {
     Program prog;
     OIIO::TypeDesc format = OIIO::TypeDesc::FLOAT;
+    std::string compression;
     int depth = 0;  // stack depth as the program will run
     auto need = [&](const std::string& arg, int n) {
         if (depth < n)
@@ -270,12 +275,16 @@ Program parse_command_line(const std::vector<std::string>& args)
             prog.device = value_of(i);
         } else if (a == "-d") {
             format = parse_format(value_of(i));
+        } else if (a == "--compression") {
+            compression = value_of(i);
+            if (compression.empty())
+                throw UsageError("--compression needs a name (e.g. zip, piz, none)");
         } else if (a == "-o") {
             const std::string& path = value_of(i);
             need(a, 1);
             if (!check_output_path(path))
                 throw UsageError("-o " + path + ": " + geterror());
-            prog.steps.push_back({Step::Kind::Write, "-o " + path, path, format, {}, {}});
+            prog.steps.push_back({Step::Kind::Write, "-o " + path, path, format, compression, {}, {}});
         } else if (cmd == "--slopes") {
             need(cmd, 1);
             prog.steps.push_back(parse_slopes(a));

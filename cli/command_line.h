@@ -24,6 +24,7 @@ struct Step {
     std::string text;             // the argument as typed, for messages
     std::string path;             // Read, Write
     OIIO::TypeDesc format;        // Write
+    std::string compression;      // Write; empty = relief's default
     SlopeOptions slopes;          // Slopes
     HeightOptions height;         // Height
 };

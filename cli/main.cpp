@@ -110,6 +110,7 @@ private:
         case Step::Kind::Write: {
             relief::WriteOptions w;
             w.format = s.format;
+            w.compression = s.compression;
             // The integer mapping is needed to read the file back: always say it.
             w.on_message = [](Severity, const std::string& m) {
                 std::fprintf(stderr, "relief: %s\n", m.c_str());

@@ -165,6 +165,17 @@ bool write_image(const ImageBuf& image, const std::string& path, const WriteOpti
         say(options, Severity::Info, msg);
     }
 
+    std::string compression = options.compression;
+    if (compression.empty() && ext == ".exr" && format == TypeDesc::FLOAT)
+        compression = "none";
+    if (!compression.empty()) {
+        if (out != &mapped) {
+            mapped.copy(*out);
+            out = &mapped;
+        }
+        mapped.specmod().attribute("compression", compression);
+    }
+
     // Same folder, same extension (OIIO picks the writer by extension), so
     // the final rename is atomic and never crosses file systems.
     static std::atomic<int> counter{0};
