@@ -8,38 +8,49 @@ namespace relief::host {
 
 namespace {
 
-double jump(const float* g, std::size_t a, std::size_t b)
+// |correlation| of slope component c along lines a and b (each `count`
+// texels, `stride` apart).
+double line_correlation(const float* g, std::size_t a, std::size_t b, int count,
+                        std::size_t stride, int c)
 {
-    // Not std::hypot: its overflow care costs 5x here, and slopes are bounded.
-    const double dx = double(g[2 * a]) - g[2 * b], dy = double(g[2 * a + 1]) - g[2 * b + 1];
-    return std::sqrt(dx * dx + dy * dy);
+    double ma = 0, mb = 0;
+    for (int i = 0; i < count; ++i) {
+        ma += g[2 * (a + i * stride) + c];
+        mb += g[2 * (b + i * stride) + c];
+    }
+    ma /= count;
+    mb /= count;
+    double sab = 0, saa = 0, sbb = 0;
+    for (int i = 0; i < count; ++i) {
+        const double da = g[2 * (a + i * stride) + c] - ma, db = g[2 * (b + i * stride) + c] - mb;
+        sab += da * db;
+        saa += da * da;
+        sbb += db * db;
+    }
+    return saa > 0 && sbb > 0 ? std::abs(sab) / std::sqrt(saa * sbb) : 0.0;
 }
 
-// Mean jump across the seam / mean interior jump along one axis; `step`
-// moves along the axis, `lines`/`line_step` enumerate the lines across it.
-double seam_ratio(const float* g, int length, int lines, std::size_t step, std::size_t line_step)
+// Lines run across the axis: `lines` of them, `line_step` apart, each
+// `count` texels with `stride` between texels.
+AxisEvidence axis_evidence(const float* g, int lines, std::size_t line_step, int count,
+                           std::size_t stride)
 {
-    if (length < 3)
-        return 1.0;
-    // Every line's seam; the interior of up to 256 evenly spread lines is a
-    // plenty good estimate of the typical jump.
-    const int every = std::max(1, lines / 256);
-    double seam = 0.0, interior = 0.0;
-    int sampled = 0;
-    for (int l = 0; l < lines; ++l) {
-        const std::size_t first = std::size_t(l) * line_step;
-        seam += jump(g, first, first + std::size_t(length - 1) * step);
-        if (l % every)
-            continue;
-        for (int i = 0; i + 1 < length; ++i)
-            interior += jump(g, first + i * step, first + (i + 1) * step);
-        ++sampled;
+    AxisEvidence e;
+    if (lines < 3 || count < 3)
+        return e;
+    auto both = [&](std::size_t a, std::size_t b) {
+        return 0.5 * (line_correlation(g, a, b, count, stride, 0) +
+                      line_correlation(g, a, b, count, stride, 1));
+    };
+    e.seam = both(std::size_t(lines - 1) * line_step, 0);
+    const int samples = std::min(lines - 1, 64);
+    for (int s = 0; s < samples; ++s) {
+        const std::size_t l = std::size_t(s) * (lines - 2) / std::max(samples - 1, 1);
+        e.adjacent += both(l * line_step, (l + 1) * line_step);
     }
-    seam /= lines;
-    interior /= double(sampled) * (length - 1);
-    if (interior <= 0.0)
-        return seam > 0.0 ? INFINITY : 1.0;
-    return seam / interior;
+    e.adjacent /= samples;
+    e.tiles = e.seam >= kTilingCorrelationFraction * e.adjacent && e.seam >= 2.0 / std::sqrt(count);
+    return e;
 }
 
 } // namespace
@@ -47,9 +58,9 @@ double seam_ratio(const float* g, int length, int lines, std::size_t step, std::
 TilingEvidence tiling_evidence(const float* slopes, int w, int h)
 {
     TilingEvidence e;
-    e.seam_ratio_x = seam_ratio(slopes, w, h, 1, std::size_t(w));
-    e.seam_ratio_y = seam_ratio(slopes, h, w, std::size_t(w), 1);
-    e.tiles = e.seam_ratio_x <= kTilingSeamRatio && e.seam_ratio_y <= kTilingSeamRatio;
+    e.x = axis_evidence(slopes, w, 1, h, std::size_t(w));  // columns
+    e.y = axis_evidence(slopes, h, std::size_t(w), w, 1);  // rows
+    e.tiles = e.x.tiles && e.y.tiles;
     return e;
 }
 

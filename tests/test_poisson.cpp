@@ -10,6 +10,7 @@
 #include "reference/poisson_reference.h"
 #include "slope_stage.h"
 #include "support/fields.h"
+#include "tiling.h"
 
 using namespace relief;
 
@@ -165,4 +166,25 @@ TEST_CASE("highpass removes long wavelengths and keeps short ones", "[poisson]")
     CHECK(std::abs(gain(32.0) - 0.5) < 1e-12);
     CHECK(spread(a) == Approx(10.0 * gain(256.0)).epsilon(1e-3));  // ~0.011 of the wave left
     CHECK(spread(b) == Approx(2.0 * gain(8.0)).epsilon(1e-3));     // ~all of it kept
+}
+
+TEST_CASE("tiling evidence: a periodic field tiles, a crop of one does not", "[poisson][tiling]")
+{
+    const test::PeriodicField f{192, 160, {{3, 1, 4.0, 0.2}, {5, -4, 1.0, 1.0}, {11, 7, 0.3, 2.5}}};
+    auto g = f.slopes();
+    std::vector<float> gf(g.begin(), g.end());
+    auto e = host::tiling_evidence(gf.data(), f.width, f.height);
+    CHECK(e.tiles);
+    // The left 120 x 100 texels: the seams join unrelated columns and rows.
+    const int w = 120, h = 100;
+    std::vector<float> crop(2 * std::size_t(w) * h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < 2; ++c)
+                crop[2 * (std::size_t(y) * w + x) + c] = gf[2 * (std::size_t(y) * f.width + x) + c];
+    auto c = host::tiling_evidence(crop.data(), w, h);
+    INFO("x " << c.x.seam << " vs " << c.x.adjacent << ", y " << c.y.seam << " vs " << c.y.adjacent);
+    CHECK_FALSE(c.tiles);
+    // Too small to judge: counts as tiling.
+    CHECK(host::tiling_evidence(crop.data(), 2, 2).tiles);
 }

@@ -151,3 +151,39 @@ TEST_CASE("shared data set: auto finds every map's convention", "[real][shared]"
     }
     CHECK(checked >= 13);
 }
+
+TEST_CASE("shared data set: boundary=auto agrees with the maps' tiling", "[real][shared]")
+{
+    // provenance.txt says "tiling: yes", "no" or "approximately" (judged by
+    // eye and by height-map metrics); the approximate ones may go either way.
+    const fs::path root(RELIEF_SHARED_DATA);
+    if (!fs::is_directory(root)) {
+        WARN("../shared/data is absent: skipped");
+        return;
+    }
+    int checked = 0;
+    for (const auto& entry : fs::directory_iterator(root)) {
+        std::ifstream in(entry.path() / "provenance.txt");
+        std::stringstream ss;
+        ss << in.rdbuf();
+        const std::string text = ss.str();
+        const std::size_t at = text.find("tiling: ");
+        if (at == std::string::npos)
+            continue;
+        const std::string label = text.substr(at + 8, text.find_first_of(" \n", at + 8) - at - 8);
+        if (label != "yes" && label != "no")
+            continue;
+        std::string said;
+        relief::HeightOptions o;
+        o.exec.on_message = [&](relief::Severity, const std::string& m) {
+            if (m.rfind("boundary: ", 0) == 0)
+                said = m;
+        };
+        auto h = relief::height(read(entry.path() / "normal.png"), o);
+        INFO(entry.path().filename().string() << ": " << label << "; " << said);
+        REQUIRE_FALSE(h.has_error());
+        CHECK(said.rfind(label == "yes" ? "boundary: periodic" : "boundary: free", 0) == 0);
+        ++checked;
+    }
+    CHECK(checked >= 10);
+}

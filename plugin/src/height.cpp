@@ -59,11 +59,14 @@ Boundary choose_boundary(const HeightOptions& o, const detail::DerivedSlopes& d,
     host::read_slopes(*d.context, d.slopes, g.data());
     const host::TilingEvidence e = host::tiling_evidence(g.data(), w, h);
     const Boundary b = e.tiles ? Boundary::Periodic : Boundary::Free;
+    auto axis = [](const char* name, const host::AxisEvidence& a) {
+        return std::string(name) + " " + detail::format_double("%.2f", a.seam) + " vs " +
+               detail::format_double("%.2f", a.adjacent) + (a.tiles ? " (tiles)" : " (does not tile)");
+    };
     detail::say(o.exec, Severity::Notice,
-        std::string("boundary: ") + name(b, rays) + " (slope jump across the wrap seams / " +
-            "typical jump inside: x " + detail::format_double("%.3g", e.seam_ratio_x) + ", y " +
-            detail::format_double("%.3g", e.seam_ratio_y) + (e.tiles ? ", both" : ", not both") + " <= " +
-            detail::format_double("%.3g", host::kTilingSeamRatio) + ")");
+                std::string("boundary: ") + name(b, rays) +
+                    " (slope correlation across the wrap seam vs between neighbours: " +
+                    axis("x", e.x) + ", " + axis("y", e.y) + ")");
     return b;
 }
 
