@@ -30,13 +30,16 @@ PackedTables pack_tables(const RayParams& p)
         for (double angle : ray_angles(p.rays, p.phase, p.directions))
             walks.push_back(walk_ray(angle, p.radius));
     }
-    for (const auto& walk : walks) {
+    const std::vector<double> dir_weight =
+        angular_weights(ray_angles(p.rays, p.phase, p.directions));
+    for (std::size_t j = 0; j < walks.size(); ++j) {
         t.dir_start.push_back(cl_int(t.offsets.size()));
         double cumulative = 0.0;
-        for (const RaySegment& s : walk) {
-            cumulative += s.weight;
+        for (const RaySegment& s : walks[j]) {
+            const double weight = s.weight * dir_weight[j];
+            cumulative += weight;
             t.offsets.push_back(cl_int2{{s.ox, s.oy}});
-            t.data.push_back(cl_float4{{float(s.ext_x), float(s.ext_y), float(s.weight),
+            t.data.push_back(cl_float4{{float(s.ext_x), float(s.ext_y), float(weight),
                                         float(cumulative)}});
         }
     }
@@ -160,6 +163,8 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
         cl::Kernel period_sums(prog, "rays_period_sums");
         cl::Kernel windows(prog, "rays_chain_windows");
         const auto dirs = rational_directions(p.rays, p.phase);
+        const std::vector<double> dir_weight =
+            angular_weights(ray_angles(p.rays, p.phase, DirectionSet::Rational));
         for (std::size_t j = 0; j < dirs.size(); ++j) {
             const RationalDirection& d = dirs[j];
             PeriodTable t = period_table(d, p.radius, w);
@@ -213,6 +218,7 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
             windows.setArg(a++, sums);
             windows.setArg(a++, tail);
             windows.setArg(a++, cl_int(fp64 ? 0 : std::max(1, p.float_reanchor)));
+            windows.setArg(a++, cl_float(dir_weight[j]));
             windows.setArg(a++, accum);
             c.queue.enqueueNDRangeKernel(windows, cl::NullRange,
                                          cl::NDRange(padded((starts.size() + lanes - 1) / lanes)),

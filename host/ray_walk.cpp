@@ -111,6 +111,32 @@ std::vector<RationalDirection> rational_directions(int rays, double phase)
     return out;
 }
 
+std::vector<double> angular_weights(const std::vector<double>& angles)
+{
+    const std::size_t n = angles.size();
+    std::vector<double> w(n, 1.0);
+    if (n < 2)
+        return w;
+    std::vector<std::size_t> order(n);
+    std::iota(order.begin(), order.end(), 0);
+    auto wrapped = [](double a) {
+        a = std::fmod(a, 2.0 * M_PI);
+        return a < 0 ? a + 2.0 * M_PI : a;
+    };
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+        return wrapped(angles[a]) < wrapped(angles[b]);
+    });
+    for (std::size_t k = 0; k < n; ++k) {
+        const double prev = wrapped(angles[order[(k + n - 1) % n]]);
+        const double next = wrapped(angles[order[(k + 1) % n]]);
+        double span = next - prev;
+        if (span <= 0)
+            span += 2.0 * M_PI;
+        w[order[k]] = 0.5 * span * double(n) / (2.0 * M_PI);
+    }
+    return w;
+}
+
 std::vector<RaySegment> walk_rational_ray(const RationalDirection& d, double radius)
 {
     const double L = d.length();

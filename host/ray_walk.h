@@ -48,6 +48,12 @@ int rational_step_limit(int rays);
 // closest in angle to 2*pi*(j + phase)/rays (ties: the shorter vector).
 std::vector<RationalDirection> rational_directions(int rays, double phase);
 
+// Quadrature weights of a direction set on the circle: each direction counts
+// by half the angle to its two neighbours, normalised to a mean of 1
+// (uniform angles: all 1). Rational steps sit unevenly; weighting them by
+// angle keeps the ray average an average over the disk.
+std::vector<double> angular_weights(const std::vector<double>& angles);
+
 // The walk of one rational ray from the origin texel's centre to distance
 // `radius`, split at every period boundary t = m*L: the texel at each chain
 // point p + m*(a, b) contributes two half-segments, one to each period.

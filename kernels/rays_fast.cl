@@ -181,6 +181,7 @@ typedef struct {
     int reanchor;
     __global float2* accum;
     acc_t origin_w;
+    float dir_weight;  // the direction's angular quadrature weight
 } ChainArgs;
 
 inline void chain_begin(Chain* c, int2 start, const ChainArgs* g)
@@ -242,7 +243,7 @@ inline void chain_step(Chain* c, const ChainArgs* g)
     a -= g->tail[p].y;
     w -= g->origin_w;
     float2 acc = g->accum[p];
-    g->accum[p] = (float2)(acc.x + (float)a, acc.y + (float)w);
+    g->accum[p] = (float2)(acc.x + g->dir_weight * (float)a, acc.y + g->dir_weight * (float)w);
 
     // Slide the window one period on: drop m = 0, shift m -> m - 1, and
     // take in the period K - 1 when the chain still has it.
@@ -301,7 +302,7 @@ __kernel void rays_chain_windows(__global const float2* slopes, int width, int h
                                  float pw1, float partial, int segments,
                                  __constant int2* seg_offset, __constant float4* seg_data,
                                  __global const float4* sums, __global const float2* tail,
-                                 int reanchor, __global float2* accum)
+                                 int reanchor, float dir_weight, __global float2* accum)
 {
     const int first = get_global_id(0) * RELIEF_LANES;
     if (first >= chains)
@@ -309,7 +310,8 @@ __kernel void rays_chain_windows(__global const float2* slopes, int width, int h
     const float origin_len = fmin(seg_data[0].z, (float)(k_whole * period + partial));
     const ChainArgs g = {slopes, width, height, periodic, step_x, step_y, cycle, k_whole,
                          period, w0, w1, pw0, pw1, partial, segments, seg_offset, seg_data,
-                         sums, tail, reanchor, accum, 0.5 * (acc_t)origin_len * origin_len};
+                         sums, tail, reanchor, accum, 0.5 * (acc_t)origin_len * origin_len,
+                         dir_weight};
     Chain lane[RELIEF_LANES];
     const int lanes = min(RELIEF_LANES, chains - first);
     for (int l = 0; l < lanes; ++l)

@@ -53,6 +53,35 @@ void rational_step(int j, const RaySettings& s, int& best_a, int& best_b)
 std::vector<double> rays(const std::vector<double>& g, int w, int h, const RaySettings& s)
 {
     std::vector<double> out(std::size_t(w) * h, 0.0);
+    // Angular weights: half the angle between each direction's neighbours.
+    std::vector<double> theta(s.rays), dir_weight(s.rays, 1.0);
+    for (int j = 0; j < s.rays; ++j) {
+        int a = 1, b = 0;
+        if (s.rational)
+            rational_step(j, s, a, b);
+        theta[j] = s.rational ? std::atan2(double(b), double(a)) : 2.0 * M_PI * (j + s.phase) / s.rays;
+        theta[j] = std::fmod(theta[j] + 4.0 * M_PI, 2.0 * M_PI);
+    }
+    if (s.rays > 1)
+        for (int j = 0; j < s.rays; ++j) {
+            // Neighbours by angle (ties: by index, as a stable sort would).
+            double before = -1e9, after = 1e9;
+            for (int k = 0; k < s.rays; ++k) {
+                if (k == j)
+                    continue;
+                auto rel = [&](bool forward) {
+                    double d = theta[k] - theta[j];
+                    if (d == 0.0)
+                        return (k > j) == forward ? 0.0 : (forward ? 2 * M_PI : -2 * M_PI);
+                    if (forward)
+                        return d > 0 ? d : d + 2 * M_PI;
+                    return d < 0 ? d : d - 2 * M_PI;
+                };
+                after = std::min(after, rel(true));
+                before = std::max(before, rel(false));
+            }
+            dir_weight[j] = 0.5 * (after - before) * s.rays / (2.0 * M_PI);
+        }
     for (int py = 0; py < h; ++py)
         for (int px = 0; px < w; ++px) {
             double sum_a = 0.0, sum_w = 0.0;
@@ -92,7 +121,7 @@ std::vector<double> rays(const std::vector<double>& g, int w, int h, const RaySe
                     const std::size_t q = std::size_t(qy) * w + qx;
                     const double dh = (g[2 * q] * dx + g[2 * q + 1] * dy) * (t1 - t0);
                     if (!origin) {  // the origin texel is not part of its own mean
-                        const double weight = (t1 - t0) * tm;
+                        const double weight = (t1 - t0) * tm * dir_weight[j];
                         sum_a += weight * (height + 0.5 * dh);
                         sum_w += weight;
                     }
