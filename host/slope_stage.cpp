@@ -73,11 +73,12 @@ DeviceSlopes derive_slopes(ComputeContext& ctx, const float* normals, const Slop
         k.setArg(2, texels);
         k.setArg(3, p.scale);
         k.setArg(4, p.bias);
-        k.setArg(5, -1.0f);
-        k.setArg(6, float(std::cos(a)));
-        k.setArg(7, float(std::sin(a)));
-        k.setArg(8, impl->buffer);
-        k.setArg(9, counters);
+        k.setArg(5, p.zero_band);
+        k.setArg(6, -1.0f);
+        k.setArg(7, float(std::cos(a)));
+        k.setArg(8, float(std::sin(a)));
+        k.setArg(9, impl->buffer);
+        k.setArg(10, counters);
         c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(n)),
                                      cl::NDRange(kGroupSize));
         c.queue.enqueueReadBuffer(counters, CL_TRUE, 0, sizeof(zero), zero);

@@ -31,6 +31,9 @@ struct SlopeParams {
     int channels = 3;        // 2 (x, y; z reconstructed) or 3 values per texel
     float scale = 2.0f;      // decoded = stored * scale + bias (UNORM: 2v - 1)
     float bias = -1.0f;
+    // Decoded x, y with |value| <= zero_band become exactly 0: for n-bit UNORM
+    // maps 1/(2^n - 1), the codes either side of the midpoint. 0 for float.
+    float zero_band = 0.0f;
     GreenConvention convention = GreenConvention::Auto;
     double max_angle_deg = 85.0;  // grazing clamp, from +z
 };

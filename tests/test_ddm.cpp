@@ -95,7 +95,11 @@ TEST_CASE("every encoding decodes like the reference and within its quantisation
         img.get_pixels(roi, TypeDesc::FLOAT, stored.data());
         const bool decode = c.type.basetype == TypeDesc::UINT8 ||
                             c.type.basetype == TypeDesc::UINT16 || c.unsigned_float;
-        auto ref = reference::ddm(stored, used, decode ? 2.0 : 1.0, decode ? -1.0 : 0.0, -1.0, 85.0);
+        const double band = c.type.basetype == TypeDesc::UINT8    ? 1.0 / 255.0
+                            : c.type.basetype == TypeDesc::UINT16 ? 1.0 / 65535.0
+                                                                  : 0.0;
+        auto ref = reference::ddm(stored, used, decode ? 2.0 : 1.0, decode ? -1.0 : 0.0, -1.0, 85.0,
+                                  band * 1.001);
         double worst_rel = 0;
         for (std::size_t i = 0; i < got.size(); ++i)
             worst_rel = std::max(worst_rel, std::abs(got[i] - ref.slopes[i]) / (1.0 + std::abs(ref.slopes[i])));
@@ -132,7 +136,8 @@ TEST_CASE("auto finds the convention of a flipped map and reports both curl norm
 
         // The kernel's curl norm agrees with the reference's.
         auto ref_curl = reference::curl_rms(
-            reference::ddm(pixels(img), 3, 2.0, -1.0, -1.0, 85.0).slopes, kField.width, kField.height);
+            reference::ddm(pixels(img), 3, 2.0, -1.0, -1.0, 85.0, 1.001 / 255.0).slopes, kField.width,
+            kField.height);
         CHECK(gl == Approx(ref_curl).epsilon(1e-3));
     }
 }
@@ -241,4 +246,24 @@ TEST_CASE("an ROI gives the same slopes as the whole image over that region", "[
         for (int x = 0; x < 30; ++x)
             for (int c = 0; c < 2; ++c)
                 CHECK(std::abs(got[2 * (y * 30 + x) + c] - g[2 * ((y + 5) * kField.width + x + 10) + c]) < 2e-5);
+}
+
+TEST_CASE("8- and 16-bit flat codes decode to exactly zero slope", "[ddm]")
+{
+    // 127 and 128 of 255 sit half a code either side of 0; neither is a tilt.
+    for (auto type : {TypeDesc::UINT8, TypeDesc::UINT16}) {
+        const float lo = type == TypeDesc::UINT8 ? 127.0f / 255.0f : 32767.0f / 65535.0f;
+        const float hi = type == TypeDesc::UINT8 ? 128.0f / 255.0f : 32768.0f / 65535.0f;
+        OIIO::ImageBuf img(OIIO::ImageSpec(4, 1, 3, type));
+        const float px[4][3] = {{lo, lo, 1}, {hi, hi, 1}, {lo, hi, 1}, {hi, 0.75f, 1}};
+        for (int x = 0; x < 4; ++x)
+            img.setpixel(x, 0, px[x]);
+        auto out = relief::slopes(img, with(NormalConvention::OpenGL));
+        REQUIRE_FALSE(out.has_error());
+        auto s = pixels(out);
+        for (int i = 0; i < 6; ++i)
+            CHECK(s[i] == 0.0);
+        CHECK(s[6] == 0.0);
+        CHECK(s[7] != 0.0);  // a real tilt stays
+    }
 }

@@ -97,6 +97,9 @@ DerivedSlopes derive_slopes(const ImageBuf& normals, ROI roi, const NormalDecodi
     if (is_unorm(stored) || unsigned_float) {
         p.scale = 2.0f;
         p.bias = -1.0f;
+        // The codes either side of the midpoint mean flat (DESIGN §3 notes).
+        if (is_unorm(stored))
+            p.zero_band = float(1.001 / (std::ldexp(1.0, int(stored.size() * 8)) - 1.0));
     } else {
         p.scale = 1.0f;  // float, half, and SNORM (OIIO reads it as [-1, 1])
         p.bias = 0.0f;

@@ -5,7 +5,7 @@
 namespace relief::reference {
 
 DdmResult ddm(const std::vector<float>& values, int channels, double scale, double bias,
-              double green_to_row, double max_angle_deg)
+              double green_to_row, double max_angle_deg, double zero_band)
 {
     const std::size_t n = values.size() / channels;
     const double c = std::cos(max_angle_deg * M_PI / 180.0);
@@ -15,6 +15,10 @@ DdmResult ddm(const std::vector<float>& values, int channels, double scale, doub
     for (std::size_t i = 0; i < n; ++i) {
         double nx = values[i * channels] * scale + bias;
         double ny = (values[i * channels + 1] * scale + bias) * green_to_row;
+        if (std::abs(nx) <= zero_band)
+            nx = 0.0;
+        if (std::abs(ny) <= zero_band)
+            ny = 0.0;
         double nz = channels == 2 ? std::sqrt(std::max(0.0, 1.0 - nx * nx - ny * ny))
                                   : values[i * channels + 2] * scale + bias;
         double len = std::sqrt(nx * nx + ny * ny + nz * nz);
