@@ -50,6 +50,8 @@ Modifiers of --height:
     phase=PHI           angles 2*pi*(j+PHI)/J, PHI in [0,1) (default 0.5)
     directions=rational|exact  integer steps nearest the angles (default),
                         or the angles themselves (impl=reference only)
+    skip=on|off         skip tiles whose rays meet only zero slopes (default
+                        on; the result is identical)
 Options:
   --device DEV          auto (default: a GPU if any, else the CPU), gpu, cpu,
                         or PLATFORM:DEVICE as --list-devices numbers them
@@ -178,7 +180,7 @@ Step parse_height(const std::string& arg)
         if (apply_decoding(h.normals, arg, key, v))
             continue;
         const bool ray_key = key == "impl" || key == "directions" || key == "rays" ||
-                             key == "radius" || key == "phase";
+                             key == "radius" || key == "phase" || key == "skip";
         ray_option |= ray_key;
         if (key == "method")
             method = choice(arg, key, v, {"auto", "rays", "poisson"});
@@ -198,6 +200,8 @@ Step parse_height(const std::string& arg)
             h.phase = float(parse_in_range(arg, key, v, 0, false, 1, true, "in [0, 1)"));
         else if (key == "boundary")
             boundary = choice(arg, key, v, {"auto", "periodic", "free", "clip"});
+        else if (key == "skip")
+            h.skip_flat = choice(arg, key, v, {"on", "off"}) == "on";
         else if (key == "highpass") {
             poisson_option = true;
             h.highpass = float(parse_in_range(arg, key, v, 0, false, 1e9, false,
@@ -205,14 +209,14 @@ Step parse_height(const std::string& arg)
         } else
             unknown_modifier(arg, key,
                              "method, boundary, normal, max_angle, range, impl, rays, radius, "
-                             "phase, directions, highpass");
+                             "phase, directions, skip, highpass");
     }
     if (method == "auto")
         method = ray_option ? "rays" : "auto";
     if (method == "rays" && poisson_option)
         throw UsageError(arg + ": highpass applies to method=poisson, not to rays");
     if (method == "poisson" && ray_option)
-        throw UsageError(arg + ": impl, directions, rays, radius and phase apply to method=rays");
+        throw UsageError(arg + ": impl, directions, rays, radius, phase and skip apply to method=rays");
     if (method == "rays" && boundary == "free")
         throw UsageError(arg + ": rays take boundary=periodic, clip or auto");
     if (method != "rays" && boundary == "clip")

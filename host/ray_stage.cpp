@@ -135,10 +135,65 @@ std::vector<cl_int2> chain_starts(const RationalDirection& d, int w, int h, bool
     return starts;
 }
 
+// One flag per kSkipTile^2 tile: 1 where the rays of its texels may cross a
+// non-zero slope (a non-flat tile within `reach` texels), 0 where they cannot.
+cl::Buffer active_tiles(ComputeContext::Impl& c, const DeviceSlopes& slopes, double reach,
+                        bool periodic, bool skip, int& tiles_x, RayReport& report)
+{
+    const int w = slopes.width(), h = slopes.height(), T = kSkipTile;
+    tiles_x = (w + T - 1) / T;
+    const int tiles_y = (h + T - 1) / T;
+    const std::size_t n = std::size_t(tiles_x) * tiles_y;
+    std::vector<cl_uchar> flags(n, 1);
+    if (skip) {
+        cl::Buffer nonflat(c.context, CL_MEM_WRITE_ONLY, n);
+        cl::Kernel k(c.program("tiles.cl"), "nonflat_tiles");
+        k.setArg(0, slopes.impl().buffer);
+        k.setArg(1, cl_int(w));
+        k.setArg(2, cl_int(h));
+        k.setArg(3, cl_int(T));
+        k.setArg(4, cl_int(tiles_x));
+        k.setArg(5, cl_int(tiles_y));
+        k.setArg(6, nonflat);
+        c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(n)),
+                                     cl::NDRange(kGroupSize));
+        std::vector<cl_uchar> any(n);
+        c.queue.enqueueReadBuffer(nonflat, CL_TRUE, 0, n, any.data());
+        // Dilate by the reach in tiles (a square covers the disk), along x
+        // then along y; periodic textures wrap.
+        const int r = int(std::ceil(reach / T));
+        auto dilate = [&](std::vector<cl_uchar>& v, int len, int lines, bool along_x) {
+            std::vector<cl_uchar> out(v.size(), 0);
+            for (int l = 0; l < lines; ++l)
+                for (int i = 0; i < len; ++i) {
+                    const std::size_t at = along_x ? std::size_t(l) * tiles_x + i
+                                                   : std::size_t(i) * tiles_x + l;
+                    if (!v[at])
+                        continue;
+                    for (int d = -std::min(r, len); d <= std::min(r, len); ++d) {
+                        int j = i + d;
+                        if (periodic)
+                            j = ((j % len) + len) % len;
+                        else if (j < 0 || j >= len)
+                            continue;
+                        out[along_x ? std::size_t(l) * tiles_x + j : std::size_t(j) * tiles_x + l] = 1;
+                    }
+                }
+            v.swap(out);
+        };
+        dilate(any, tiles_x, tiles_y, true);
+        dilate(any, tiles_y, tiles_x, false);
+        flags = any;
+    }
+    report.tiles = n;
+    report.skipped = std::size_t(std::count(flags.begin(), flags.end(), cl_uchar(0)));
+    return cl::Buffer(c.context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, n, flags.data());
+}
+
 } // namespace
 
 void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& p,
-                         float* height_out, const Progress& progress)
+                         float* height_out, const Progress& progress, RayReport* report)
 {
     if (p.rays < 1 || !(p.radius > 0.0))
         throw Error("ray integration needs rays >= 1 and radius > 0");
@@ -159,6 +214,12 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
         cl::Buffer accum(c.context, CL_MEM_READ_WRITE, sizeof(cl_float2) * n);
         cl::Buffer out(c.context, CL_MEM_WRITE_ONLY, sizeof(float) * n);
         c.queue.enqueueFillBuffer(accum, cl_float2{{0.0f, 0.0f}}, 0, sizeof(cl_float2) * n);
+        RayReport skipped;
+        int tiles_x = 0;
+        cl::Buffer active = active_tiles(c, slopes, p.radius + 2.0, periodic, p.skip_flat,
+                                         tiles_x, skipped);
+        if (report)
+            *report = skipped;
 
         cl::Kernel period_sums(prog, "rays_period_sums");
         cl::Kernel windows(prog, "rays_chain_windows");
@@ -190,6 +251,9 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
             period_sums.setArg(a++, cut);
             period_sums.setArg(a++, linear);
             period_sums.setArg(a++, cl_float(std::min<double>(t.data[0].s[2], p.radius)));
+            period_sums.setArg(a++, active);
+            period_sums.setArg(a++, cl_int(kSkipTile));
+            period_sums.setArg(a++, cl_int(tiles_x));
             period_sums.setArg(a++, sums);
             period_sums.setArg(a++, tail);
             c.queue.enqueueNDRangeKernel(period_sums, cl::NullRange, cl::NDRange(padded(n)),
@@ -219,6 +283,9 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
             windows.setArg(a++, tail);
             windows.setArg(a++, cl_int(fp64 ? 0 : std::max(1, p.float_reanchor)));
             windows.setArg(a++, cl_float(dir_weight[j]));
+            windows.setArg(a++, active);
+            windows.setArg(a++, cl_int(kSkipTile));
+            windows.setArg(a++, cl_int(tiles_x));
             windows.setArg(a++, accum);
             c.queue.enqueueNDRangeKernel(windows, cl::NullRange,
                                          cl::NDRange(padded((starts.size() + lanes - 1) / lanes)),
@@ -243,7 +310,8 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
 }
 
 void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
-                              const RayParams& p, float* height_out, const Progress& progress)
+                              const RayParams& p, float* height_out, const Progress& progress,
+                              RayReport* report)
 {
     if (p.rays < 1 || !(p.radius > 0.0))
         throw Error("ray integration needs rays >= 1 and radius > 0");
@@ -258,6 +326,13 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
         cl::Buffer data = constant_buffer(c.context, t.data);
         cl::Buffer out(c.context, CL_MEM_WRITE_ONLY, sizeof(float) * n);
 
+        RayReport skipped;
+        int tiles_x = 0;
+        cl::Buffer active = active_tiles(c, slopes, p.radius + 2.0,
+                                         p.boundary == RayBoundary::Periodic, p.skip_flat, tiles_x,
+                                         skipped);
+        if (report)
+            *report = skipped;
         cl::Kernel k(c.program("rays_reference.cl"), "rays_reference");
         k.setArg(0, slopes.impl().buffer);
         k.setArg(1, w);
@@ -267,7 +342,10 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
         k.setArg(7, dir_start);
         k.setArg(8, offsets);
         k.setArg(9, data);
-        k.setArg(10, out);
+        k.setArg(10, active);
+        k.setArg(11, cl_int(kSkipTile));
+        k.setArg(12, cl_int(tiles_x));
+        k.setArg(13, out);
 
         // Launch in bands of rows: each launch stays short (GPU watchdogs,
         // responsive progress) whatever the radius.

@@ -20,7 +20,18 @@ struct RayParams {
     // where the device has fp64 (the path for devices without it; tests).
     bool force_float = false;
     int float_reanchor = 32;  // chain steps between re-anchors in float
+    // Skip tiles whose slopes, and all slopes within the ray radius, are
+    // exactly zero (DESIGN.md §6); the result is bit-identical either way.
+    bool skip_flat = true;
 };
+
+// What a ray integration skipped.
+struct RayReport {
+    std::size_t tiles = 0;    // tiles of kSkipTile x kSkipTile texels
+    std::size_t skipped = 0;  // ... whose integration was skipped
+};
+
+constexpr int kSkipTile = 32;
 
 // Fraction done in [0, 1]; called from the calling thread between launches.
 using Progress = std::function<void(double)>;
@@ -29,12 +40,13 @@ using Progress = std::function<void(double)>;
 // (width*height floats, texel units, bumps positive, zero mean).
 void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
                               const RayParams& params, float* height_out,
-                              const Progress& progress = {});
+                              const Progress& progress = {}, RayReport* report = nullptr);
 
 // The fast kernel (DESIGN.md §4.3): rational directions only; same result as
 // integrate_rays_reference with DirectionSet::Rational to rounding, at a cost
 // independent of the radius.
 void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& params,
-                         float* height_out, const Progress& progress = {});
+                         float* height_out, const Progress& progress = {},
+                         RayReport* report = nullptr);
 
 } // namespace relief::host

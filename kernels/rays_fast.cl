@@ -46,12 +46,18 @@ __kernel void rays_period_sums(__global const float2* slopes, int width, int hei
                                int periodic, int step_x, int step_y, int segments,
                                __constant int2* seg_offset, __constant float4* seg_data,
                                __constant float4* seg_cut, __constant int* seg_linear,
-                               float origin_len, __global float4* sums, __global float2* tail)
+                               float origin_len, __global const uchar* active, int tile,
+                               int tiles_x, __global float4* sums, __global float2* tail)
 {
     int gid = get_global_id(0);
     if (gid >= width * height)
         return;
     int x = gid % width, y = gid / width;
+    if (!active[(y / tile) * tiles_x + x / tile]) {  // all zero slopes within reach
+        sums[gid] = (float4)(0.0f);
+        tail[gid] = (float2)(0.0f);
+        return;
+    }
     float s = 0.0f, u0 = 0.0f, u1 = 0.0f, p0 = 0.0f, p1 = 0.0f;
     // The origin's own first half-segment (length origin_len = min(l_0, R))
     // is not part of its own mean; its term is subtracted by the chain kernel.
@@ -180,6 +186,8 @@ typedef struct {
     __global const float2* tail;
     int reanchor;
     __global float2* accum;
+    __global const uchar* active;
+    int tile, tiles_x;
     acc_t origin_w;
     float dir_weight;  // the direction's angular quadrature weight
 } ChainArgs;
@@ -215,35 +223,40 @@ inline void chain_step(Chain* c, const ChainArgs* g)
                                   k_whole);
     const acc_t L = g->period, K = k_whole;
     const acc_t n = (acc_t)win.count;
-    acc_t a = (acc_t)g->w0 * L * (0.5 * n * (n - 1.0) * win.s0 - 0.5 * (win.s2 + win.s1)) +
-              (acc_t)g->w1 * ((n - 1.0) * win.s0 - win.s1) + L * win.u1 + win.v0;
-    acc_t w = (acc_t)g->w0 * L * 0.5 * n * (n - 1.0) + (acc_t)g->w1 * n;
+    const int p = y * width + x;
+    // Texels of inactive tiles have only zero slopes within reach: skipped.
+    const int active = g->active[(y / g->tile) * g->tiles_x + x / g->tile];
 
     // The end of the ray past the whole periods.
     const int whole = win.count == k_whole;
     const int ex = whole ? c->nx : x + win.count * step_x;
     const int ey = whole ? c->ny : y + win.count * step_y;
-    const acc_t m_l = n * L;
     // q_{k+K}'s sums: the partial last period here, the window's next entry below.
     float4 next = (float4)(0.0f);
     const int next_whole = whole && (periodic || inside(ex + step_x, ey + step_y, width, height));
     const int e = ey * width + ex;
-    if (next_whole) {
+    if (next_whole)
         next = g->sums[e];
-        if (partial > 0.0f) {
-            a += win.s0 * (m_l * g->pw0 + g->pw1) + m_l * next.w + g->tail[e].x;
-            w += m_l * g->pw0 + g->pw1;
+    if (active) {
+        acc_t a = (acc_t)g->w0 * L * (0.5 * n * (n - 1.0) * win.s0 - 0.5 * (win.s2 + win.s1)) +
+                  (acc_t)g->w1 * ((n - 1.0) * win.s0 - win.s1) + L * win.u1 + win.v0;
+        acc_t w = (acc_t)g->w0 * L * 0.5 * n * (n - 1.0) + (acc_t)g->w1 * n;
+        const acc_t m_l = n * L;
+        if (next_whole) {
+            if (partial > 0.0f) {
+                a += win.s0 * (m_l * g->pw0 + g->pw1) + m_l * next.w + g->tail[e].x;
+                w += m_l * g->pw0 + g->pw1;
+            }
+        } else if (!whole || partial > 0.0f) {
+            end_walk(g->slopes, width, height, periodic, ex, ey, m_l, win.s0,
+                     whole ? partial : g->period + 1.0f, g->segments, g->seg_offset,
+                     g->seg_data, &a, &w);
         }
-    } else if (!whole || partial > 0.0f) {
-        end_walk(g->slopes, width, height, periodic, ex, ey, m_l, win.s0,
-                 whole ? partial : g->period + 1.0f, g->segments, g->seg_offset, g->seg_data,
-                 &a, &w);
+        a -= g->tail[p].y;
+        w -= g->origin_w;
+        float2 acc = g->accum[p];
+        g->accum[p] = (float2)(acc.x + g->dir_weight * (float)a, acc.y + g->dir_weight * (float)w);
     }
-    const int p = y * width + x;
-    a -= g->tail[p].y;
-    w -= g->origin_w;
-    float2 acc = g->accum[p];
-    g->accum[p] = (float2)(acc.x + g->dir_weight * (float)a, acc.y + g->dir_weight * (float)w);
 
     // Slide the window one period on: drop m = 0, shift m -> m - 1, and
     // take in the period K - 1 when the chain still has it.
@@ -302,7 +315,8 @@ __kernel void rays_chain_windows(__global const float2* slopes, int width, int h
                                  float pw1, float partial, int segments,
                                  __constant int2* seg_offset, __constant float4* seg_data,
                                  __global const float4* sums, __global const float2* tail,
-                                 int reanchor, float dir_weight, __global float2* accum)
+                                 int reanchor, float dir_weight, __global const uchar* active,
+                                 int tile, int tiles_x, __global float2* accum)
 {
     const int first = get_global_id(0) * RELIEF_LANES;
     if (first >= chains)
@@ -310,8 +324,8 @@ __kernel void rays_chain_windows(__global const float2* slopes, int width, int h
     const float origin_len = fmin(seg_data[0].z, (float)(k_whole * period + partial));
     const ChainArgs g = {slopes, width, height, periodic, step_x, step_y, cycle, k_whole,
                          period, w0, w1, pw0, pw1, partial, segments, seg_offset, seg_data,
-                         sums, tail, reanchor, accum, 0.5 * (acc_t)origin_len * origin_len,
-                         dir_weight};
+                         sums, tail, reanchor, accum, active, tile, tiles_x,
+                         0.5 * (acc_t)origin_len * origin_len, dir_weight};
     Chain lane[RELIEF_LANES];
     const int lanes = min(RELIEF_LANES, chains - first);
     for (int l = 0; l < lanes; ++l)
@@ -333,5 +347,5 @@ __kernel void rays_finish(__global const float2* accum, int count, __global floa
     if (gid >= count)
         return;
     float2 v = accum[gid];
-    out[gid] = v.y > 0.0f ? -v.x / v.y : 0.0f;
+    out[gid] = v.y > 0.0f && v.x != 0.0f ? -v.x / v.y : 0.0f;
 }

@@ -9,6 +9,7 @@
 //   seg_data[s]   = (extent x, extent y, weight, cumulative weight).
 // Segment 0 of every direction is the origin texel: it raises the height
 // along the ray but has weight 0 (p is excluded from its own mean).
+// active[tile] = 0 marks tiles whose rays cross only zero slopes: skipped.
 // The displacement of p is minus the weighted mean of the midpoint heights
 // relative to p; the host removes the global mean afterwards.
 
@@ -17,6 +18,7 @@ __kernel void rays_reference(__global const float2* slopes, int width, int heigh
                              __global const int* dir_start,
                              __global const int2* seg_offset,
                              __global const float4* seg_data,
+                             __global const uchar* active, int tile, int tiles_x,
                              __global float* displacement)
 {
     int gid = get_global_id(0);
@@ -24,6 +26,11 @@ __kernel void rays_reference(__global const float2* slopes, int width, int heigh
         return;
     int x = gid % width;
     int y = row0 + gid / width;
+    // Every ray of a texel in an inactive tile crosses only zero slopes.
+    if (!active[(y / tile) * tiles_x + x / tile]) {
+        displacement[y * width + x] = 0.0f;
+        return;
+    }
 
     float sum_a = 0.0f, sum_w = 0.0f;
     for (int j = 0; j < directions; ++j) {
@@ -48,5 +55,5 @@ __kernel void rays_reference(__global const float2* slopes, int width, int heigh
         sum_a += a;
         sum_w += w;
     }
-    displacement[y * width + x] = sum_w > 0.0f ? -sum_a / sum_w : 0.0f;
+    displacement[y * width + x] = sum_w > 0.0f && sum_a != 0.0f ? -sum_a / sum_w : 0.0f;
 }

@@ -4,6 +4,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstring>
 #include <random>
 
 #include "compute_context.h"
@@ -192,4 +193,41 @@ TEST_CASE("fast kernel equals the reference kernel for the same directions", "[r
             CHECK(max_diff(got, ref) <= 1e-4 * sd + 1e-7);
         }
     }
+}
+
+TEST_CASE("flat tiles are skipped and the result is bit-identical", "[rays][fast][skip]")
+{
+    // An atlas: bumpy islands on an exactly flat background.
+    const int w = 300, h = 220;
+    auto g = rough_slopes(w, h, 99u, 0.2);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const bool island = (x > 20 && x < 90 && y > 30 && y < 80) || (x > 200 && y > 150);
+            if (!island)
+                g[2 * (std::size_t(y) * w + x)] = g[2 * (std::size_t(y) * w + x) + 1] = 0.0f;
+        }
+    auto ctx = host::ComputeContext::acquire("auto");
+    auto slopes = host::upload_slopes(*ctx, g.data(), w, h);
+    for (bool fast : {true, false})
+        for (bool periodic : {true, false}) {
+            INFO((fast ? "fast" : "reference") << (periodic ? " periodic" : " clip"));
+            host::RayParams p;
+            p.rays = 16;
+            p.radius = 24;
+            p.directions = host::DirectionSet::Rational;
+            p.boundary = periodic ? host::RayBoundary::Periodic : host::RayBoundary::Clip;
+            std::vector<float> out[2];
+            host::RayReport report[2];
+            for (int skip : {0, 1}) {
+                p.skip_flat = skip;
+                out[skip].resize(std::size_t(w) * h);
+                if (fast)
+                    host::integrate_rays_fast(*ctx, slopes, p, out[skip].data(), {}, &report[skip]);
+                else
+                    host::integrate_rays_reference(*ctx, slopes, p, out[skip].data(), {}, &report[skip]);
+            }
+            CHECK(report[0].skipped == 0);
+            CHECK(report[1].skipped > report[1].tiles / 4);
+            CHECK(std::memcmp(out[0].data(), out[1].data(), out[0].size() * sizeof(float)) == 0);
+        }
 }

@@ -114,12 +114,21 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
                                : host::DirectionSet::Exact;
             p.boundary = chosen.boundary == Boundary::Free ? host::RayBoundary::Clip
                                                            : host::RayBoundary::Periodic;
+            p.skip_flat = chosen.skip_flat;
+            host::RayReport report;
             if (chosen.impl == RayImpl::Fast)
                 host::integrate_rays_fast(*derived.context, derived.slopes, p, h.data(),
-                                          options.exec.on_progress);
+                                          options.exec.on_progress, &report);
             else
                 host::integrate_rays_reference(*derived.context, derived.slopes, p, h.data(),
-                                               options.exec.on_progress);
+                                               options.exec.on_progress, &report);
+            if (p.skip_flat)
+                detail::say(options.exec, Severity::Info,
+                            "rays: skipped " + std::to_string(report.skipped) + " of " +
+                                std::to_string(report.tiles) + " tiles of " +
+                                std::to_string(host::kSkipTile) + "x" +
+                                std::to_string(host::kSkipTile) +
+                                " texels (zero slopes within the radius)");
         } else {
             host::PoissonParams p;
             p.boundary = chosen.boundary == Boundary::Free ? host::PoissonBoundary::Free

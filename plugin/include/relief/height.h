@@ -30,6 +30,9 @@ struct HeightOptions {
     float radius = 64.0f;  // R, ray length in texels
     float phase = 0.5f;    // angles 2*pi*(j + phase)/J, phase in [0, 1)
     RayDirections directions = RayDirections::Rational;
+    // Skip tiles whose rays cross only zero slopes (flat parts of an atlas);
+    // the result is bit-identical either way.
+    bool skip_flat = true;
     // Least squares (method=poisson): relief balance, removes structure
     // larger than this many texels (0 = off).
     float highpass = 0.0f;
