@@ -43,6 +43,8 @@ Modifiers of --height:
   method=poisson: least squares (Frankot-Chellappa, DESIGN.md 4.4)
     highpass=R          relief balance: remove structure larger than R
                         texels (default 0 = off)
+    mask=FILE|alpha     per-texel weights in [0,1] (channel 0 of FILE, or
+                        the normal map's alpha); 0 excludes a texel's slopes
   method=rays: radial ray integration (DESIGN.md 4.2, 4.3)
     impl=fast|reference fast (default): cost independent of the radius
     rays=J              ray directions (default 32)
@@ -202,19 +204,29 @@ Step parse_height(const std::string& arg)
             boundary = choice(arg, key, v, {"auto", "periodic", "free", "clip"});
         else if (key == "skip")
             h.skip_flat = choice(arg, key, v, {"on", "off"}) == "on";
-        else if (key == "highpass") {
+        else if (key == "mask") {
+            poisson_option = true;
+            if (v == "alpha")
+                h.mask_alpha = true;
+            else {
+                std::error_code ec;
+                if (v.empty() || !fs::exists(v, ec))
+                    throw UsageError(arg + ": mask=" + v + ": no such file");
+                s.mask = v;
+            }
+        } else if (key == "highpass") {
             poisson_option = true;
             h.highpass = float(parse_in_range(arg, key, v, 0, false, 1e9, false,
                                               "a radius in texels >= 0 (0 = off)"));
         } else
             unknown_modifier(arg, key,
                              "method, boundary, normal, max_angle, range, impl, rays, radius, "
-                             "phase, directions, skip, highpass");
+                             "phase, directions, skip, highpass, mask");
     }
     if (method == "auto")
         method = ray_option ? "rays" : "auto";
     if (method == "rays" && poisson_option)
-        throw UsageError(arg + ": highpass applies to method=poisson, not to rays");
+        throw UsageError(arg + ": highpass and mask apply to method=poisson, not to rays");
     if (method == "poisson" && ray_option)
         throw UsageError(arg + ": impl, directions, rays, radius, phase and skip apply to method=rays");
     if (method == "rays" && boundary == "free")

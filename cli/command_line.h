@@ -27,6 +27,7 @@ struct Step {
     std::string compression;      // Write; empty = relief's default
     SlopeOptions slopes;          // Slopes
     HeightOptions height;         // Height
+    std::string mask;             // Height: mask=FILE (read when the step runs)
 };
 
 struct Program {

@@ -99,6 +99,12 @@ private:
         case Step::Kind::Height: {
             relief::HeightOptions o = s.height;
             o.exec = execution(s);
+            OIIO::ImageBuf mask;
+            if (!s.mask.empty()) {
+                if (!relief::read_image(mask, s.mask))
+                    throw RuntimeError("mask: " + relief::geterror());
+                o.mask = &mask;
+            }
             if (prog_.verbose)
                 message(Severity::Info, "height: " + relief::describe(o));
             OIIO::ImageBuf in = pop(), out;

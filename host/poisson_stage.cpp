@@ -16,8 +16,11 @@ double highpass_sigma(double highpass)
     return highpass > 0.0 ? highpass * std::sqrt(2.0 * std::log(2.0)) / (2.0 * M_PI) : 0.0;
 }
 
+void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
+                                const PoissonParams& p, float* height_out, PoissonReport* report);
+
 void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes, const PoissonParams& p,
-                       float* height_out)
+                       float* height_out, PoissonReport* report)
 {
     if (p.highpass < 0.0 || !std::isfinite(p.highpass))
         throw Error("highpass must be a radius >= 0 texels");
@@ -25,6 +28,12 @@ void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes, const Po
     const std::size_t n = std::size_t(w) * std::size_t(h);
     if (n == 1) {  // one texel: nothing to integrate
         height_out[0] = 0.0f;
+        return;
+    }
+    if (p.weights) {
+        if (p.highpass > 0.0)
+            throw Error("highpass cannot be combined with a mask yet");
+        integrate_poisson_weighted(ctx, slopes, p, height_out, report);
         return;
     }
     // A one-texel-wide texture is solved transposed: a 1-D transform.

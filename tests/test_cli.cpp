@@ -161,11 +161,16 @@ TEST_CASE("cli: bad input fails with a clear message, a non-zero exit and no out
         {"ray option with poisson", ok + " --height:method=poisson:rays=8 -o " + out, "",
          "apply to method=rays"},
         {"highpass with rays", ok + " --height:rays=8:highpass=4 -o " + out, "",
-         "highpass applies to method=poisson"},
+         "highpass and mask apply to method=poisson"},
         {"fast with exact angles", ok + " --height:directions=exact -o " + out, "",
          "impl=fast needs directions=rational"},
         {"clip for poisson", ok + " --height:boundary=clip -o " + out, "", "boundary=periodic, free"},
         {"negative highpass", ok + " --height:highpass=-2 -o " + out, "", "highpass=-2"},
+        {"missing mask", ok + " --height:mask=" + in("missing.png") + " -o " + out, "", "no such file"},
+        {"mask size mismatch", ok + " --height:mask=" + in("gray.png") + " -o " + out, "",
+         "the mask is 16x16"},
+        {"alpha mask without alpha", ok + " --height:mask=alpha -o " + out, "", "4 channels"},
+        {"mask with rays", ok + " --height:rays=8:mask=alpha -o " + out, "", "mask apply to method=poisson"},
         {"bad type", ok + " --height -d int7 -o " + out, "", "int7"},
         {"missing output folder", ok + " --height -o '" + (dir / "nowhere" / "h.exr").string() + "'", "",
          "does not exist"},
@@ -220,4 +225,26 @@ TEST_CASE("cli: --help and --version exit 0", "[cli]")
     auto v = run_cli("--version");
     CHECK(v.rc == 0);
     CHECK(v.out.find("relief ") == 0);
+}
+
+TEST_CASE("cli: a mask file weights the least-squares solve", "[cli][mask]")
+{
+    auto dir = scratch("mask");
+    // Exclude the left half of the sample.
+    OIIO::ImageBuf m(OIIO::ImageSpec(512, 512, 1, OIIO::TypeDesc::UINT8));
+    for (int y = 0; y < 512; ++y)
+        for (int x = 0; x < 512; ++x) {
+            float v = x < 256 ? 0.0f : 1.0f;
+            m.setpixel(x, y, &v);
+        }
+    REQUIRE(m.write((dir / "mask.png").string()));
+    auto out = dir / "h.exr";
+    auto r = run_cli("-v '" + kNormal + "' --height:mask='" + (dir / "mask.png").string() + "' -o '" +
+                     out.string() + "'");
+    INFO(r.err);
+    REQUIRE(r.rc == 0);
+    CHECK(r.err.find("conjugate-gradient iterations") != std::string::npos);
+    OIIO::ImageBuf h(out.string());
+    REQUIRE(h.read());
+    CHECK(h.spec().get_string_attribute("relief:parameters").find("mask=image") != std::string::npos);
 }

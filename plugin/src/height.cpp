@@ -47,6 +47,10 @@ void validate(const HeightOptions& o)
             "impl=fast needs directions=rational (exact angles need impl=reference)");
     if (o.method == HeightMethod::Rays && o.highpass > 0.0f)
         throw std::invalid_argument("highpass applies to method=poisson, not to rays");
+    if (o.method == HeightMethod::Rays && (o.mask || o.mask_alpha))
+        throw std::invalid_argument("a mask applies to method=poisson, not to rays");
+    if (o.mask && o.mask_alpha)
+        throw std::invalid_argument("give a mask image or mask_alpha, not both");
 }
 
 // Resolves boundary=auto from the slopes' seams, and says why.
@@ -70,6 +74,44 @@ Boundary choose_boundary(const HeightOptions& o, const detail::DerivedSlopes& d,
     return b;
 }
 
+// The weights of a mask (empty when it is all ones: nothing to weight).
+std::vector<float> mask_weights(const HeightOptions& o, const ImageBuf& normals, ROI roi)
+{
+    std::vector<float> w(std::size_t(roi.width()) * roi.height());
+    if (o.mask_alpha) {
+        if (normals.nchannels() != 4)
+            throw std::runtime_error("mask=alpha needs a normal map with 4 channels (RGBA), got " +
+                                     std::to_string(normals.nchannels()));
+        ROI a = roi;
+        a.chbegin = 3;
+        a.chend = 4;
+        normals.get_pixels(a, TypeDesc::FLOAT, w.data());
+    } else {
+        const ImageBuf& m = *o.mask;
+        if (m.spec().width != roi.width() || m.spec().height != roi.height())
+            throw std::runtime_error("the mask is " + std::to_string(m.spec().width) + "x" +
+                                     std::to_string(m.spec().height) + ", the normal map " +
+                                     std::to_string(roi.width()) + "x" +
+                                     std::to_string(roi.height()));
+        ROI a = m.roi();
+        a.chbegin = 0;
+        a.chend = 1;
+        m.get_pixels(a, TypeDesc::FLOAT, w.data());
+    }
+    bool ones = true;
+    for (std::size_t i = 0; i < w.size(); ++i) {
+        if (!(w[i] >= 0.0f && w[i] <= 1.0f))
+            throw std::runtime_error("mask values must be in [0, 1]; texel (" +
+                                     std::to_string(i % roi.width()) + ", " +
+                                     std::to_string(i / roi.width()) + ") is " +
+                                     detail::format_double("%g", w[i]));
+        ones &= w[i] == 1.0f;
+    }
+    if (ones)
+        w.clear();
+    return w;
+}
+
 } // namespace
 
 std::string describe(const HeightOptions& o)
@@ -84,6 +126,10 @@ std::string describe(const HeightOptions& o)
     ss << " boundary=" << name(o.boundary, rays);
     if (!rays)
         ss << " highpass=" << o.highpass;
+    if (o.mask_alpha)
+        ss << " mask=alpha";
+    else if (o.mask)
+        ss << " mask=image";
     return ss.str();
 }
 
@@ -134,7 +180,21 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
             p.boundary = chosen.boundary == Boundary::Free ? host::PoissonBoundary::Free
                                                            : host::PoissonBoundary::Periodic;
             p.highpass = chosen.highpass;
-            host::integrate_poisson(*derived.context, derived.slopes, p, h.data());
+            std::vector<float> weights;
+            if (chosen.mask || chosen.mask_alpha) {
+                weights = mask_weights(chosen, normals, roi);
+                if (weights.empty())
+                    detail::say(options.exec, Severity::Info, "mask: all ones, nothing to weight");
+                else
+                    p.weights = weights.data();
+            }
+            host::PoissonReport report;
+            host::integrate_poisson(*derived.context, derived.slopes, p, h.data(), &report);
+            if (p.weights)
+                detail::say(options.exec, Severity::Info,
+                            "poisson: weighted solve, " + std::to_string(report.iterations) +
+                                " conjugate-gradient iterations, relative residual " +
+                                detail::format_double("%.2g", report.residual));
         }
         detail::publish_result(dst, roi, {"Y"}, rays ? "rays" : "poisson", derived.stats, h.data(),
                                describe(chosen));

@@ -1,5 +1,6 @@
 #include "poisson_reference.h"
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 
@@ -102,6 +103,80 @@ std::vector<double> poisson(const std::vector<double>& g, int w, int h, const Po
     for (double& v : out)
         v -= mean;
     return out;
+}
+
+std::vector<double> poisson_weighted(const std::vector<double>& g, int w, int h,
+                                     const std::vector<double>& wt, bool periodic, double eps)
+{
+    struct Edge {
+        std::size_t p, q;
+        double c, t;
+    };
+    std::vector<Edge> edges;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const std::size_t p = std::size_t(y) * w + x;
+            for (int axis = 0; axis < 2; ++axis) {
+                int nx = x + (axis == 0), ny = y + (axis == 1);
+                if (nx == w || ny == h) {
+                    if (!periodic)
+                        continue;
+                    nx %= w;
+                    ny %= h;
+                }
+                if (nx == x && ny == y)
+                    continue;  // a one-texel axis has no edges
+                const std::size_t q = std::size_t(ny) * w + nx;
+                const double we = std::min(wt[p], wt[q]), c = std::max(we, eps);
+                edges.push_back({p, q, c, we / c * 0.5 * (g[2 * p + axis] + g[2 * q + axis])});
+            }
+        }
+    const std::size_t n = std::size_t(w) * h;
+    auto apply = [&](const std::vector<double>& v) {
+        std::vector<double> out(n, 0.0);
+        for (const Edge& e : edges) {
+            const double d = e.c * (v[e.p] - v[e.q]);
+            out[e.p] += d;
+            out[e.q] -= d;
+        }
+        return out;
+    };
+    std::vector<double> b(n, 0.0), x(n, 0.0);
+    for (const Edge& e : edges) {
+        b[e.q] += e.c * e.t;
+        b[e.p] -= e.c * e.t;
+    }
+    auto dot = [&](const std::vector<double>& a, const std::vector<double>& c) {
+        double s = 0;
+        for (std::size_t i = 0; i < n; ++i)
+            s += a[i] * c[i];
+        return s;
+    };
+    std::vector<double> r = b, d = b;
+    double rr = dot(r, r);
+    const double stop = 1e-24 * std::max(rr, 1e-300);
+    for (std::size_t it = 0; it < 20 * n + 100 && rr > stop; ++it) {
+        auto q = apply(d);
+        const double dq = dot(d, q);
+        if (!(dq > 0))
+            break;
+        const double alpha = rr / dq;
+        for (std::size_t i = 0; i < n; ++i) {
+            x[i] += alpha * d[i];
+            r[i] -= alpha * q[i];
+        }
+        const double rr_next = dot(r, r);
+        for (std::size_t i = 0; i < n; ++i)
+            d[i] = r[i] + rr_next / rr * d[i];
+        rr = rr_next;
+    }
+    double mean = 0;
+    for (double v : x)
+        mean += v;
+    mean /= double(n);
+    for (double& v : x)
+        v -= mean;
+    return x;
 }
 
 } // namespace relief::reference

@@ -18,4 +18,12 @@ struct PoissonSettings {
 std::vector<double> poisson(const std::vector<double>& slopes, int width, int height,
                             const PoissonSettings& settings);
 
+// Weighted discrete least squares (kernels/poisson_weighted.cl): edges to
+// the right and lower neighbours, w_e = min of the two weights, c_e =
+// max(w_e, eps), target (w_e / c_e) * mean slope; solved by plain conjugate
+// gradients in double to a relative residual of 1e-12. Zero mean.
+std::vector<double> poisson_weighted(const std::vector<double>& slopes, int width, int height,
+                                     const std::vector<double>& weights, bool periodic,
+                                     double eps);
+
 } // namespace relief::reference

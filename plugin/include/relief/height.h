@@ -36,6 +36,14 @@ struct HeightOptions {
     // Least squares (method=poisson): relief balance, removes structure
     // larger than this many texels (0 = off).
     float highpass = 0.0f;
+    // Per-texel confidence weights for least squares, in [0, 1] (0 =
+    // excluded: the texel's slopes are ignored and its height filled
+    // smoothly; Knald-style): channel 0 of `mask` (same size as the
+    // normals' roi; not owned), or the normal map's alpha with mask_alpha.
+    // Weighted solves are the discrete least squares of DESIGN §4.4 by
+    // conjugate gradients; an all-ones mask changes nothing.
+    const OIIO::ImageBuf* mask = nullptr;
+    bool mask_alpha = false;
     Execution exec;
 };
 
