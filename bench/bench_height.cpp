@@ -1,7 +1,7 @@
 // Run time against error for every integration method (issue 3, DESIGN §5).
 //
 //   bench_height [--sizes 512,1024,2048,4096] [--runs 3] [--budget 120]
-//                [--out bench-results] [--no-real]
+//                [--out bench-results] [--no-real] [--only METHOD]
 //
 // For each size, writes a float normal map of a smooth periodic field with
 // exact normals, then times whole `relief` processes (fork + exec, warm PoCL
@@ -188,6 +188,7 @@ int main(int argc, char** argv)
     double budget = 120;
     fs::path out = "bench-results";
     bool real = true;
+    std::string only;  // run only the methods whose name contains this
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         auto value = [&]() -> std::string {
@@ -210,8 +211,12 @@ int main(int argc, char** argv)
             out = value();
         else if (a == "--no-real")
             real = false;
+        else if (a == "--only")
+            only = value();
         else {
-            std::fprintf(stderr, "usage: %s [--sizes a,b] [--runs N] [--budget S] [--out DIR] [--no-real]\n",
+            std::fprintf(stderr,
+                         "usage: %s [--sizes a,b] [--runs N] [--budget S] [--out DIR] [--no-real] "
+                         "[--only METHOD]\n",
                          argv[0]);
             return 2;
         }
@@ -280,6 +285,8 @@ int main(int argc, char** argv)
         fs::remove_all(cache);
         bool first = true;
         for (const Case& c : analytic_cases()) {
+            if (!only.empty() && c.method.find(only) == std::string::npos)
+                continue;
             const double work_units = double(n) * n * c.rays * c.radius;
             if (c.reference && reference_rate > 0 && reference_rate * work_units > budget) {
                 skip("analytic", n, c, overhead + reference_rate * work_units);
