@@ -223,6 +223,7 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
 
         cl::Kernel period_sums(prog, "rays_period_sums");
         cl::Kernel windows(prog, "rays_chain_windows");
+        cl::Kernel cycles(prog, "rays_cycle_windows");
         const auto dirs = rational_directions(p.rays, p.phase);
         const std::vector<double> dir_weight =
             angular_weights(ray_angles(p.rays, p.phase, DirectionSet::Rational));
@@ -259,37 +260,67 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
             c.queue.enqueueNDRangeKernel(period_sums, cl::NullRange, cl::NDRange(padded(n)),
                                          cl::NDRange(kGroupSize));
 
-            a = 0;
-            windows.setArg(a++, slopes.impl().buffer);
-            windows.setArg(a++, cl_int(w));
-            windows.setArg(a++, cl_int(h));
-            windows.setArg(a++, cl_int(periodic));
-            windows.setArg(a++, cl_int(d.a));
-            windows.setArg(a++, cl_int(d.b));
-            windows.setArg(a++, start_buf);
-            windows.setArg(a++, cl_int(starts.size()));
-            windows.setArg(a++, cl_int(cycle));
-            windows.setArg(a++, cl_int(t.whole));
-            windows.setArg(a++, cl_float(d.length()));
-            windows.setArg(a++, cl_float(t.w0));
-            windows.setArg(a++, cl_float(t.w1));
-            windows.setArg(a++, cl_float(t.pw0));
-            windows.setArg(a++, cl_float(t.pw1));
-            windows.setArg(a++, cl_float(t.partial));
-            windows.setArg(a++, segs);
-            windows.setArg(a++, offsets);
-            windows.setArg(a++, data);
-            windows.setArg(a++, sums);
-            windows.setArg(a++, tail);
-            windows.setArg(a++, cl_int(fp64 ? 0 : std::max(1, p.float_reanchor)));
-            windows.setArg(a++, cl_float(dir_weight[j]));
-            windows.setArg(a++, active);
-            windows.setArg(a++, cl_int(kSkipTile));
-            windows.setArg(a++, cl_int(tiles_x));
-            windows.setArg(a++, accum);
-            c.queue.enqueueNDRangeKernel(windows, cl::NullRange,
-                                         cl::NDRange(padded((starts.size() + lanes - 1) / lanes)),
-                                         cl::NDRange(kGroupSize));
+            if (periodic && fp64 && std::abs(d.a) < w && std::abs(d.b) < h) {
+                // Cycles in double: the branch-free kernel (float re-anchors).
+                a = 0;
+                cycles.setArg(a++, cl_int(w));
+                cycles.setArg(a++, cl_int(h));
+                cycles.setArg(a++, cl_int(d.a));
+                cycles.setArg(a++, cl_int(d.b));
+                cycles.setArg(a++, start_buf);
+                cycles.setArg(a++, cl_int(starts.size()));
+                cycles.setArg(a++, cl_int(cycle));
+                cycles.setArg(a++, cl_int(t.whole));
+                cycles.setArg(a++, cl_float(d.length()));
+                cycles.setArg(a++, cl_float(t.w0));
+                cycles.setArg(a++, cl_float(t.w1));
+                cycles.setArg(a++, cl_float(t.pw0));
+                cycles.setArg(a++, cl_float(t.pw1));
+                cycles.setArg(a++, cl_float(t.partial));
+                cycles.setArg(a++, cl_float(std::min<double>(t.data[0].s[2], p.radius)));
+                cycles.setArg(a++, sums);
+                cycles.setArg(a++, tail);
+                cycles.setArg(a++, cl_float(dir_weight[j]));
+                cycles.setArg(a++, active);
+                cycles.setArg(a++, cl_int(kSkipTile));
+                cycles.setArg(a++, cl_int(tiles_x));
+                cycles.setArg(a++, accum);
+                c.queue.enqueueNDRangeKernel(cycles, cl::NullRange,
+                                             cl::NDRange(padded((starts.size() + lanes - 1) / lanes)),
+                                             cl::NDRange(kGroupSize));
+            } else {
+                a = 0;
+                windows.setArg(a++, slopes.impl().buffer);
+                windows.setArg(a++, cl_int(w));
+                windows.setArg(a++, cl_int(h));
+                windows.setArg(a++, cl_int(periodic));
+                windows.setArg(a++, cl_int(d.a));
+                windows.setArg(a++, cl_int(d.b));
+                windows.setArg(a++, start_buf);
+                windows.setArg(a++, cl_int(starts.size()));
+                windows.setArg(a++, cl_int(cycle));
+                windows.setArg(a++, cl_int(t.whole));
+                windows.setArg(a++, cl_float(d.length()));
+                windows.setArg(a++, cl_float(t.w0));
+                windows.setArg(a++, cl_float(t.w1));
+                windows.setArg(a++, cl_float(t.pw0));
+                windows.setArg(a++, cl_float(t.pw1));
+                windows.setArg(a++, cl_float(t.partial));
+                windows.setArg(a++, segs);
+                windows.setArg(a++, offsets);
+                windows.setArg(a++, data);
+                windows.setArg(a++, sums);
+                windows.setArg(a++, tail);
+                windows.setArg(a++, cl_int(fp64 ? 0 : std::max(1, p.float_reanchor)));
+                windows.setArg(a++, cl_float(dir_weight[j]));
+                windows.setArg(a++, active);
+                windows.setArg(a++, cl_int(kSkipTile));
+                windows.setArg(a++, cl_int(tiles_x));
+                windows.setArg(a++, accum);
+                c.queue.enqueueNDRangeKernel(windows, cl::NullRange,
+                                             cl::NDRange(padded((starts.size() + lanes - 1) / lanes)),
+                                             cl::NDRange(kGroupSize));
+            }
             // The tables above go out of scope with this iteration.
             c.queue.finish();
             if (progress)

@@ -340,6 +340,91 @@ __kernel void rays_chain_windows(__global const float2* slopes, int width, int h
     }
 }
 
+// Periodic textures: every window is full (K periods), every chain is a
+// cycle of the same length and no walk leaves the texture, so the step has
+// no branches. RELIEF_LANES neighbouring chains are kept in arrays (one
+// entry per lane) and stepped together in a loop the compiler can turn
+// into SIMD code. Same results as rays_chain_windows.
+__kernel void rays_cycle_windows(int width, int height, int step_x, int step_y,
+                                 __global const int2* chain_start, int chains, int cycle,
+                                 int k_whole, float period, float w0, float w1, float pw0,
+                                 float pw1, float partial, float origin_len,
+                                 __global const float4* sums, __global const float2* tail,
+                                 float dir_weight, __global const uchar* active, int tile,
+                                 int tiles_x, __global float2* accum)
+{
+    const int first = get_global_id(0) * RELIEF_LANES;
+    if (first >= chains)
+        return;
+    const int lanes = min(RELIEF_LANES, chains - first);
+    const acc_t L = period, K = k_whole, km1 = K - 1.0;
+    // a = ca*s0 + cb*(s2 + s1) + cc*s1 + L*u1 + v0 (+ the partial period)
+    const acc_t ca = (acc_t)w0 * L * 0.5 * K * (K - 1.0) + (acc_t)w1 * (K - 1.0);
+    const acc_t cb = -(acc_t)w0 * L * 0.5, cc = -(acc_t)w1;
+    const acc_t m_l = K * L;
+    const acc_t with_partial = partial > 0.0f ? 1.0 : 0.0;
+    const acc_t pq = with_partial * (m_l * pw0 + pw1);
+    const acc_t grow = k_whole > 0 ? 1.0 : 0.0;  // K = 0: the window stays empty
+    const float wsum = (float)((acc_t)w0 * L * 0.5 * K * (K - 1.0) + (acc_t)w1 * K + pq -
+                               0.5 * (acc_t)origin_len * origin_len);
+    acc_t s0[RELIEF_LANES], s1[RELIEF_LANES], s2[RELIEF_LANES], u0[RELIEF_LANES],
+        u1[RELIEF_LANES], v0[RELIEF_LANES];
+    int nz[RELIEF_LANES], x[RELIEF_LANES], y[RELIEF_LANES], nx[RELIEF_LANES], ny[RELIEF_LANES];
+    for (int l = 0; l < lanes; ++l) {
+        const int2 st = chain_start[first + l];
+        x[l] = st.x;
+        y[l] = st.y;
+        nx[l] = relief_wrap(st.x + k_whole * step_x, width);
+        ny[l] = relief_wrap(st.y + k_whole * step_y, height);
+        const Window win = window_from_scratch(sums, width, height, 1, step_x, step_y, st.x,
+                                               st.y, k_whole);
+        s0[l] = win.s0;
+        s1[l] = win.s1;
+        s2[l] = win.s2;
+        u0[l] = win.u0;
+        u1[l] = win.u1;
+        v0[l] = win.v0;
+        nz[l] = win.nonzero;
+    }
+    for (int k = 0; k < cycle; ++k) {
+        for (int l = 0; l < lanes; ++l) {
+            const int p = y[l] * width + x[l], e = ny[l] * width + nx[l];
+            const float4 f0 = (float)grow * sums[p];
+            const float4 next = sums[e];
+            const float on = active[(y[l] / tile) * tiles_x + x[l] / tile] ? dir_weight : 0.0f;
+            const acc_t a = ca * s0[l] + cb * (s2[l] + s1[l]) + cc * s1[l] + L * u1[l] + v0[l] +
+                            s0[l] * pq + with_partial * (m_l * next.w + tail[e].x) - tail[p].y;
+            const float2 acc = accum[p];
+            accum[p] = (float2)(acc.x + on * (float)a, acc.y + on * wsum);
+            // Slide: drop m = 0, shift, take in m = K - 1.
+            const acc_t a0 = s0[l], a1 = s1[l], b0 = u0[l];
+            const acc_t fx = f0.x, fy = f0.y, nxv = grow * next.x, nyv = grow * next.y;
+            s2[l] = s2[l] - 2.0 * a1 + a0 - fx + km1 * km1 * nxv;
+            s1[l] = a1 - a0 + fx + km1 * nxv;
+            s0[l] = a0 - fx + nxv;
+            u1[l] = u1[l] - b0 + fy + km1 * nyv;
+            u0[l] = b0 - fy + nyv;
+            v0[l] = v0[l] - f0.z + grow * next.z;
+            nz[l] += (k_whole > 0 ? nonzero_sums(next) : 0) - nonzero_sums(f0);
+            const acc_t keep = nz[l] != 0 ? 1.0 : 0.0;
+            s0[l] *= keep;
+            s1[l] *= keep;
+            s2[l] *= keep;
+            u0[l] *= keep;
+            u1[l] *= keep;
+            v0[l] *= keep;
+            x[l] += step_x;
+            y[l] += step_y;
+            nx[l] += step_x;
+            ny[l] += step_y;
+            x[l] = x[l] >= width ? x[l] - width : (x[l] < 0 ? x[l] + width : x[l]);
+            y[l] = y[l] >= height ? y[l] - height : (y[l] < 0 ? y[l] + height : y[l]);
+            nx[l] = nx[l] >= width ? nx[l] - width : (nx[l] < 0 ? nx[l] + width : nx[l]);
+            ny[l] = ny[l] >= height ? ny[l] - height : (ny[l] < 0 ? ny[l] + height : ny[l]);
+        }
+    }
+}
+
 // Turns the accumulated (weighted height sum, weight) into the displacement.
 __kernel void rays_finish(__global const float2* accum, int count, __global float* out)
 {
