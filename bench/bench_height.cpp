@@ -370,26 +370,31 @@ int main(int argc, char** argv)
         }
     }
 
-    // Run time against error, one curve per method, per size.
+    // Run time against error, one curve per method, one panel per size.
     std::ofstream gp(out / "plot.gp");
-    gp << "# gnuplot " << (out / "plot.gp").string() << "  -> plot.png\n"
-       << "set terminal pngcairo size 1400,900\nset output '" << (out / "plot.png").string() << "'\n"
-       << "set datafile separator ','\nset logscale xy\nset format x '10^{%L}'\nset format y '%g'\nset grid\nset key outside right\n"
-       << "set xlabel 'error (RMSE / std against exact truth)'\nset ylabel 'whole-process time, s (median, warm)'\n"
-       << "set title 'relief: run time against error (analytic fields)'\nplot ";
-    bool any = false;
     std::vector<std::string> methods{"poisson periodic", "poisson free", "poisson highpass=64"};
     for (const char* impl : {"rays fast", "rays reference"})
         for (int rays : {8, 16, 32, 64})
             methods.push_back(std::string(impl) + " J=" + std::to_string(rays));
-    for (int n : sizes)
-        for (const auto& m : methods) {
-            gp << (any ? ", \\\n  " : "") << "'" << (out / "results.csv").string()
-               << "' using (strcol(1) eq 'analytic' && $2 == " << n << " && strcol(3) eq '" << m
-               << "' ? $10 : 1/0):6 with linespoints title '" << m << " " << n << "^2'";
-            any = true;
-        }
-    gp << "\n";
+    gp << "# gnuplot " << (out / "plot.gp").string() << "  -> plot.png\n"
+       << "set terminal pngcairo size " << 620 * sizes.size() << ",760 font ',10'\n"
+       << "set output '" << (out / "plot.png").string() << "'\n"
+       << "set datafile separator ','\nset logscale xy\nset format x '10^{%L}'\nset format y '%g'\n"
+       << "set grid\nset key bottom left font ',8'\nset xrange [1e-8:1]\n"
+       << "set xlabel 'error (RMSE / std against exact truth)'\n"
+       << "set ylabel 'whole-process time, s (median, warm)'\n"
+       << "set multiplot layout 1," << sizes.size()
+       << " title 'relief: run time against error, analytic fields (2-core PoCL)'\n";
+    for (int n : sizes) {
+        gp << "set title '" << n << "^2'\nplot ";
+        for (std::size_t m = 0; m < methods.size(); ++m)
+            gp << (m ? ", \\\n  " : "") << "'" << (out / "results.csv").string()
+               << "' using (strcol(1) eq 'analytic' && $2 == " << n << " && strcol(3) eq '"
+               << methods[m] << "' ? $10 : 1/0):6 with linespoints lc " << m + 1 << " pt " << m % 14 + 1
+               << " title '" << methods[m] << "'";
+        gp << "\n";
+    }
+    gp << "unset multiplot\n";
     fs::remove_all(work);
     std::printf("wrote %s, %s, %s\n", (out / "results.csv").c_str(), (out / "results.md").c_str(),
                 (out / "plot.gp").c_str());
