@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "errors.h"
+#include "fft_plan.h"
 #include "field_ops.h"
 #include "opencl_context.h"
 
@@ -192,9 +193,125 @@ cl::Buffer active_tiles(ComputeContext::Impl& c, const DeviceSlopes& slopes, dou
 
 } // namespace
 
+namespace {
+
+// Periodic boundaries: A = Kx (x) gx + Ky (x) gy, one convolution.
+void integrate_rays_by_fft(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& p,
+                           float* height_out, const Progress& progress, RayReport* report)
+{
+    const int w = slopes.width(), h = slopes.height();
+    const std::size_t n = std::size_t(w) * h;
+    if (report)
+        *report = RayReport{};
+    if (n == 1) {
+        height_out[0] = 0.0f;
+        return;
+    }
+    // A one-texel-wide texture is a 1-D transform along y (as in Poisson).
+    const bool transposed = w == 1;
+    const int n0 = transposed ? h : w, n1 = transposed ? 1 : h;
+    const std::size_t stride = FftPlan::row_stride(FftPlan::Kind::RealToComplex, n0);
+    const std::size_t grid = stride * n1;
+
+    // The kernels, mirrored (K'(o) = K(-o)) so that A = K' * g, wrapped.
+    PackedTables t = pack_tables(p);
+    std::vector<double> kx(grid, 0.0), ky(grid, 0.0);
+    double total = 0.0;
+    for (int j = 0; j < p.rays; ++j) {
+        const int first = t.dir_start[j], end = t.dir_start[j + 1];
+        const double dir_total = end > first ? t.data[end - 1].s[3] : 0.0;  // cumulative
+        for (int s = first; s < end; ++s) {
+            const double weight = t.data[s].s[2];
+            const double after = dir_total - t.data[s].s[3];  // later segments' weights
+            const double factor = 0.5 * weight + after;
+            const int ox = ((-t.offsets[s].s[0]) % w + w) % w;
+            const int oy = ((-t.offsets[s].s[1]) % h + h) % h;
+            const std::size_t at = transposed ? std::size_t(oy) : std::size_t(oy) * stride + ox;
+            kx[at] += t.data[s].s[0] * factor;
+            ky[at] += t.data[s].s[1] * factor;
+        }
+        total += dir_total;
+    }
+    if (!(total > 0.0)) {
+        std::fill(height_out, height_out + n, 0.0f);
+        return;
+    }
+    std::vector<float> kxf(kx.begin(), kx.end()), kyf(ky.begin(), ky.end());
+
+    auto& c = ctx.impl();
+    std::lock_guard<std::mutex> lock(c.mutex);
+    try {
+        cl::Program& spectral = c.program("poisson.cl");  // split and gather
+        cl::Program& prog = c.program("rays_fft.cl");
+        const std::size_t bytes = sizeof(float) * grid;
+        cl::Buffer gx(c.context, CL_MEM_READ_WRITE, bytes), gy(c.context, CL_MEM_READ_WRITE, bytes);
+        cl::Buffer bx(c.context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, kxf.data());
+        cl::Buffer by(c.context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, kyf.data());
+        FftPlan plan(c.context, c.device, FftPlan::Kind::RealToComplex, n0, n1, gx);
+        const cl::NDRange local(kGroupSize);
+
+        cl::Kernel split(spectral, "poisson_split");
+        int a = 0;
+        split.setArg(a++, slopes.impl().buffer);
+        split.setArg(a++, cl_int(w));
+        split.setArg(a++, cl_int(n0));
+        split.setArg(a++, cl_int(n1));
+        split.setArg(a++, cl_int(transposed));
+        split.setArg(a++, cl_int(stride));
+        split.setArg(a++, cl_int(0));
+        split.setArg(a++, gx);
+        split.setArg(a++, gy);
+        c.queue.enqueueNDRangeKernel(split, cl::NullRange, cl::NDRange(padded(n)), local);
+        for (cl::Buffer* b : {&gx, &gy, &bx, &by})
+            plan.forward(c.queue, *b);
+        if (progress) {
+            c.queue.finish();
+            progress(0.5);
+        }
+        const std::size_t count = (stride / 2) * n1;
+        cl::Kernel combine(prog, "rays_fft_combine");
+        combine.setArg(0, gx);
+        combine.setArg(1, gy);
+        // Transposed, the split put the y slopes in gx and the x slopes in gy.
+        combine.setArg(2, transposed ? by : bx);
+        combine.setArg(3, transposed ? bx : by);
+        combine.setArg(4, cl_int(count));
+        combine.setArg(5, cl_float(-1.0 / total));
+        c.queue.enqueueNDRangeKernel(combine, cl::NullRange, cl::NDRange(padded(count)), local);
+        plan.inverse(c.queue, gx);
+
+        cl::Buffer out(c.context, CL_MEM_WRITE_ONLY, sizeof(float) * n);
+        cl::Kernel gather(spectral, "poisson_gather");
+        a = 0;
+        gather.setArg(a++, gx);
+        gather.setArg(a++, cl_int(stride));
+        gather.setArg(a++, cl_int(n0));
+        gather.setArg(a++, cl_int(n1));
+        gather.setArg(a++, cl_int(w));
+        gather.setArg(a++, cl_int(transposed));
+        gather.setArg(a++, out);
+        c.queue.enqueueNDRangeKernel(gather, cl::NullRange, cl::NDRange(padded(n)), local);
+        c.queue.enqueueReadBuffer(out, CL_TRUE, 0, sizeof(float) * n, height_out);
+        if (progress)
+            progress(1.0);
+    } catch (const cl::Error& e) {
+        throw Error(std::string("OpenCL error in the FFT ray stage: ") + e.what() + " (" +
+                    std::to_string(e.err()) + ")");
+    }
+    remove_mean(height_out, n);
+}
+
+} // namespace
+
 void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& p,
                          float* height_out, const Progress& progress, RayReport* report)
 {
+    if (p.boundary == RayBoundary::Periodic && p.periodic_by_fft) {
+        if (p.rays < 1 || !(p.radius > 0.0))
+            throw Error("ray integration needs rays >= 1 and radius > 0");
+        integrate_rays_by_fft(ctx, slopes, p, height_out, progress, report);
+        return;
+    }
     if (p.rays < 1 || !(p.radius > 0.0))
         throw Error("ray integration needs rays >= 1 and radius > 0");
     const int w = slopes.width(), h = slopes.height();

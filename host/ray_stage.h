@@ -23,6 +23,9 @@ struct RayParams {
     // Skip tiles whose slopes, and all slopes within the ray radius, are
     // exactly zero (DESIGN.md §6); the result is bit-identical either way.
     bool skip_flat = true;
+    // Fast kernel, periodic boundary: integrate as one FFT convolution (the
+    // cost of two Poisson solves, whatever J and R) rather than along chains.
+    bool periodic_by_fft = true;
 };
 
 // What a ray integration skipped.
@@ -42,9 +45,10 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
                               const RayParams& params, float* height_out,
                               const Progress& progress = {}, RayReport* report = nullptr);
 
-// The fast kernel (DESIGN.md §4.3): rational directions only; same result as
-// integrate_rays_reference with DirectionSet::Rational to rounding, at a cost
-// independent of the radius.
+// The fast kernel (DESIGN.md §4.3): same result as integrate_rays_reference
+// to rounding, at a cost independent of the radius. Periodic boundaries (with
+// periodic_by_fft): one FFT convolution, either direction set. Clip (or
+// periodic_by_fft off): rational directions, chain windows.
 void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& params,
                          float* height_out, const Progress& progress = {},
                          RayReport* report = nullptr);

@@ -25,6 +25,7 @@ struct Run {
     bool periodic = true;
     bool fast = true;
     bool force_float = false;
+    bool by_fft = true;  // periodic: the FFT convolution, else chain windows
 };
 
 std::vector<float> run_rays(const std::vector<float>& g, int w, int h, const Run& r)
@@ -38,6 +39,7 @@ std::vector<float> run_rays(const std::vector<float>& g, int w, int h, const Run
     p.directions = host::DirectionSet::Rational;
     p.boundary = r.periodic ? host::RayBoundary::Periodic : host::RayBoundary::Clip;
     p.force_float = r.force_float;
+    p.periodic_by_fft = r.by_fft;
     std::vector<float> out(std::size_t(w) * h);
     if (r.fast)
         host::integrate_rays_fast(*ctx, slopes, p, out.data());
@@ -173,9 +175,15 @@ TEST_CASE("fast kernel equals the reference kernel for the same directions", "[r
         {64, 48, 32, 40.0, 0.5, false},
     };
     for (const Case& c : cases) {
-        for (bool force_float : {false, true}) {
+        for (int variant : {0, 1, 2}) {
+            // 0: chain windows, fp64 where the device has it; 1: chain windows
+            // in float, re-anchored; 2: periodic only, the FFT convolution.
+            const bool force_float = variant == 1, by_fft = variant == 2;
+            if (by_fft && !c.periodic)
+                continue;
             INFO(c.w << "x" << c.h << " rays=" << c.rays << " radius=" << c.radius
-                      << (c.periodic ? " periodic" : " clip") << (force_float ? " float" : " fp64"));
+                      << (c.periodic ? " periodic" : " clip")
+                      << (by_fft ? " fft" : force_float ? " float" : " fp64"));
             auto g = rough_slopes(c.w, c.h, 5u + c.rays);
             Run r;
             r.rays = c.rays;
@@ -183,6 +191,7 @@ TEST_CASE("fast kernel equals the reference kernel for the same directions", "[r
             r.phase = c.phase;
             r.periodic = c.periodic;
             r.force_float = force_float;
+            r.by_fft = by_fft;
             r.fast = false;
             auto ref = run_rays(g, c.w, c.h, r);
             r.fast = true;
@@ -216,6 +225,7 @@ TEST_CASE("flat tiles are skipped and the result is bit-identical", "[rays][fast
             p.radius = 24;
             p.directions = host::DirectionSet::Rational;
             p.boundary = periodic ? host::RayBoundary::Periodic : host::RayBoundary::Clip;
+            p.periodic_by_fft = false;  // the FFT path's cost has nothing to skip
             std::vector<float> out[2];
             host::RayReport report[2];
             for (int skip : {0, 1}) {

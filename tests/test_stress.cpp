@@ -142,8 +142,10 @@ TEST_CASE("stress: 16K-long chains, fast kernel against the golden model in doub
         for (double v : ref)
             var += (v - mean) * (v - mean);
         const double sd = std::sqrt(var / double(ref.size()));
-        for (bool force_float : {false, true}) {
-            if (!force_float && !ctx->device().has_fp64)
+        for (int variant : {0, 1, 2}) {
+            // 0: chains in fp64, 1: chains in float (re-anchored), 2: FFT.
+            const bool force_float = variant == 1;
+            if ((variant == 0 && !ctx->device().has_fp64) || (variant == 2 && !periodic))
                 continue;
             host::RayParams p;
             p.rays = 4;
@@ -152,6 +154,7 @@ TEST_CASE("stress: 16K-long chains, fast kernel against the golden model in doub
             p.directions = host::DirectionSet::Rational;
             p.boundary = periodic ? host::RayBoundary::Periodic : host::RayBoundary::Clip;
             p.force_float = force_float;
+            p.periodic_by_fft = variant == 2;
             std::vector<float> got(std::size_t(w) * h);
             host::integrate_rays_fast(*ctx, slopes, p, got.data());
             double worst = 0;
@@ -161,7 +164,8 @@ TEST_CASE("stress: 16K-long chains, fast kernel against the golden model in doub
                 worst = std::max(worst, std::abs(got[i] - ref[i]));
             }
             CHECK(bad == 0);
-            INFO((periodic ? "periodic" : "clip") << (force_float ? ", float re-anchored" : ", fp64")
+            INFO((periodic ? "periodic" : "clip")
+                 << (variant == 2 ? ", fft" : force_float ? ", float re-anchored" : ", fp64")
                                                   << ": max diff " << worst << ", std " << sd);
             CHECK(worst <= 1e-4 * sd);
         }
