@@ -1,0 +1,92 @@
+// impl=fast against impl=reference in the same run: agreement and speed.
+//
+//   bench_rays_agreement [size=1024] [rays=32] [radius=256] [boundary=periodic|clip]
+//
+// Builds a float normal map of a smooth periodic field with fine detail in
+// memory, integrates it with both implementations through the public API
+// (rational directions; the kernel cache is warmed first), and prints both
+// times, their ratio, and max |fast - reference| as a fraction of the
+// reference's standard deviation and spread.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "relief/relief.h"
+
+int main(int argc, char** argv)
+{
+    const int n = argc > 1 ? std::atoi(argv[1]) : 1024;
+    const int rays = argc > 2 ? std::atoi(argv[2]) : 32;
+    const float radius = argc > 3 ? float(std::atof(argv[3])) : 256.0f;
+    const std::string boundary = argc > 4 ? argv[4] : "periodic";
+    if (n < 8 || rays < 1 || !(radius > 0) || (boundary != "periodic" && boundary != "clip")) {
+        std::fprintf(stderr, "usage: %s [size] [rays] [radius] [periodic|clip]\n", argv[0]);
+        return 2;
+    }
+    struct Wave {
+        int kx, ky;
+        double a, phase;
+    };
+    const Wave waves[] = {{1, 0, 8, .2}, {2, 3, 3, 1}, {-5, 2, 1.5, 2.5}, {9, 7, .6, .4}, {40, -31, .05, 1}};
+    OIIO::ImageBuf img(OIIO::ImageSpec(n, n, 3, OIIO::TypeDesc::FLOAT));
+    std::vector<float> px(std::size_t(n) * n * 3);
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+            double gx = 0, gy = 0;
+            for (const Wave& w : waves) {
+                const double arg = 2 * M_PI * (w.kx * double(x) + w.ky * double(y)) / n + w.phase;
+                gx -= w.a * std::sin(arg) * 2 * M_PI * w.kx / n;
+                gy -= w.a * std::sin(arg) * 2 * M_PI * w.ky / n;
+            }
+            const double len = std::sqrt(gx * gx + gy * gy + 1);
+            float* p = &px[3 * (std::size_t(y) * n + x)];
+            p[0] = float(-gx / len);
+            p[1] = float(gy / len);  // OpenGL
+            p[2] = float(1 / len);
+        }
+    img.set_pixels(img.roi(), OIIO::TypeDesc::FLOAT, px.data());
+
+    relief::HeightOptions o;
+    o.normals.convention = relief::NormalConvention::OpenGL;
+    o.method = relief::HeightMethod::Rays;
+    o.rays = rays;
+    o.radius = radius;
+    o.boundary = boundary == "clip" ? relief::Boundary::Free : relief::Boundary::Periodic;
+    auto timed = [&](relief::RayImpl impl, std::vector<float>& out) {
+        o.impl = impl;
+        const auto t0 = std::chrono::steady_clock::now();
+        OIIO::ImageBuf h = relief::height(img, o);
+        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        if (h.has_error()) {
+            std::fprintf(stderr, "bench: %s\n", relief::geterror().c_str());
+            std::exit(1);
+        }
+        out.resize(std::size_t(n) * n);
+        h.get_pixels(h.roi(), OIIO::TypeDesc::FLOAT, out.data());
+        return s;
+    };
+    std::vector<float> fast, ref;
+    timed(relief::RayImpl::Fast, fast);  // warm the kernel cache and the device
+    const double tf = timed(relief::RayImpl::Fast, fast);
+    const double tr = timed(relief::RayImpl::Reference, ref);
+    double mean = 0, var = 0, worst = 0, lo = 1e300, hi = -1e300;
+    for (float v : ref)
+        mean += v;
+    mean /= double(ref.size());
+    for (std::size_t i = 0; i < ref.size(); ++i) {
+        var += (ref[i] - mean) * (ref[i] - mean);
+        worst = std::max(worst, double(std::abs(fast[i] - ref[i])));
+        lo = std::min(lo, double(ref[i]));
+        hi = std::max(hi, double(ref[i]));
+    }
+    const double sd = std::sqrt(var / double(ref.size()));
+    std::printf("| size | rays | radius | boundary | fast s | reference s | ratio | max diff / std | max diff / spread |\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|\n");
+    std::printf("| %d | %d | %g | %s | %.2f | %.2f | %.1f | %.2e | %.2e |\n", n, rays, radius,
+                boundary.c_str(), tf, tr, tr / tf, worst / sd, worst / (hi - lo));
+    return 0;
+}
