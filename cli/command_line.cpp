@@ -22,6 +22,9 @@ Arguments are read left to right over a stack of images, like oiiotool:
   --height[:MODS]       pop a normal map, push its displacement (1 channel,
                         texel units: 1.0 = one texel's width; bumps positive,
                         zero mean)
+  --correct[:MODS]      pop a height map, push its distortion-correcting
+                        offset map (2 channels du, dv in texture units:
+                        1 = the width, height; DESIGN.md 4.5)
   -o FILE               write the top of the stack (atomically)
   -d TYPE               pixel type for the following -o: float (default),
                         half, uint16, uint8; integer files store
@@ -54,7 +57,26 @@ Modifiers of --height:
                         or the angles themselves (impl=reference only)
     skip=on|off         skip tiles whose rays meet only zero slopes (default
                         on; the result is identical)
+Modifiers of --correct:
+  scale=S               world height = S x stored height, the texture's width
+                        = 1 world unit (required unless the height map is
+                        relief's own, in texels: then 1/width)
+  theta=5               area exponent, 0..20 (higher: keep areas)
+  nodes=corner|center   mesh nodes at texel corners (default) or centres
+  boundary=auto|periodic|fixed  periodic: the texture tiles; fixed: the
+                        border stays; auto: periodic when the height is
+                        continuous across the wrap seams
+  fix=FILE|height:H0:DH keep texels with weight w within 1/w texels: w from
+                        channel 0 of FILE, or max(0, 1-|h-H0|/DH)
+  iterations=auto|N     per coarse-to-fine level (auto: until tolerance)
+  tolerance=1e-5        relative energy change at which auto stops
+  levels=auto|N         coarse-to-fine levels (1 = single resolution)
+  threshold=1e-3        correct nothing when no triangle's anisotropy or
+                        area change exceeds this (zero offsets)
+  skip=on|off           skip tiles whose nodes cannot move (same result)
 Options:
+  --report FILE.json    write the --correct step's report: energy, iterations,
+                        anisotropy and area ratio before/after, time
   --device DEV          auto (default: a GPU if any, else the CPU), gpu, cpu,
                         or PLATFORM:DEVICE as --list-devices numbers them
   --list-devices        list the OpenCL devices and exit
@@ -62,6 +84,7 @@ Options:
   --help, --version
 Example:
   relief normal.png --height -o height.exr
+  relief height.png --correct:scale=0.05:nodes=center -o offsets.exr
   relief normal.png --height:normal=directx:rays=16:radius=32:boundary=clip -o height.exr
 )";
 }
@@ -76,18 +99,27 @@ struct Modifiers {
 Modifiers split_modifiers(const std::string& arg)
 {
     Modifiers m;
+    std::string last_key;
     std::size_t pos = arg.find(':');
     m.command = arg.substr(0, pos);
     while (pos != std::string::npos) {
         std::size_t next = arg.find(':', pos + 1);
         std::string kv = arg.substr(pos + 1, next == std::string::npos ? next : next - pos - 1);
         std::size_t eq = kv.find('=');
+        // fix=height:H0:DH carries its own colons.
+        if (eq == std::string::npos && !kv.empty() && m.values.count("fix") &&
+            m.values["fix"].rfind("height", 0) == 0 && last_key == "fix") {
+            m.values["fix"] += ":" + kv;
+            pos = next;
+            continue;
+        }
         if (kv.empty() || eq == std::string::npos || eq == 0)
             throw UsageError(arg + ": modifier '" + kv + "' is not key=value");
         std::string key = kv.substr(0, eq);
         if (m.values.count(key))
             throw UsageError(arg + ": modifier '" + key + "' given twice");
         m.values[key] = kv.substr(eq + 1);
+        last_key = key;
         pos = next;
     }
     return m;
@@ -244,6 +276,55 @@ Step parse_height(const std::string& arg)
     return s;
 }
 
+Step parse_correct(const std::string& arg)
+{
+    Step s{Step::Kind::Correct, arg, {}, {}, {}, {}, {}};
+    CorrectOptions& c = s.correct;
+    for (const auto& [key, v] : split_modifiers(arg).values) {
+        if (key == "scale")
+            c.scale = float(parse_in_range(arg, key, v, 0, true, 1e9, false, "a scale > 0"));
+        else if (key == "theta")
+            c.theta = float(parse_in_range(arg, key, v, 0, false, 20, false, "in [0, 20]"));
+        else if (key == "nodes")
+            c.nodes = choice(arg, key, v, {"corner", "center"}) == "corner" ? CorrectNodes::Corner
+                                                                           : CorrectNodes::Center;
+        else if (key == "boundary") {
+            const std::string b = choice(arg, key, v, {"auto", "periodic", "fixed"});
+            c.boundary = b == "periodic" ? CorrectBoundary::Periodic
+                       : b == "fixed"    ? CorrectBoundary::Fixed
+                                         : CorrectBoundary::Auto;
+        } else if (key == "fix") {
+            if (v.rfind("height", 0) == 0) {
+                const std::size_t a1 = v.find(':'), a2 = a1 == std::string::npos ? a1 : v.find(':', a1 + 1);
+                if (v.compare(0, 7, "height:") != 0 || a2 == std::string::npos)
+                    throw UsageError(arg + ": fix=" + v + ": write fix=height:H0:DH (stored height H0, tent half-width DH > 0)");
+                c.fix_height = float(parse_number(arg, "fix height", v.substr(a1 + 1, a2 - a1 - 1)));
+                c.fix_width = float(parse_in_range(arg, "fix width", v.substr(a2 + 1), 0, true, 1e30,
+                                                   false, "DH must be > 0"));
+                continue;
+            }
+            std::error_code ec;
+            if (v.empty() || !fs::exists(v, ec))
+                throw UsageError(arg + ": fix=" + v + ": no such file");
+            s.fix_mask = v;
+        } else if (key == "iterations")
+            c.iterations = v == "auto" ? 0 : parse_int(arg, key, v, 1, 1000000);
+        else if (key == "tolerance")
+            c.tolerance = float(parse_in_range(arg, key, v, 0, true, 1, true, "in (0, 1)"));
+        else if (key == "levels")
+            c.levels = v == "auto" ? 0 : parse_int(arg, key, v, 1, 30);
+        else if (key == "threshold")
+            c.threshold = float(parse_in_range(arg, key, v, 0, false, 1e9, false, ">= 0"));
+        else if (key == "skip")
+            c.skip_tiles = choice(arg, key, v, {"on", "off"}) == "on";
+        else
+            unknown_modifier(arg, key,
+                             "scale, theta, nodes, boundary, fix, iterations, tolerance, levels, "
+                             "threshold, skip");
+    }
+    return s;
+}
+
 OIIO::TypeDesc parse_format(const std::string& t)
 {
     if (t == "float")
@@ -287,6 +368,13 @@ Program parse_command_line(const std::vector<std::string>& args)
             prog.verbose = true;
         } else if (a == "--list-devices") {
             prog.list_devices = true;
+        } else if (a == "--report") {
+            prog.report = value_of(i);
+            const fs::path folder = fs::path(prog.report).parent_path();
+            std::error_code ec;
+            if (prog.report.empty() || fs::is_directory(prog.report, ec) ||
+                !fs::is_directory(folder.empty() ? fs::path(".") : folder, ec))
+                throw UsageError("--report " + prog.report + ": not a writable file path (its folder must exist)");
         } else if (a == "--device") {
             prog.device = value_of(i);
         } else if (a == "-d") {
@@ -307,6 +395,9 @@ Program parse_command_line(const std::vector<std::string>& args)
         } else if (cmd == "--height") {
             need(cmd, 1);
             prog.steps.push_back(parse_height(a));
+        } else if (cmd == "--correct") {
+            need(cmd, 1);
+            prog.steps.push_back(parse_correct(a));
         } else if (!a.empty() && a[0] == '-' && a != "-") {
             throw UsageError("unknown option '" + a + "' (see relief --help)");
         } else {
@@ -317,7 +408,13 @@ Program parse_command_line(const std::vector<std::string>& args)
             ++depth;
         }
     }
+    int corrections = 0;
+    for (const Step& s : prog.steps)
+        corrections += s.kind == Step::Kind::Correct;
+    if (!prog.report.empty() && corrections != 1)
+        throw UsageError("--report needs exactly one --correct, there are " + std::to_string(corrections));
     for (Step& s : prog.steps) {
+        s.correct.exec.device = prog.device;
         s.slopes.exec.device = prog.device;
         s.height.exec.device = prog.device;
     }

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "relief/correct.h"
 #include "relief/errors.h"
 #include "relief/height.h"
 #include "relief/imageio.h"
@@ -20,7 +21,7 @@ struct UsageError : std::runtime_error {
 };
 
 struct Step {
-    enum class Kind { Read, Slopes, Height, Write } kind;
+    enum class Kind { Read, Slopes, Height, Correct, Write } kind;
     std::string text;             // the argument as typed, for messages
     std::string path;             // Read, Write
     OIIO::TypeDesc format;        // Write
@@ -28,11 +29,14 @@ struct Step {
     SlopeOptions slopes;          // Slopes
     HeightOptions height;         // Height
     std::string mask;             // Height: mask=FILE (read when the step runs)
+    CorrectOptions correct;       // Correct
+    std::string fix_mask;         // Correct: fix=FILE (read when the step runs)
 };
 
 struct Program {
     std::vector<Step> steps;
     std::string device = "auto";
+    std::string report;  // --report FILE.json: the --correct step's report
     bool verbose = false;
     bool help = false;
     bool version = false;

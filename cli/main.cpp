@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include "command_line.h"
 #include "relief/relief.h"
 
@@ -21,6 +23,8 @@ using relief::cli::Step;
 struct RuntimeError : std::runtime_error {
     using std::runtime_error::runtime_error;
 };
+
+void write_text_atomically(const std::string& path, const std::string& text);
 
 class Runner {
 public:
@@ -113,6 +117,25 @@ private:
             stack_.push_back(std::move(out));
             break;
         }
+        case Step::Kind::Correct: {
+            relief::CorrectOptions o = s.correct;
+            o.exec = execution(s);
+            OIIO::ImageBuf fix;
+            if (!s.fix_mask.empty()) {
+                if (!relief::read_image(fix, s.fix_mask))
+                    throw RuntimeError("fix: " + relief::geterror());
+                o.fix_mask = &fix;
+            }
+            relief::CorrectReport report;
+            o.report = &report;
+            OIIO::ImageBuf in = pop(), out;
+            if (!relief::correct(out, in, o))
+                throw RuntimeError(relief::geterror());
+            if (!prog_.report.empty())
+                write_text_atomically(prog_.report, report.to_json());
+            stack_.push_back(std::move(out));
+            break;
+        }
         case Step::Kind::Write: {
             relief::WriteOptions w;
             w.format = s.format;
@@ -133,6 +156,19 @@ private:
     const Program& prog_;
     std::vector<OIIO::ImageBuf> stack_;
 };
+
+// Writes `text` to `path` through a temporary file in the same folder.
+void write_text_atomically(const std::string& path, const std::string& text)
+{
+    const std::string tmp = path + ".relief-tmp-" + std::to_string(::getpid());
+    std::FILE* f = std::fopen(tmp.c_str(), "wb");
+    bool ok = f && std::fwrite(text.data(), 1, text.size(), f) == text.size();
+    ok = f && (std::fclose(f) == 0) && ok;
+    if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
+        std::remove(tmp.c_str());
+        throw RuntimeError("cannot write the report '" + path + "'");
+    }
+}
 
 int list_devices()
 {

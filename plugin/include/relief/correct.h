@@ -1,0 +1,90 @@
+#pragma once
+// Distortion correction: displacement (height) map -> texture-coordinate
+// offset map (DESIGN.md §4.5, after Zirr & Ritschel, "Distortion-Free
+// Displacement Mapping", HPG 2019).
+#include <OpenImageIO/imagebuf.h>
+
+#include <string>
+#include <vector>
+
+#include "options.h"
+
+namespace relief {
+
+// Corner: nodes at texel corners with bilinear heights; the offset of a
+// texel is the mean of its four corners' (the reference tool's default).
+// Center: one node per texel centre, with the texel's height.
+enum class CorrectNodes { Corner, Center };
+// Periodic: the texture tiles (the mesh wraps). Fixed: the border nodes stay
+// put. Auto: periodic when the height jumps across the wrap seams no more
+// than twice the mean jump between neighbouring texels; the choice is reported.
+enum class CorrectBoundary { Auto, Periodic, Fixed };
+
+// mean, 95th percentile and maximum over the triangles of the mesh
+struct DistortionSummary {
+    double mean = 0.0, p95 = 0.0, max = 0.0;
+};
+
+struct CorrectLevelReport {
+    int width = 0, height = 0;  // texels
+    int iterations = 0;
+    double energy_start = 0.0, energy_end = 0.0;
+    bool converged = false;
+    double tiles_run = 1.0;     // fraction of tile updates not skipped
+    double seconds = 0.0;
+};
+
+struct CorrectReport {
+    bool skipped = false;        // nothing could distort: zero offsets, no solve
+    std::string boundary;        // "periodic" or "fixed", as chosen
+    std::string nodes;           // "corner" or "center"
+    double scale = 0.0;          // the displacement scale used
+    double energy_before = 0.0;  // at zero offsets
+    double energy_after = 0.0;
+    int iterations = 0;          // over all levels
+    std::vector<CorrectLevelReport> levels;  // coarsest first
+    DistortionSummary anisotropy_before, anisotropy_after;  // s1/s2
+    DistortionSummary area_before, area_after;              // s1 s2 (3D area / texture area)
+    double seconds = 0.0;
+    int width = 0, height = 0;
+
+    std::string to_json() const;  // the --report file
+};
+
+struct CorrectOptions {
+    // World height = scale * stored height, the texture's width spanning one
+    // world unit (square texels). 0 = auto: 1/width for relief's own height
+    // maps (stored in texels), otherwise an error asking for a scale.
+    float scale = 0.0f;
+    float theta = 5.0f;  // area exponent, 0..20
+    CorrectNodes nodes = CorrectNodes::Corner;
+    CorrectBoundary boundary = CorrectBoundary::Auto;
+    // Fixation (optional): texels with weight w stay within 1/w texels of
+    // where they started. Either channel 0 of `fix_mask` (same size, values
+    // >= 0; not owned) or a tent over the stored height: w = max(0, 1 -
+    // |h - fix_height| / fix_width) when fix_width > 0.
+    const OIIO::ImageBuf* fix_mask = nullptr;
+    float fix_height = 0.0f, fix_width = 0.0f;
+    int iterations = 0;        // per pyramid level; 0 = auto (until the tolerance)
+    float tolerance = 1e-5f;   // auto stops when the relative energy change is below this
+    int max_iterations = 1000; // per level, for auto
+    int levels = 0;            // coarse-to-fine levels; 0 = auto (down to 16 texels), 1 = off
+    // Nothing is corrected when no triangle's anisotropy s1/s2 - 1 or area
+    // change |s1 s2 - 1| exceeds this (zero offsets, no solve).
+    float threshold = 1e-3f;
+    bool skip_tiles = true;    // skip tiles whose nodes cannot move (identical result)
+    CorrectReport* report = nullptr;  // filled when given
+    Execution exec;
+};
+
+// Computes the offset map of a height map (channel 0): 2 float channels
+// "du", "dv" in texture units (1 = the texture's width, height): the
+// surface point at texture coordinate u shows the texture at u + c(u).
+// Metadata: relief:method "correct", relief:boundary, relief:nodes,
+// relief:scale, relief:parameters. roi/nthreads/errors as in relief::slopes().
+OIIO::ImageBuf correct(const OIIO::ImageBuf& height, const CorrectOptions& options = {},
+                       OIIO::ROI roi = {}, int nthreads = 0);
+bool correct(OIIO::ImageBuf& dst, const OIIO::ImageBuf& height,
+             const CorrectOptions& options = {}, OIIO::ROI roi = {}, int nthreads = 0);
+
+} // namespace relief

@@ -1,0 +1,269 @@
+// relief::correct — the distortion-correction family (height -> offsets).
+#include "relief/correct.h"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+#include "compute_context.h"
+#include "correct_stage.h"
+#include "normal_stage.h"
+
+namespace relief {
+
+using OIIO::ImageBuf;
+using OIIO::ROI;
+using OIIO::TypeDesc;
+
+namespace {
+
+DistortionSummary summary(const host::DistortionStats& s) { return {s.mean, s.p95, s.max}; }
+
+void validate(const CorrectOptions& o)
+{
+    if (!(o.scale >= 0.0f) || !std::isfinite(o.scale))
+        throw std::invalid_argument("scale must be > 0 (world height per stored unit; the width = 1)");
+    if (!(o.theta >= 0.0f && o.theta <= 20.0f))
+        throw std::invalid_argument("theta must be in [0, 20]");
+    if (!(o.tolerance > 0.0f && o.tolerance < 1.0f))
+        throw std::invalid_argument("tolerance must be in (0, 1)");
+    if (o.iterations < 0 || o.max_iterations < 1 || o.levels < 0)
+        throw std::invalid_argument("iterations and levels must be >= 0");
+    if (!(o.threshold >= 0.0f))
+        throw std::invalid_argument("threshold must be >= 0");
+    if (!(o.fix_width >= 0.0f) || !std::isfinite(o.fix_height))
+        throw std::invalid_argument("fix=height needs a finite height and a width > 0");
+    if (o.fix_mask && o.fix_width > 0.0f)
+        throw std::invalid_argument("give a fixation mask or a height tent, not both");
+}
+
+// Periodic when, along both axes, the height jump across the wrap seam is
+// at most twice the mean jump between neighbours.
+bool seams_continuous(const std::vector<float>& h, int w, int ht, double& ratio_x, double& ratio_y)
+{
+    auto at = [&](int x, int y) { return double(h[std::size_t(y) * w + x]); };
+    double seam_x = 0, in_x = 0, seam_y = 0, in_y = 0;
+    for (int y = 0; y < ht; ++y) {
+        seam_x += std::abs(at(0, y) - at(w - 1, y));
+        for (int x = 0; x + 1 < w; ++x)
+            in_x += std::abs(at(x + 1, y) - at(x, y));
+    }
+    for (int x = 0; x < w; ++x) {
+        seam_y += std::abs(at(x, 0) - at(x, ht - 1));
+        for (int y = 0; y + 1 < ht; ++y)
+            in_y += std::abs(at(x, y + 1) - at(x, y));
+    }
+    seam_x /= ht;
+    seam_y /= w;
+    in_x /= std::max(1, (w - 1) * ht);
+    in_y /= std::max(1, (ht - 1) * w);
+    ratio_x = in_x > 0 ? seam_x / in_x : (seam_x > 0 ? INFINITY : 1.0);
+    ratio_y = in_y > 0 ? seam_y / in_y : (seam_y > 0 ? INFINITY : 1.0);
+    return ratio_x <= 2.0 && ratio_y <= 2.0;
+}
+
+std::vector<float> channel0(const ImageBuf& img, ROI roi, const char* what)
+{
+    std::vector<float> v(std::size_t(roi.width()) * roi.height());
+    ROI r = roi;
+    r.chbegin = 0;
+    r.chend = 1;
+    if (!img.get_pixels(r, TypeDesc::FLOAT, v.data()))
+        throw std::runtime_error(std::string("cannot read the ") + what + "'s pixels: " + img.geterror());
+    return v;
+}
+
+} // namespace
+
+std::string CorrectReport::to_json() const
+{
+    std::ostringstream s;
+    s.precision(9);
+    auto stats = [&](const char* name, const DistortionSummary& d) {
+        s << "\"" << name << "\": {\"mean\": " << d.mean << ", \"p95\": " << d.p95
+          << ", \"max\": " << d.max << "}";
+    };
+    s << "{\n  \"width\": " << width << ", \"height\": " << height << ",\n";
+    s << "  \"skipped\": " << (skipped ? "true" : "false") << ",\n";
+    s << "  \"boundary\": \"" << boundary << "\", \"nodes\": \"" << nodes << "\", \"scale\": " << scale << ",\n";
+    s << "  \"energy_before\": " << energy_before << ", \"energy_after\": " << energy_after << ",\n";
+    s << "  \"iterations\": " << iterations << ",\n  \"levels\": [";
+    for (std::size_t i = 0; i < levels.size(); ++i) {
+        const auto& l = levels[i];
+        s << (i ? ",\n    " : "\n    ") << "{\"width\": " << l.width << ", \"height\": " << l.height
+          << ", \"iterations\": " << l.iterations << ", \"energy_start\": " << l.energy_start
+          << ", \"energy_end\": " << l.energy_end << ", \"converged\": " << (l.converged ? "true" : "false")
+          << ", \"tiles_run\": " << l.tiles_run << ", \"seconds\": " << l.seconds << "}";
+    }
+    s << (levels.empty() ? "],\n" : "\n  ],\n");
+    s << "  \"anisotropy\": {";
+    stats("before", anisotropy_before);
+    s << ", ";
+    stats("after", anisotropy_after);
+    s << "},\n  \"area_ratio\": {";
+    stats("before", area_before);
+    s << ", ";
+    stats("after", area_after);
+    s << "},\n  \"seconds\": " << seconds << "\n}\n";
+    return s.str();
+}
+
+bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& options, ROI roi,
+             int /*nthreads*/)
+{
+    try {
+        const auto t0 = std::chrono::steady_clock::now();
+        validate(options);
+        roi = detail::resolve_roi(height, roi);
+        const int w = roi.width(), h = roi.height();
+        if (height.nchannels() > 1)
+            detail::say(options.exec, Severity::Info,
+                        "correct: the height map has " + std::to_string(height.nchannels()) +
+                            " channels; using channel 0");
+        const std::vector<float> heights = channel0(height, roi, "height map");
+        for (std::size_t i = 0; i < heights.size(); ++i)
+            if (!std::isfinite(heights[i]))
+                throw std::runtime_error("the height map has a NaN or infinite value at texel (" +
+                                         std::to_string(i % w) + ", " + std::to_string(i / w) + ")");
+
+        host::CorrectParams p;
+        p.scale = options.scale;
+        if (p.scale == 0.0) {
+            if (height.spec().get_string_attribute("relief:height_unit") != "texel")
+                throw std::runtime_error(
+                    "give the displacement scale (scale=S: world height = S x stored value, the "
+                    "texture's width = 1); only relief's own height maps (in texels) imply it");
+            p.scale = 1.0 / w;
+        }
+        p.theta = options.theta;
+        p.corner_nodes = options.nodes == CorrectNodes::Corner;
+        double rx = 0, ry = 0;
+        if (options.boundary == CorrectBoundary::Auto) {
+            p.periodic = w > 1 && h > 1 && seams_continuous(heights, w, h, rx, ry);
+            detail::say(options.exec, Severity::Notice,
+                        std::string("correct: boundary ") + (p.periodic ? "periodic" : "fixed") +
+                            " (height jump across the wrap seam / mean jump between neighbours: x " +
+                            detail::format_double("%.2f", rx) + ", y " +
+                            detail::format_double("%.2f", ry) + "; periodic when both <= 2)");
+        } else {
+            p.periodic = options.boundary == CorrectBoundary::Periodic;
+        }
+        std::vector<float> fix;
+        if (options.fix_mask) {
+            const ImageBuf& m = *options.fix_mask;
+            if (m.spec().width != w || m.spec().height != h)
+                throw std::runtime_error("the fixation mask is " + std::to_string(m.spec().width) + "x" +
+                                         std::to_string(m.spec().height) + ", the height map " +
+                                         std::to_string(w) + "x" + std::to_string(h));
+            fix = channel0(m, m.roi(), "fixation mask");
+            for (float v : fix)
+                if (!(v >= 0.0f) || !std::isfinite(v))
+                    throw std::runtime_error("fixation weights must be finite and >= 0");
+        } else if (options.fix_width > 0.0f) {
+            fix.resize(heights.size());
+            for (std::size_t i = 0; i < fix.size(); ++i)
+                fix[i] = std::max(0.0f, 1.0f - std::abs(heights[i] - options.fix_height) / options.fix_width);
+        }
+        p.fix_weights = fix.empty() ? nullptr : fix.data();
+        p.iterations = options.iterations;
+        p.tolerance = options.tolerance;
+        p.max_iterations = options.max_iterations;
+        p.levels = options.levels;
+        p.threshold = options.threshold;
+        p.skip_tiles = options.skip_tiles;
+
+        auto ctx = host::ComputeContext::acquire(options.exec.device);
+        detail::say(options.exec, Severity::Info, "device: " + ctx->device().describe());
+        std::vector<float> offsets(2 * std::size_t(w) * h);
+        host::CorrectReport hr;
+        host::correct_distortion(*ctx, heights.data(), w, h, p, offsets.data(), &hr,
+                                 options.exec.on_progress);
+
+        CorrectReport rep;
+        rep.width = w;
+        rep.height = h;
+        rep.skipped = hr.skipped;
+        rep.boundary = p.periodic ? "periodic" : "fixed";
+        rep.nodes = p.corner_nodes ? "corner" : "center";
+        rep.scale = p.scale;
+        rep.energy_before = hr.energy_before;
+        rep.energy_after = hr.energy_after;
+        rep.iterations = hr.total_iterations();
+        for (const auto& l : hr.levels)
+            rep.levels.push_back({l.width, l.height, l.iterations, l.energy_start, l.energy_end,
+                                  l.converged,
+                                  l.tile_phases ? double(l.tile_phases_run) / l.tile_phases : 1.0,
+                                  l.seconds});
+        rep.anisotropy_before = summary(hr.anisotropy_before);
+        rep.anisotropy_after = summary(hr.anisotropy_after);
+        rep.area_before = summary(hr.area_before);
+        rep.area_after = summary(hr.area_after);
+        rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+        const auto& ex = options.exec;
+        auto f = [](double v) { return detail::format_double("%.4g", v); };
+        if (rep.skipped) {
+            detail::say(ex, Severity::Notice,
+                        "correct: nothing to correct (max anisotropy " + f(rep.anisotropy_before.max) +
+                            ", max area ratio " + f(rep.area_before.max) + ", within " +
+                            f(options.threshold) + " of 1): zero offsets");
+        } else {
+            for (const auto& l : rep.levels)
+                detail::say(ex, Severity::Info,
+                            "correct: level " + std::to_string(l.width) + "x" + std::to_string(l.height) +
+                                ": " + std::to_string(l.iterations) + " iteration(s), energy " +
+                                f(l.energy_start) + " -> " + f(l.energy_end) +
+                                (l.converged ? "" : " (iteration limit)") + ", tiles run " +
+                                detail::format_double("%.0f%%", 100.0 * l.tiles_run) + ", " +
+                                detail::format_double("%.2f s", l.seconds));
+            if (!rep.levels.empty() && !rep.levels.back().converged && options.iterations == 0)
+                detail::say(ex, Severity::Warning,
+                            "correct: stopped at " + std::to_string(options.max_iterations) +
+                                " iterations before the relative energy change fell below " +
+                                f(options.tolerance));
+            detail::say(ex, Severity::Info,
+                        "correct: energy " + f(rep.energy_before) + " -> " + f(rep.energy_after) +
+                            "; anisotropy s1/s2 mean/p95/max " + f(rep.anisotropy_before.mean) + "/" +
+                            f(rep.anisotropy_before.p95) + "/" + f(rep.anisotropy_before.max) + " -> " +
+                            f(rep.anisotropy_after.mean) + "/" + f(rep.anisotropy_after.p95) + "/" +
+                            f(rep.anisotropy_after.max) + "; area ratio " + f(rep.area_before.mean) +
+                            "/" + f(rep.area_before.p95) + "/" + f(rep.area_before.max) + " -> " +
+                            f(rep.area_after.mean) + "/" + f(rep.area_after.p95) + "/" +
+                            f(rep.area_after.max));
+        }
+        if (options.report)
+            *options.report = rep;
+
+        OIIO::ImageSpec spec(w, h, 2, TypeDesc::FLOAT);
+        spec.x = roi.xbegin;
+        spec.y = roi.ybegin;
+        spec.channelnames = {"du", "dv"};
+        spec.attribute("relief:method", "correct");
+        spec.attribute("relief:offset_unit", "texture (1 = the width, the height)");
+        spec.attribute("relief:boundary", rep.boundary);
+        spec.attribute("relief:nodes", rep.nodes);
+        spec.attribute("relief:scale", float(p.scale));
+        std::ostringstream par;
+        par << "scale=" << p.scale << " theta=" << p.theta << " nodes=" << rep.nodes
+            << " boundary=" << rep.boundary << " tolerance=" << p.tolerance
+            << " iterations=" << (p.iterations ? std::to_string(p.iterations) : "auto")
+            << " levels=" << (p.levels ? std::to_string(p.levels) : "auto");
+        spec.attribute("relief:parameters", par.str());
+        dst.reset(spec);
+        dst.set_pixels(dst.roi(), TypeDesc::FLOAT, offsets.data());
+        return true;
+    } catch (const std::exception& e) {
+        return detail::fail(dst, "correct", e);
+    }
+}
+
+ImageBuf correct(const ImageBuf& height, const CorrectOptions& options, ROI roi, int nthreads)
+{
+    ImageBuf dst;
+    correct(dst, height, options, roi, nthreads);
+    return dst;
+}
+
+} // namespace relief

@@ -1,0 +1,227 @@
+#include "reference/correct_reference.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace relief::reference {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+int wrap(int v, int n)
+{
+    v %= n;
+    return v < 0 ? v + n : v;
+}
+
+Vec3 cross(const Vec3& a, const Vec3& b)
+{
+    return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+double dot3(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+// The six neighbours and the fan triangles [p, N_a, N_b] (orientation of
+// the owned triangles).
+const int kNeighbour[6][2] = {{0, -1}, {1, -1}, {1, 0}, {0, 1}, {-1, 1}, {-1, 0}};
+const int kFan[6][2] = {{2, 1}, {1, 0}, {0, 5}, {5, 4}, {4, 3}, {3, 2}};
+
+double fix_energy(double cx, double cy, double w)
+{
+    const double u = 1.0 - w * w * (cx * cx + cy * cy);
+    return u > 0.0 ? 0.5 / u : kInf;
+}
+
+struct Edges {
+    Vec2 e;
+    Vec3 f;
+};
+
+// Edge from node (i, j) to its neighbour k, with p's offset moved to cp.
+Edges edge(const CorrectionGrid& g, const std::vector<double>& c, int i, int j, int k, double cpx,
+           double cpy)
+{
+    const int dx = kNeighbour[k][0], dy = kNeighbour[k][1];
+    const int q = wrap(j + dy, g.ny) * g.nx + wrap(i + dx, g.nx);
+    const int p = j * g.nx + i;
+    return {{dx + c[2 * q] - cpx, dy + c[2 * q + 1] - cpy}, {double(dx), double(dy), g.z[q] - g.z[p]}};
+}
+
+double fan_energy_at(const CorrectionGrid& g, const std::vector<double>& c, int i, int j,
+                     double cpx, double cpy)
+{
+    double e = 0.0;
+    for (const auto& t : kFan) {
+        const Edges a = edge(g, c, i, j, t[0], cpx, cpy), b = edge(g, c, i, j, t[1], cpx, cpy);
+        e += triangle_energy(a.e, b.e, a.f, b.f, g.theta);
+    }
+    if (!g.fix.empty())
+        e += fix_energy(cpx, cpy, g.fix[j * g.nx + i]);
+    return e;
+}
+
+bool movable(const CorrectionGrid& g, int i, int j)
+{
+    return g.periodic || (i > 0 && j > 0 && i < g.nx - 1 && j < g.ny - 1);
+}
+
+void update_node(const CorrectionGrid& g, std::vector<double>& c, int i, int j)
+{
+    const int p = j * g.nx + i;
+    const Vec2 grad = fan_gradient(g, c, i, j);
+    const double gn = std::hypot(grad[0], grad[1]);
+    if (!(gn > 0.0) || !std::isfinite(gn))
+        return;
+    const double dx = -grad[0] / gn, dy = -grad[1] / gn;
+    const double cx = c[2 * p], cy = c[2 * p + 1];
+    // Bracket: the first flip of a fan triangle (texture area is linear in
+    // the step), the fixation barrier, or 2 texels.
+    double tmax = 2.0;
+    for (const auto& t : kFan) {
+        const Edges a = edge(g, c, i, j, t[0], cx, cy), b = edge(g, c, i, j, t[1], cx, cy);
+        auto area = [&](double s) {
+            const Vec2 e1{a.e[0] - s * dx, a.e[1] - s * dy}, e2{b.e[0] - s * dx, b.e[1] - s * dy};
+            return 0.5 * (e1[1] * e2[0] - e1[0] * e2[1]);
+        };
+        const double a0 = area(0.0), a1 = area(1.0) - a0;
+        if (a1 < 0.0)
+            tmax = std::min(tmax, -a0 / a1);
+    }
+    if (!g.fix.empty() && g.fix[p] > 0.0) {
+        const double w = g.fix[p], cd = cx * dx + cy * dy;
+        tmax = std::min(tmax, -cd + std::sqrt(std::max(0.0, cd * cd - (cx * cx + cy * cy) + 1.0 / (w * w))));
+    }
+    if (!(tmax > 0.0))
+        return;
+    auto energy = [&](double s) { return fan_energy_at(g, c, i, j, cx + s * dx, cy + s * dy); };
+    double lo = 0.0, hi = tmax;
+    for (int step = 0; step < 31 && hi - lo > 1e-6 * tmax; ++step) {
+        const double m1 = lo + (hi - lo) / 3.0, m2 = hi - (hi - lo) / 3.0;
+        if (energy(m1) < energy(m2))
+            hi = m2;
+        else
+            lo = m1;
+    }
+    const double s = 0.5 * (lo + hi);
+    if (energy(s) < energy(0.0)) {
+        c[2 * p] = cx + s * dx;
+        c[2 * p + 1] = cy + s * dy;
+    }
+}
+
+} // namespace
+
+double triangle_energy(const Vec2& e1, const Vec2& e2, const Vec3& f1, const Vec3& f2, double theta)
+{
+    const double auv = 0.5 * (e1[1] * e2[0] - e1[0] * e2[1]);
+    if (!(auv > 0.0))
+        return kInf;
+    const Vec3 n = cross(f1, f2);
+    const double a3 = 0.5 * std::sqrt(dot3(n, n));
+    // |J|_F^2 = tr(M (E^T E)^-1), M the Gram matrix of f1, f2.
+    const double a = e1[0] * e1[0] + e1[1] * e1[1], b = e1[0] * e2[0] + e1[1] * e2[1],
+                 cc = e2[0] * e2[0] + e2[1] * e2[1];
+    const double frob = (dot3(f1, f1) * cc - 2.0 * dot3(f1, f2) * b + dot3(f2, f2) * a) /
+                        (4.0 * auv * auv);
+    const double ratio = a3 / auv;  // s1 s2
+    return frob * auv / a3 * std::pow(ratio + 1.0 / ratio, theta);
+}
+
+std::array<double, 2> triangle_singular_values(const Vec2& e1, const Vec2& e2, const Vec3& f1,
+                                               const Vec3& f2)
+{
+    // E^-1 of the 2x2 [e1 e2]; J = [f1 f2] E^-1 (3x2).
+    const double det = e1[0] * e2[1] - e2[0] * e1[1];
+    const double inv[2][2] = {{e2[1] / det, -e2[0] / det}, {-e1[1] / det, e1[0] / det}};
+    double J[3][2];
+    for (int r = 0; r < 3; ++r)
+        for (int k = 0; k < 2; ++k)
+            J[r][k] = f1[r] * inv[0][k] + f2[r] * inv[1][k];
+    double m[2][2] = {{0, 0}, {0, 0}};
+    for (int a = 0; a < 2; ++a)
+        for (int b = 0; b < 2; ++b)
+            for (int r = 0; r < 3; ++r)
+                m[a][b] += J[r][a] * J[r][b];
+    const double tr = m[0][0] + m[1][1], dt = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+    const double disc = std::sqrt(std::max(0.0, tr * tr / 4.0 - dt));
+    return {std::sqrt(tr / 2.0 + disc), std::sqrt(std::max(0.0, tr / 2.0 - disc))};
+}
+
+double total_energy(const CorrectionGrid& g, const std::vector<double>& c)
+{
+    double e = 0.0;
+    for (int j = 0; j < g.ny; ++j)
+        for (int i = 0; i < g.nx; ++i) {
+            if (g.periodic || (i + 1 < g.nx && j >= 1)) {
+                // Owned triangles = fan triangles 0 and 1 of p.
+                for (int t = 0; t < 2; ++t) {
+                    const Edges a = edge(g, c, i, j, kFan[t][0], c[2 * (j * g.nx + i)], c[2 * (j * g.nx + i) + 1]);
+                    const Edges b = edge(g, c, i, j, kFan[t][1], c[2 * (j * g.nx + i)], c[2 * (j * g.nx + i) + 1]);
+                    e += triangle_energy(a.e, b.e, a.f, b.f, g.theta);
+                }
+            }
+            if (!g.fix.empty())
+                e += fix_energy(c[2 * (j * g.nx + i)], c[2 * (j * g.nx + i) + 1], g.fix[j * g.nx + i]);
+        }
+    return e;
+}
+
+double fan_energy(const CorrectionGrid& g, const std::vector<double>& c, int i, int j)
+{
+    const int p = j * g.nx + i;
+    return fan_energy_at(g, c, i, j, c[2 * p], c[2 * p + 1]);
+}
+
+Vec2 fan_gradient(const CorrectionGrid& g, const std::vector<double>& c, int i, int j)
+{
+    // dE/dp = -(dE/de1 + dE/de2) per fan triangle, with
+    // E = Q/(4 A3 Auv) k^theta, k = A3/Auv + Auv/A3.
+    const int p = j * g.nx + i;
+    const double cx = c[2 * p], cy = c[2 * p + 1];
+    Vec2 grad{0.0, 0.0};
+    for (const auto& t : kFan) {
+        const Edges ea = edge(g, c, i, j, t[0], cx, cy), eb = edge(g, c, i, j, t[1], cx, cy);
+        const Vec2 &e1 = ea.e, &e2 = eb.e;
+        const Vec3 n = cross(ea.f, eb.f);
+        const double a3 = 0.5 * std::sqrt(dot3(n, n));
+        const double m11 = dot3(ea.f, ea.f), m12 = dot3(ea.f, eb.f), m22 = dot3(eb.f, eb.f);
+        const double auv = 0.5 * (e1[1] * e2[0] - e1[0] * e2[1]);
+        const double q = m11 * (e2[0] * e2[0] + e2[1] * e2[1]) - 2.0 * m12 * (e1[0] * e2[0] + e1[1] * e2[1]) +
+                         m22 * (e1[0] * e1[0] + e1[1] * e1[1]);
+        const double k = a3 / auv + auv / a3;
+        const double G = std::pow(k, g.theta), F = q / (4.0 * a3 * auv);
+        const double dEdQ = G / (4.0 * a3 * auv);
+        const double dEdA = -F * G / auv + F * g.theta * std::pow(k, g.theta - 1.0) * (1.0 / a3 - a3 / (auv * auv));
+        for (int d = 0; d < 2; ++d) {
+            const double dQ = 2.0 * (m22 - m12) * e1[d] + 2.0 * (m11 - m12) * e2[d];
+            const double dA = d == 0 ? 0.5 * (e1[1] - e2[1]) : 0.5 * (e2[0] - e1[0]);
+            grad[d] -= dEdQ * dQ + dEdA * dA;
+        }
+    }
+    if (!g.fix.empty()) {
+        const double w = g.fix[p], u = 1.0 - w * w * (cx * cx + cy * cy);
+        grad[0] += w * w * cx / (u * u);
+        grad[1] += w * w * cy / (u * u);
+    }
+    return grad;
+}
+
+void iterate(const CorrectionGrid& g, std::vector<double>& c)
+{
+    // Per axis: even, odd, and the last node of an odd periodic axis.
+    auto classes = [&](int n) { return g.periodic && n % 2 == 1 && n > 1 ? 3 : 2; };
+    auto in_class = [&](int v, int n, int cls) {
+        const bool last_odd = g.periodic && n % 2 == 1 && v == n - 1;
+        return cls == 2 ? last_odd : (!last_odd && v % 2 == cls);
+    };
+    for (int cy = 0; cy < classes(g.ny); ++cy)
+        for (int cx = 0; cx < classes(g.nx); ++cx)
+            for (int j = 0; j < g.ny; ++j)
+                for (int i = 0; i < g.nx; ++i)
+                    if (in_class(i, g.nx, cx) && in_class(j, g.ny, cy) && movable(g, i, j))
+                        update_node(g, c, i, j);
+}
+
+} // namespace relief::reference

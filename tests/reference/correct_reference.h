@@ -1,0 +1,49 @@
+#pragma once
+// Golden model of distortion correction (DESIGN.md §4.5), in double, written
+// for clarity: the per-triangle energy, the total energy, the analytic fan
+// gradient and one full iteration of the four-phase ternary-search scheme.
+// Offsets and heights are in texels; nodes are given directly (the caller
+// builds centre or corner nodes).
+#include <array>
+#include <vector>
+
+namespace relief::reference {
+
+struct CorrectionGrid {
+    int nx = 0, ny = 0;
+    bool periodic = true;     // else the border nodes are fixed
+    double theta = 5.0;
+    std::vector<double> z;    // height per node, texels
+    std::vector<double> fix;  // fixation weight per node, or empty
+};
+
+using Vec2 = std::array<double, 2>;
+using Vec3 = std::array<double, 3>;
+
+// E = (s1/s2 + s2/s1) (s1 s2 + 1/(s1 s2))^theta of the map from the texture
+// triangle (0, e1, e2) to the surface triangle (0, f1, f2); infinite when
+// the texture triangle is flipped (y points down: positive orientation is
+// e1.y e2.x - e1.x e2.y > 0).
+double triangle_energy(const Vec2& e1, const Vec2& e2, const Vec3& f1, const Vec3& f2, double theta);
+
+// Singular values s1 >= s2 of that map, by the eigenvalues of J^T J with
+// J = F E^-1 (independent of the closed form above).
+std::array<double, 2> triangle_singular_values(const Vec2& e1, const Vec2& e2, const Vec3& f1,
+                                               const Vec3& f2);
+
+// Total energy of offsets c (2 per node, texels): every node's two owned
+// triangles [p, p+(1,0), p+(1,-1)], [p, p+(1,-1), p+(0,-1)] plus fixation.
+double total_energy(const CorrectionGrid& g, const std::vector<double>& c);
+
+// Energy of node p's six-triangle fan plus its fixation, and its gradient
+// with respect to c[p] (analytic).
+double fan_energy(const CorrectionGrid& g, const std::vector<double>& c, int i, int j);
+Vec2 fan_gradient(const CorrectionGrid& g, const std::vector<double>& c, int i, int j);
+
+// One iteration: the phases (x mod 2, y mod 2) = (0,0), (1,0), (0,1), (1,1)
+// (plus the last node of an odd periodic axis on its own), each node
+// stepping along its negative gradient by a ternary search over the flip
+// (and fixation) bracket.
+void iterate(const CorrectionGrid& g, std::vector<double>& c);
+
+} // namespace relief::reference
