@@ -1,0 +1,392 @@
+// Distortion correction: the energy against an SVD, the gradient against
+// finite differences, the device against the double golden model, and the
+// properties of DESIGN.md §4.5 (energy never rises, flat = zero, symmetry,
+// seams, determinism).
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+
+#include "compute_context.h"
+#include "correct_grid.h"
+#include "correct_stage.h"
+#include "reference/correct_reference.h"
+#include "relief/correct.h"
+#include "relief/errors.h"
+
+using namespace relief;
+namespace ref = relief::reference;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A smooth periodic height field (stored units), w x h.
+std::vector<float> waves(int w, int h, double amp = 1.0, unsigned seed = 1)
+{
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> ph(0.0, 2 * kPi);
+    const double p1 = ph(rng), p2 = ph(rng), p3 = ph(rng);
+    std::vector<float> v(std::size_t(w) * h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            v[std::size_t(y) * w + x] =
+                float(amp * (0.5 * std::sin(2 * kPi * x / w + p1) * std::cos(2 * kPi * 2 * y / h + p2) +
+                             0.25 * std::sin(2 * kPi * (3.0 * x / w + 1.0 * y / h) + p3)));
+    return v;
+}
+
+// The golden model's grid for centre nodes (heights in texels).
+ref::CorrectionGrid centre_grid(const std::vector<float>& h, int w, int ht, double scale,
+                                bool periodic, double theta = 5.0)
+{
+    ref::CorrectionGrid g;
+    g.nx = w;
+    g.ny = ht;
+    g.periodic = periodic;
+    g.theta = theta;
+    for (float v : h)
+        g.z.push_back(double(v) * scale * w);
+    return g;
+}
+
+host::CorrectParams params(double scale, bool periodic, bool corner = false)
+{
+    host::CorrectParams p;
+    p.scale = scale;
+    p.periodic = periodic;
+    p.corner_nodes = corner;
+    return p;
+}
+
+std::vector<float> run(const std::vector<float>& h, int w, int ht, const host::CorrectParams& p,
+                       host::CorrectReport* rep = nullptr)
+{
+    auto ctx = host::ComputeContext::acquire("auto");
+    std::vector<float> out(2 * std::size_t(w) * ht);
+    host::correct_distortion(*ctx, h.data(), w, ht, p, out.data(), rep);
+    return out;
+}
+
+} // namespace
+
+TEST_CASE("correct: closed-form triangle energy equals the SVD's", "[correct]")
+{
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    int checked = 0;
+    for (int n = 0; n < 200; ++n) {
+        const ref::Vec2 e1{1.0 + 0.4 * u(rng), 0.3 * u(rng)}, e2{0.3 * u(rng), -1.0 + 0.4 * u(rng)};
+        const ref::Vec3 f1{1.0 + 0.2 * u(rng), 0.2 * u(rng), 3.0 * u(rng)},
+            f2{0.2 * u(rng), -1.0 + 0.2 * u(rng), 3.0 * u(rng)};
+        for (double theta : {0.0, 1.0, 5.0, 7.5}) {
+            const auto sv = ref::triangle_singular_values(e1, e2, f1, f2);
+            const double expect = (sv[0] / sv[1] + sv[1] / sv[0]) *
+                                  std::pow(sv[0] * sv[1] + 1.0 / (sv[0] * sv[1]), theta);
+            const double got = ref::triangle_energy(e1, e2, f1, f2, theta);
+            REQUIRE(std::isfinite(got));
+            REQUIRE(std::abs(got - expect) <= 1e-10 * expect);
+            ++checked;
+        }
+    }
+    CHECK(checked == 800);
+    // A flipped texture triangle has infinite energy.
+    CHECK(std::isinf(ref::triangle_energy({0.0, -1.0}, {1.0, 0.0}, {1, 0, 0}, {0, -1, 0}, 5.0)));
+    // An isometry is the minimum 2 * 2^theta.
+    CHECK(ref::triangle_energy({1.0, 0.0}, {1.0, -1.0}, {1, 0, 0}, {1, -1, 0}, 5.0) ==
+          Approx(64.0).epsilon(1e-14));
+}
+
+TEST_CASE("correct: analytic fan gradient equals finite differences", "[correct]")
+{
+    const int w = 9, h = 8;
+    for (bool periodic : {true, false})
+        for (bool with_fix : {false, true}) {
+            ref::CorrectionGrid g = centre_grid(waves(w, h, 1.0, 3), w, h, 0.3, periodic);
+            if (with_fix)
+                g.fix.assign(std::size_t(w) * h, 0.4);
+            std::mt19937 rng(11);
+            std::uniform_real_distribution<double> u(-0.15, 0.15);
+            std::vector<double> c(2 * std::size_t(w) * h);
+            for (double& v : c)
+                v = u(rng);
+            double worst = 0.0;
+            for (int j = 1; j < h - 1; ++j)
+                for (int i = 1; i < w - 1; ++i) {
+                    const auto grad = ref::fan_gradient(g, c, i, j);
+                    for (int d = 0; d < 2; ++d) {
+                        const double step = 1e-6;
+                        auto cp = c, cm = c;
+                        cp[2 * (j * w + i) + d] += step;
+                        cm[2 * (j * w + i) + d] -= step;
+                        const double fd = (ref::fan_energy(g, cp, i, j) - ref::fan_energy(g, cm, i, j)) / (2 * step);
+                        // The whole energy changes only through p's fan.
+                        const double fd_total = (ref::total_energy(g, cp) - ref::total_energy(g, cm)) / (2 * step);
+                        worst = std::max(worst, std::abs(grad[d] - fd) / (1.0 + std::abs(fd)));
+                        REQUIRE(std::abs(fd_total - fd) <= 1e-5 * (1.0 + std::abs(fd)));
+                    }
+                }
+            INFO("periodic " << periodic << " fix " << with_fix);
+            CHECK(worst < 1e-6);
+        }
+}
+
+TEST_CASE("correct: device energy equals the golden model's", "[correct]")
+{
+    const int w = 21, h = 13;
+    const auto hts = waves(w, h, 1.0, 5);
+    std::mt19937 rng(2);
+    std::uniform_real_distribution<double> u(-0.1, 0.1);
+    for (bool periodic : {true, false}) {
+        const ref::CorrectionGrid g = centre_grid(hts, w, h, 0.2, periodic);
+        std::vector<double> c(2 * std::size_t(w) * h);
+        std::vector<float> tex(c.size());
+        for (std::size_t k = 0; k < c.size(); ++k) {
+            c[k] = u(rng);
+            if (!periodic) {
+                const int i = int(k / 2) % w, j = int(k / 2) / w;
+                if (i == 0 || j == 0 || i == w - 1 || j == h - 1)
+                    c[k] = 0.0;
+            }
+            tex[k] = float(c[k] / (k % 2 ? h : w));  // texture units
+        }
+        auto ctx = host::ComputeContext::acquire("auto");
+        const double dev = host::correction_energy(*ctx, hts.data(), w, h, params(0.2, periodic), tex.data());
+        const double gold = ref::total_energy(g, c);
+        INFO("periodic " << periodic);
+        CHECK(std::abs(dev - gold) <= 1e-5 * gold);
+    }
+}
+
+TEST_CASE("correct: one device iteration equals the golden model's", "[correct]")
+{
+    // Odd periodic sizes exercise the extra phase class of the last node.
+    for (auto [w, h, periodic] : {std::tuple{24, 16, true}, std::tuple{23, 17, true},
+                                  std::tuple{20, 19, false}}) {
+        const auto hts = waves(w, h, 1.0, 9);
+        const double scale = 0.3;
+        ref::CorrectionGrid g = centre_grid(hts, w, h, scale, periodic);
+        std::vector<double> c(2 * std::size_t(w) * h, 0.0);
+        ref::iterate(g, c);
+        auto p = params(scale, periodic);
+        p.levels = 1;
+        p.iterations = 1;
+        p.skip_tiles = false;
+        p.threshold = 0.0;
+        const auto out = run(hts, w, h, p);
+        double worst = 0.0, largest = 0.0;
+        std::vector<double> dev(c.size());
+        for (std::size_t k = 0; k < c.size(); ++k) {
+            dev[k] = double(out[k]) * (k % 2 ? h : w);
+            worst = std::max(worst, std::abs(dev[k] - c[k]));
+            largest = std::max(largest, std::abs(c[k]));
+        }
+        INFO(w << "x" << h << " periodic " << periodic << ": max |offset| " << largest
+                << " texels, max |device - golden| " << worst);
+        CHECK(largest > 1e-2);
+        CHECK(worst <= 2e-3 * largest);
+        const double e_dev = ref::total_energy(g, dev), e_gold = ref::total_energy(g, c);
+        CHECK(std::abs(e_dev - e_gold) <= 1e-5 * e_gold);
+    }
+}
+
+TEST_CASE("correct: the energy never rises, iteration after iteration", "[correct]")
+{
+    const int w = 40, h = 36;
+    const auto hts = waves(w, h, 1.0, 4);
+    auto ctx = host::ComputeContext::acquire("auto");
+    for (bool corner : {false, true})
+        for (bool periodic : {true, false}) {
+            double previous = INFINITY;
+            for (int it = 0; it <= 6; ++it) {
+                auto p = params(0.4, periodic, corner);
+                p.levels = 1;
+                p.iterations = std::max(it, 1);
+                p.threshold = 0.0;
+                host::CorrectReport rep;
+                run(hts, w, h, p, &rep);
+                const double e = it == 0 ? rep.energy_before : rep.energy_after;
+                INFO("corner " << corner << " periodic " << periodic << " iteration " << it);
+                REQUIRE(std::isfinite(e));
+                CHECK(e <= previous * (1.0 + 1e-7));
+                previous = e;
+            }
+        }
+}
+
+TEST_CASE("correct: a flat height map gives zero offsets and skips the solve", "[correct]")
+{
+    const int w = 48, h = 32;
+    for (float level : {0.0f, 0.7f}) {
+        std::vector<float> hts(std::size_t(w) * h, level);
+        host::CorrectReport rep;
+        const auto out = run(hts, w, h, params(0.05, true), &rep);
+        CHECK(rep.skipped);
+        for (float v : out)
+            REQUIRE(v == 0.0f);
+    }
+    // Too gentle to distort beyond the threshold: skipped as well.
+    auto hts = waves(w, h, 1e-4);
+    host::CorrectReport rep;
+    const auto out = run(hts, w, h, params(0.05, true), &rep);
+    CHECK(rep.skipped);
+    CHECK(rep.anisotropy_before.max < 1.001);
+}
+
+TEST_CASE("correct: a radially symmetric bump gives symmetric, radial offsets", "[correct]")
+{
+    const int n = 48;
+    std::vector<float> hts(std::size_t(n) * n);
+    const double cx = n / 2, cy = n / 2;
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+            const double r2 = ((x - cx) * (x - cx) + (y - cy) * (y - cy)) / 36.0;
+            hts[std::size_t(y) * n + x] = float(std::exp(-r2));
+        }
+    auto p = params(0.1, true);
+    host::CorrectReport rep;
+    const auto out = run(hts, n, n, p, &rep);
+    REQUIRE(!rep.skipped);
+    double largest = 0.0;
+    for (float v : out)
+        largest = std::max(largest, double(std::abs(v)));
+    REQUIRE(largest > 1e-4);
+    auto at = [&](int x, int y, int ch) { return double(out[2 * (std::size_t(y) * n + x) + ch]); };
+    double asym = 0.0, tangential = 0.0;
+    for (int b = -12; b <= 12; ++b)
+        for (int a = -12; a <= 12; ++a) {
+            const int x = int(cx) + a, y = int(cy) + b;
+            // Point reflection and transposition map the mesh onto itself.
+            asym = std::max(asym, std::abs(at(x, y, 0) + at(int(cx) - a, int(cy) - b, 0)));
+            asym = std::max(asym, std::abs(at(x, y, 1) + at(int(cx) - a, int(cy) - b, 1)));
+            asym = std::max(asym, std::abs(at(x, y, 0) - at(int(cx) + b, int(cy) + a, 1)));
+            // 90-degree rotation maps the bump, not the mesh diagonals: looser.
+            asym = std::max(asym, 0.25 * std::abs(at(x, y, 0) + at(int(cx) + b, int(cy) - a, 1)));
+            const double r = std::hypot(a, b);
+            if (r > 0)
+                tangential = std::max(tangential, std::abs(at(x, y, 0) * b - at(x, y, 1) * a) / r);
+        }
+    INFO("max offset " << largest << ", asymmetry " << asym << ", tangential " << tangential);
+    CHECK(asym <= 0.05 * largest);
+    CHECK(tangential <= 0.2 * largest);
+}
+
+TEST_CASE("correct: periodic seams stay continuous (shift equivariance)", "[correct]")
+{
+    // Shifting a tiling height map by a multiple of 2^levels shifts its
+    // offsets exactly: the seam is like any other line of the texture.
+    const int w = 64, h = 64, shift = 32;
+    const auto hts = waves(w, h, 1.0, 8);
+    std::vector<float> shifted(hts.size());
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            shifted[std::size_t(y) * w + x] = hts[std::size_t((y + shift) % h) * w + (x + shift) % w];
+    for (bool corner : {false, true}) {
+        auto p = params(0.2, true, corner);
+        const auto a = run(hts, w, h, p), b = run(shifted, w, h, p);
+        double worst = 0.0, largest = 0.0;
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x)
+                for (int ch = 0; ch < 2; ++ch) {
+                    const double va = a[2 * (std::size_t((y + shift) % h) * w + (x + shift) % w) + ch];
+                    const double vb = b[2 * (std::size_t(y) * w + x) + ch];
+                    worst = std::max(worst, std::abs(va - vb));
+                    largest = std::max(largest, std::abs(va));
+                }
+        INFO("corner " << corner << ": max offset " << largest << ", max shift difference " << worst);
+        CHECK(largest > 1e-4);
+        CHECK(worst <= 1e-6 * largest + 1e-9);
+    }
+}
+
+TEST_CASE("correct: tile skipping changes no bit", "[correct]")
+{
+    // A bump in a flat sea: at a single resolution, tiles far from it have
+    // nothing to do until the correction spreads to them.
+    const int w = 160, h = 128;
+    std::vector<float> hts(std::size_t(w) * h, 0.0f);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const double r2 = ((x - 30.0) * (x - 30.0) + (y - 25.0) * (y - 25.0)) / 25.0;
+            hts[std::size_t(y) * w + x] = r2 < 9 ? float(std::exp(-r2)) : 0.0f;
+        }
+    for (auto [corner, levels] : {std::pair{false, 1}, std::pair{true, 1}, std::pair{false, 0}}) {
+        auto p = params(0.15, true, corner);
+        p.levels = levels;
+        host::CorrectReport on, off;
+        const auto a = run(hts, w, h, p, &on);
+        p.skip_tiles = false;
+        const auto b = run(hts, w, h, p, &off);
+        REQUIRE(a == b);
+        const auto& fine = on.levels.back();
+        INFO("tiles run " << fine.tile_phases_run << " of " << fine.tile_phases);
+        if (levels == 1)
+            CHECK(fine.tile_phases_run < fine.tile_phases * 9 / 10);
+    }
+}
+
+TEST_CASE("correct: corner nodes, fixed boundary and fixation", "[correct]")
+{
+    const int w = 33, h = 30;
+    const auto hts = waves(w, h, 1.0, 12);
+    // Fixed: border texels' corners stay put, the offsets stay finite.
+    auto p = params(0.1, false, true);
+    host::CorrectReport rep;
+    const auto out = run(hts, w, h, p, &rep);
+    CHECK(rep.energy_after < rep.energy_before);
+    CHECK(rep.anisotropy_after.p95 < rep.anisotropy_before.p95);
+    for (float v : out)
+        REQUIRE(std::isfinite(v));
+    // Fixation weight 4: no texel moves 1/4 texel or more.
+    std::vector<float> fix(std::size_t(w) * h, 4.0f);
+    auto pf = params(0.3, true, false);
+    pf.fix_weights = fix.data();
+    const auto held = run(hts, w, h, pf);
+    double largest = 0.0;
+    for (std::size_t k = 0; k < held.size(); ++k)
+        largest = std::max(largest, std::abs(double(held[k]) * (k % 2 ? h : w)));
+    CHECK(largest < 0.25);
+    CHECK(largest > 0.0);
+}
+
+TEST_CASE("correct: the pyramid helpers", "[correct]")
+{
+    // Area downsampling keeps the mean, also for odd sizes.
+    std::vector<float> v(7 * 5);
+    double sum = 0;
+    for (std::size_t i = 0; i < v.size(); ++i)
+        sum += v[i] = float(i % 7) * 0.5f + float(i / 7);
+    const auto d = host::area_downsample(v, 7, 5, 4, 3);
+    double dsum = 0;
+    for (float x : d)
+        dsum += x;
+    CHECK(dsum / d.size() == Approx(sum / v.size()).epsilon(1e-6));
+    // Upsampling a constant offset field gives the constant.
+    host::NodeGrid coarse(8, 6, false, true), fine(16, 12, false, true);
+    std::vector<float> c(2 * 8 * 6);
+    for (std::size_t i = 0; i < c.size(); ++i)
+        c[i] = i % 2 ? -0.01f : 0.02f;
+    const auto up = host::upsample_offsets(c, coarse, fine);
+    for (std::size_t i = 0; i < up.size(); ++i)
+        REQUIRE(up[i] == Approx(i % 2 ? -0.01f : 0.02f));
+    CHECK(host::pyramid_sizes(1024, 1024, 0).size() == 7);
+    CHECK(host::pyramid_sizes(1024, 1024, 1).size() == 1);
+}
+
+TEST_CASE("correct: bad input fails cleanly", "[correct]")
+{
+    OIIO::ImageBuf img(OIIO::ImageSpec(8, 8, 1, OIIO::TypeDesc::FLOAT));
+    CorrectOptions o;
+    o.scale = -1.0f;
+    OIIO::ImageBuf dst;
+    CHECK_FALSE(correct(dst, img, o));
+    CHECK(geterror().find("scale") != std::string::npos);
+    o.scale = 0.0f;  // auto needs relief's own height map
+    CHECK_FALSE(correct(dst, img, o));
+    CHECK(geterror().find("scale") != std::string::npos);
+    o.scale = 0.05f;
+    float nan = std::nanf("");
+    img.setpixel(3, 4, &nan);
+    CHECK_FALSE(correct(dst, img, o));
+    CHECK(geterror().find("NaN") != std::string::npos);
+}
