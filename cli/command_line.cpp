@@ -25,6 +25,8 @@ Arguments are read left to right over a stack of images, like oiiotool:
   --correct[:MODS]      pop a height map, push its distortion-correcting
                         offset map (2 channels du, dv in texture units:
                         1 = the width, height; DESIGN.md 4.5)
+  --bake[:MODS]         pop an offset map and the texture below it, push the
+                        texture resampled at u + offset(u)
   -o FILE               write the top of the stack (atomically)
   -d TYPE               pixel type for the following -o: float (default),
                         half, uint16, uint8; integer files store
@@ -74,6 +76,16 @@ Modifiers of --correct:
   threshold=1e-3        correct nothing when no triangle's anisotropy or
                         area change exceeds this (zero offsets)
   skip=on|off           skip tiles whose nodes cannot move (same result)
+Modifiers of --bake:
+  filter=bilinear|bicubic  (default bilinear; bicubic = Catmull-Rom)
+  colorspace=auto|sRGB|linear|raw  colour is decoded to linear light with
+                        OpenColorIO ($OCIO, else the sRGB curve), filtered,
+                        encoded back; auto: the file's declared space, 8-bit
+                        PNG/JPEG as sRGB; raw: no conversion
+  kind=auto|color|normal|data|height  normal maps bake as data and are
+                        renormalised; height maps are refused
+  wrap=auto|periodic|clamp  auto: periodic when the offsets were computed
+                        with boundary=periodic
 Options:
   --report FILE.json    write the --correct step's report: energy, iterations,
                         anisotropy and area ratio before/after, time
@@ -85,6 +97,7 @@ Options:
 Example:
   relief normal.png --height -o height.exr
   relief height.png --correct:scale=0.05:nodes=center -o offsets.exr
+  relief albedo.png height.png --correct:scale=0.05 -o offsets.exr --bake -o albedo_fixed.png
   relief normal.png --height:normal=directx:rays=16:radius=32:boundary=clip -o height.exr
 )";
 }
@@ -325,6 +338,36 @@ Step parse_correct(const std::string& arg)
     return s;
 }
 
+Step parse_bake(const std::string& arg)
+{
+    Step s{Step::Kind::Bake, arg, {}, {}, {}, {}, {}};
+    BakeOptions& b = s.bake;
+    for (const auto& [key, v] : split_modifiers(arg).values) {
+        if (key == "filter")
+            b.filter = choice(arg, key, v, {"bilinear", "bicubic"}) == "bicubic" ? BakeFilter::Bicubic
+                                                                             : BakeFilter::Bilinear;
+        else if (key == "colorspace") {
+            const std::string c = choice(arg, key, v, {"auto", "sRGB", "srgb", "linear", "raw"});
+            b.colorspace = c == "sRGB" || c == "srgb" ? BakeColorspace::SRGB
+                         : c == "linear"              ? BakeColorspace::Linear
+                         : c == "raw"                 ? BakeColorspace::Raw
+                                                      : BakeColorspace::Auto;
+        } else if (key == "kind") {
+            const std::string k = choice(arg, key, v, {"auto", "color", "normal", "data", "height"});
+            b.kind = k == "color"    ? BakeKind::Color
+                   : k == "normal"   ? BakeKind::Normal
+                   : k == "data"     ? BakeKind::Data
+                   : k == "height"   ? BakeKind::Height
+                                     : BakeKind::Auto;
+        } else if (key == "wrap") {
+            const std::string w = choice(arg, key, v, {"auto", "periodic", "clamp"});
+            b.wrap = w == "periodic" ? BakeWrap::Periodic : w == "clamp" ? BakeWrap::Clamp : BakeWrap::Auto;
+        } else
+            unknown_modifier(arg, key, "filter, colorspace, kind, wrap");
+    }
+    return s;
+}
+
 OIIO::TypeDesc parse_format(const std::string& t)
 {
     if (t == "float")
@@ -344,6 +387,7 @@ Program parse_command_line(const std::vector<std::string>& args)
 {
     Program prog;
     OIIO::TypeDesc format = OIIO::TypeDesc::FLOAT;
+    bool format_given = false;
     std::string compression;
     int depth = 0;  // stack depth as the program will run
     auto need = [&](const std::string& arg, int n) {
@@ -379,6 +423,7 @@ Program parse_command_line(const std::vector<std::string>& args)
             prog.device = value_of(i);
         } else if (a == "-d") {
             format = parse_format(value_of(i));
+            format_given = true;
         } else if (a == "--compression") {
             compression = value_of(i);
             if (compression.empty())
@@ -388,7 +433,10 @@ Program parse_command_line(const std::vector<std::string>& args)
             need(a, 1);
             if (!check_output_path(path))
                 throw UsageError("-o " + path + ": " + geterror());
-            prog.steps.push_back({Step::Kind::Write, "-o " + path, path, format, compression, {}, {}});
+            Step w{Step::Kind::Write, "-o " + path, path, format};
+            w.format_given = format_given;
+            w.compression = compression;
+            prog.steps.push_back(w);
         } else if (cmd == "--slopes") {
             need(cmd, 1);
             prog.steps.push_back(parse_slopes(a));
@@ -398,6 +446,10 @@ Program parse_command_line(const std::vector<std::string>& args)
         } else if (cmd == "--correct") {
             need(cmd, 1);
             prog.steps.push_back(parse_correct(a));
+        } else if (cmd == "--bake") {
+            need(cmd, 2);
+            prog.steps.push_back(parse_bake(a));
+            --depth;
         } else if (!a.empty() && a[0] == '-' && a != "-") {
             throw UsageError("unknown option '" + a + "' (see relief --help)");
         } else {
@@ -415,6 +467,7 @@ Program parse_command_line(const std::vector<std::string>& args)
         throw UsageError("--report needs exactly one --correct, there are " + std::to_string(corrections));
     for (Step& s : prog.steps) {
         s.correct.exec.device = prog.device;
+        s.bake.exec.device = prog.device;
         s.slopes.exec.device = prog.device;
         s.height.exec.device = prog.device;
     }

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "relief/bake.h"
 #include "relief/correct.h"
 #include "relief/errors.h"
 #include "relief/height.h"
@@ -21,16 +22,18 @@ struct UsageError : std::runtime_error {
 };
 
 struct Step {
-    enum class Kind { Read, Slopes, Height, Correct, Write } kind;
+    enum class Kind { Read, Slopes, Height, Correct, Bake, Write } kind;
     std::string text;             // the argument as typed, for messages
     std::string path;             // Read, Write
     OIIO::TypeDesc format;        // Write
+    bool format_given = false;    // Write: -d was given (else baked textures keep their type)
     std::string compression;      // Write; empty = relief's default
     SlopeOptions slopes;          // Slopes
     HeightOptions height;         // Height
     std::string mask;             // Height: mask=FILE (read when the step runs)
     CorrectOptions correct;       // Correct
     std::string fix_mask;         // Correct: fix=FILE (read when the step runs)
+    BakeOptions bake;             // Bake
 };
 
 struct Program {

@@ -2,6 +2,7 @@
 // images (oiiotool style); see `relief --help`.
 #include <OpenImageIO/imagebuf.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <exception>
@@ -136,9 +137,27 @@ private:
             stack_.push_back(std::move(out));
             break;
         }
+        case Step::Kind::Bake: {
+            relief::BakeOptions o = s.bake;
+            o.exec = execution(s);
+            OIIO::ImageBuf offsets = pop(), texture = pop(), out;
+            if (!relief::bake(out, texture, offsets, o))
+                throw RuntimeError(relief::geterror());
+            stack_.push_back(std::move(out));
+            break;
+        }
         case Step::Kind::Write: {
             relief::WriteOptions w;
             w.format = s.format;
+            const OIIO::ImageBuf& top = stack_.back();
+            // Without -d a baked texture keeps its file's pixel type.
+            const std::string native = top.spec().get_string_attribute("relief:native_format");
+            if (!s.format_given && !native.empty())
+                w.format = OIIO::TypeDesc(native);
+            if (w.format == OIIO::TypeDesc::HALF && top.spec().get_string_attribute("relief:method") == "correct" &&
+                std::max(top.spec().width, top.spec().height) > 2048)
+                std::fprintf(stderr, "relief: warning: %s: half offsets above 2048 texels are coarser than 1/8 texel; prefer float\n",
+                             s.path.c_str());
             w.compression = s.compression;
             // The integer mapping is needed to read the file back: always say it.
             w.on_message = [](Severity, const std::string& m) {

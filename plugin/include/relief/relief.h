@@ -4,6 +4,7 @@
 // ImageBuf, the other writes `dst` and returns bool; errors via geterror().
 #include "relief/devices.h"
 #include "relief/errors.h"
+#include "relief/bake.h"
 #include "relief/correct.h"
 #include "relief/height.h"
 #include "relief/imageio.h"

@@ -1,0 +1,16 @@
+#pragma once
+// Stage 4, baking the correction: texture resampled at u + c(u) on the
+// device (kernels/bake.cl). Colour management happens before and after, in
+// the plugin.
+#include "compute_context.h"
+
+namespace relief::host {
+
+enum class BakeFilter { Bilinear, Bicubic };
+
+// src, dst: w*h*nch interleaved floats; offsets: 2*w*h floats (texture
+// units). Periodic wraps reads around the texture, otherwise they clamp.
+void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch,
+                 const float* offsets, bool periodic, BakeFilter filter, float* dst);
+
+} // namespace relief::host
