@@ -1,0 +1,237 @@
+// Distortion correction benchmark (DESIGN.md §4.5; not run by ctest):
+//  - iterations per second per megatexel (single resolution, no skipping);
+//  - time to get within 1% of the converged energy (99% of the achievable
+//    energy decrease: E <= E* + 0.01 (E0 - E*), E* = the coarse-to-fine
+//    result at tolerance 1e-6), with and without coarse-to-fine;
+//  - time to convergence (relative energy change < 1e-5) with coarse-to-fine;
+//  - a before/after picture: anisotropy s1/s2 per texel before and after, and
+//    a checker baked through the offsets.
+// Usage: bench_correct [--sizes 512,1024] [--budget SECONDS] [--out DIR]
+// Heights: a synthetic terrain (bumps, ridges, a plateau) at every size;
+// scale 0.05, nodes=center, periodic, theta 5.
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "relief/relief.h"
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+OIIO::ImageBuf terrain(int n)
+{
+    // Resolution-independent: every feature is defined in texture units.
+    std::mt19937 rng(42);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    struct Bump { double x, y, r, a; };
+    std::vector<Bump> bumps;
+    for (int k = 0; k < 40; ++k)
+        bumps.push_back({u(rng), u(rng), 0.02 + 0.08 * u(rng), 0.2 + 0.8 * u(rng)});
+    OIIO::ImageBuf b(OIIO::ImageSpec(n, n, 1, OIIO::TypeDesc::FLOAT));
+    std::vector<float> px(std::size_t(n) * n);
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+            const double s = (x + 0.5) / n, t = (y + 0.5) / n;
+            double h = 0.15 * std::sin(2 * kPi * (3 * s + t)) * std::sin(2 * kPi * 2 * t);
+            for (const auto& m : bumps) {
+                double dx = std::remainder(s - m.x, 1.0), dy = std::remainder(t - m.y, 1.0);
+                h += m.a * std::exp(-(dx * dx + dy * dy) / (m.r * m.r));
+            }
+            // A plateau with steep flanks.
+            const double dx = std::remainder(s - 0.7, 1.0), dy = std::remainder(t - 0.3, 1.0);
+            h += 0.6 / (1 + std::exp((std::sqrt(dx * dx + dy * dy) - 0.12) * 120));
+            px[std::size_t(y) * n + x] = float(h);
+        }
+    b.set_pixels(b.roi(), OIIO::TypeDesc::FLOAT, px.data());
+    return b;
+}
+
+struct Run {
+    double seconds = 0, energy = 0, energy_before = 0;
+    int iterations = 0;
+    relief::CorrectReport report;
+    OIIO::ImageBuf offsets;
+};
+
+Run correct(const OIIO::ImageBuf& h, int levels, int iterations, double tolerance, bool skip = true)
+{
+    relief::CorrectOptions o;
+    o.scale = 0.05f;
+    o.nodes = relief::CorrectNodes::Center;
+    o.boundary = relief::CorrectBoundary::Periodic;
+    o.levels = levels;
+    o.iterations = iterations;
+    o.tolerance = float(tolerance);
+    o.max_iterations = 100000;
+    o.skip_tiles = skip;
+    Run r;
+    o.report = &r.report;
+    const auto t0 = std::chrono::steady_clock::now();
+    if (!relief::correct(r.offsets, h, o)) {
+        std::fprintf(stderr, "bench_correct: %s\n", relief::geterror().c_str());
+        std::exit(1);
+    }
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    r.energy = r.report.energy_after;
+    r.energy_before = r.report.energy_before;
+    r.iterations = r.report.iterations;
+    return r;
+}
+
+// Anisotropy s1/s2 of each texel's first owned triangle (centre nodes,
+// periodic), for the picture.
+std::vector<float> anisotropy(const OIIO::ImageBuf& h, const OIIO::ImageBuf* off, double scale)
+{
+    const int n = h.spec().width;
+    std::vector<float> z(std::size_t(n) * n), c(2 * std::size_t(n) * n, 0.0f), out(z.size());
+    h.get_pixels(h.roi(), OIIO::TypeDesc::FLOAT, z.data());
+    if (off) {
+        OIIO::ROI r = off->roi();
+        r.chend = 2;
+        off->get_pixels(r, OIIO::TypeDesc::FLOAT, c.data());
+    }
+    auto at = [&](int x, int y) { return std::size_t((y + n) % n) * n + (x + n) % n; };
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+            const std::size_t p = at(x, y), a = at(x + 1, y), b = at(x + 1, y - 1);
+            const double e1[2] = {1 + (c[2 * a] - c[2 * p]) * n, (c[2 * a + 1] - c[2 * p + 1]) * n};
+            const double e2[2] = {1 + (c[2 * b] - c[2 * p]) * n, -1 + (c[2 * b + 1] - c[2 * p + 1]) * n};
+            const double f1[3] = {1, 0, (z[a] - z[p]) * scale * n}, f2[3] = {1, -1, (z[b] - z[p]) * scale * n};
+            const double auv = 0.5 * (e1[1] * e2[0] - e1[0] * e2[1]);
+            const double cx = f1[1] * f2[2] - f1[2] * f2[1], cy = f1[2] * f2[0] - f1[0] * f2[2],
+                         cz = f1[0] * f2[1] - f1[1] * f2[0];
+            const double a3 = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+            auto d3 = [](const double* u, const double* v) { return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]; };
+            const double q = d3(f1, f1) * (e2[0] * e2[0] + e2[1] * e2[1]) -
+                             2 * d3(f1, f2) * (e1[0] * e2[0] + e1[1] * e2[1]) + d3(f2, f2) * (e1[0] * e1[0] + e1[1] * e1[1]);
+            const double k = q / (4 * a3 * auv);
+            out[p] = float(0.5 * (k + std::sqrt(std::max(0.0, k * k - 4))));
+        }
+    return out;
+}
+
+} // namespace
+
+int main(int argc, char** argv)
+{
+    std::vector<int> sizes{512, 1024};
+    double budget = 300.0;
+    std::string out_dir = "bench/results";
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (a == "--sizes" && i + 1 < argc) {
+            sizes.clear();
+            std::stringstream ss(argv[++i]);
+            for (std::string t; std::getline(ss, t, ',');)
+                sizes.push_back(std::stoi(t));
+        } else if (a == "--budget" && i + 1 < argc) {
+            budget = std::stod(argv[++i]);
+        } else if (a == "--out" && i + 1 < argc) {
+            out_dir = argv[++i];
+        } else {
+            std::fprintf(stderr, "usage: bench_correct [--sizes 512,1024] [--budget S] [--out DIR]\n");
+            return 2;
+        }
+    }
+    std::filesystem::create_directories(out_dir);
+    {  // warm the kernel cache
+        correct(terrain(64), 0, 0, 1e-5);
+    }
+    std::ofstream md(out_dir + "/correct.md"), csv(out_dir + "/correct.csv");
+    md << "| size | it/s per Mtexel | c2f converged (1e-5) s | c2f iterations (finest) | E0 | E* | c2f to 1% s | "
+          "single-res to 1% s (iterations) | ratio | p95 anisotropy before -> after |\n|---|---|---|---|---|---|---|---|---|---|\n";
+    csv << "size,iter_per_s_per_mtexel,c2f_converged_s,c2f_iterations,finest_iterations,e0,e_star,c2f_1pct_s,"
+           "single_1pct_s,single_1pct_iterations,single_reached,p95_before,p95_after\n";
+    for (int n : sizes) {
+        const OIIO::ImageBuf h = terrain(n);
+        // Iteration speed: single resolution, every tile, 1 vs 4 iterations.
+        const Run one = correct(h, 1, 1, 1e-5, false), four = correct(h, 1, 4, 1e-5, false);
+        const double per_it = std::max(1e-9, (four.seconds - one.seconds) / 3.0);
+        const double ips = 1.0 / per_it / (double(n) * n / 1e6);
+        // Coarse to fine: converged as shipped, and the reference optimum.
+        const Run c2f = correct(h, 0, 0, 1e-5);
+        const Run best = correct(h, 0, 0, 1e-6);
+        const double e0 = c2f.energy_before, estar = std::min(best.energy, c2f.energy);
+        const double target = estar + 0.01 * (e0 - estar);
+        // Coarse to fine to 1%: the loosest tolerance that gets there.
+        double c2f_1 = c2f.seconds;
+        for (double tol : {1e-3, 3e-4, 1e-4, 3e-5}) {
+            const Run r = correct(h, 0, 0, tol);
+            if (r.energy <= target) {
+                c2f_1 = r.seconds;
+                break;
+            }
+        }
+        // Single resolution to 1%: doubling iteration counts within the budget.
+        double single_1 = -1, spent = 0;
+        int single_it = 0;
+        bool reached = false;
+        for (int it = 8; spent < budget; it *= 2) {
+            const Run r = correct(h, 1, it, 1e-5);
+            spent += r.seconds;
+            single_1 = r.seconds;
+            single_it = it;
+            std::fprintf(stderr, "bench_correct: %d^2 single resolution, %d iterations: %.2f s, E %.6g (target %.6g)\n",
+                         n, it, r.seconds, r.energy, target);
+            if (r.energy <= target) {
+                reached = true;
+                break;
+            }
+        }
+        const double ratio = single_1 / c2f_1;
+        const auto& fin = c2f.report.levels.back();
+        std::printf("%d^2: %.2f it/s/Mtexel; c2f converged %.2f s (%d iterations, %d at the finest); to 1%%: c2f %.2f s, "
+                    "single %s%.2f s (%d iterations); ratio %s%.1f; p95 anisotropy %.3f -> %.3f\n",
+                    n, ips, c2f.seconds, c2f.iterations, fin.iterations, c2f_1, reached ? "" : "> ", single_1,
+                    single_it, reached ? "" : ">= ", ratio, c2f.report.anisotropy_before.p95,
+                    c2f.report.anisotropy_after.p95);
+        std::fflush(stdout);
+        char line[512];
+        std::snprintf(line, sizeof line, "| %d² | %.2f | %.2f | %d (%d) | %.6g | %.6g | %.2f | %s%.2f (%d) | %s%.1f× | %.3f → %.3f |\n",
+                      n, ips, c2f.seconds, c2f.iterations, fin.iterations, e0, estar, c2f_1, reached ? "" : "> ",
+                      single_1, single_it, reached ? "" : "≥ ", ratio, c2f.report.anisotropy_before.p95,
+                      c2f.report.anisotropy_after.p95);
+        md << line;
+        csv << n << ',' << ips << ',' << c2f.seconds << ',' << c2f.iterations << ',' << fin.iterations << ','
+            << e0 << ',' << estar << ',' << c2f_1 << ',' << single_1 << ',' << single_it << ',' << reached << ','
+            << c2f.report.anisotropy_before.p95 << ',' << c2f.report.anisotropy_after.p95 << '\n';
+        md.flush();
+        csv.flush();
+
+        if (n == sizes.front()) {
+            // Before | after anisotropy (1 black .. 2.5 white) | checker baked through the offsets.
+            const auto before = anisotropy(h, nullptr, 0.05), after = anisotropy(h, &c2f.offsets, 0.05);
+            OIIO::ImageBuf checker(OIIO::ImageSpec(n, n, 1, OIIO::TypeDesc::FLOAT));
+            const float dark[1] = {0.1f}, light[1] = {0.9f};
+            OIIO::ImageBufAlgo::checker(checker, n / 32, n / 32, 1, dark, light);
+            relief::BakeOptions bo;
+            bo.colorspace = relief::BakeColorspace::Raw;
+            OIIO::ImageBuf baked = relief::bake(checker, c2f.offsets, bo);
+            std::vector<float> ck(std::size_t(n) * n);
+            baked.get_pixels(baked.roi(), OIIO::TypeDesc::FLOAT, ck.data());
+            OIIO::ImageBuf pic(OIIO::ImageSpec(3 * n, n, 1, OIIO::TypeDesc::FLOAT));
+            for (int y = 0; y < n; ++y)
+                for (int x = 0; x < n; ++x) {
+                    const std::size_t p = std::size_t(y) * n + x;
+                    const float b = std::clamp((before[p] - 1.0f) / 1.5f, 0.0f, 1.0f);
+                    const float a = std::clamp((after[p] - 1.0f) / 1.5f, 0.0f, 1.0f);
+                    pic.setpixel(x, y, &b);
+                    pic.setpixel(n + x, y, &a);
+                    pic.setpixel(2 * n + x, y, &ck[p]);
+                }
+            pic.write(out_dir + "/correct_before_after.png", OIIO::TypeDesc::UINT8);
+        }
+    }
+    return 0;
+}
