@@ -208,9 +208,18 @@ bool apply_decoding(NormalDecoding& d, const std::string& arg, const std::string
     throw UsageError(arg + ": unknown modifier '" + key + "' (known: " + known + ")");
 }
 
+Step make_step(Step::Kind kind, const std::string& text, const std::string& path = "")
+{
+    Step s{};
+    s.kind = kind;
+    s.text = text;
+    s.path = path;
+    return s;
+}
+
 Step parse_slopes(const std::string& arg)
 {
-    Step s{Step::Kind::Slopes, arg, {}, {}, {}, {}, {}};
+    Step s = make_step(Step::Kind::Slopes, arg);
     for (const auto& [key, v] : split_modifiers(arg).values)
         if (!apply_decoding(s.slopes.normals, arg, key, v))
             unknown_modifier(arg, key, "normal, max_angle, range");
@@ -219,7 +228,7 @@ Step parse_slopes(const std::string& arg)
 
 Step parse_height(const std::string& arg)
 {
-    Step s{Step::Kind::Height, arg, {}, {}, {}, {}, {}};
+    Step s = make_step(Step::Kind::Height, arg);
     HeightOptions& h = s.height;
     bool ray_option = false, poisson_option = false;
     std::string method = "auto", boundary;
@@ -291,7 +300,7 @@ Step parse_height(const std::string& arg)
 
 Step parse_correct(const std::string& arg)
 {
-    Step s{Step::Kind::Correct, arg, {}, {}, {}, {}, {}};
+    Step s = make_step(Step::Kind::Correct, arg);
     CorrectOptions& c = s.correct;
     for (const auto& [key, v] : split_modifiers(arg).values) {
         if (key == "scale")
@@ -340,7 +349,7 @@ Step parse_correct(const std::string& arg)
 
 Step parse_bake(const std::string& arg)
 {
-    Step s{Step::Kind::Bake, arg, {}, {}, {}, {}, {}};
+    Step s = make_step(Step::Kind::Bake, arg);
     BakeOptions& b = s.bake;
     for (const auto& [key, v] : split_modifiers(arg).values) {
         if (key == "filter")
@@ -433,7 +442,8 @@ Program parse_command_line(const std::vector<std::string>& args)
             need(a, 1);
             if (!check_output_path(path))
                 throw UsageError("-o " + path + ": " + geterror());
-            Step w{Step::Kind::Write, "-o " + path, path, format};
+            Step w = make_step(Step::Kind::Write, "-o " + path, path);
+            w.format = format;
             w.format_given = format_given;
             w.compression = compression;
             prog.steps.push_back(w);
@@ -456,7 +466,7 @@ Program parse_command_line(const std::vector<std::string>& args)
             std::error_code ec;
             if (!fs::exists(a, ec))
                 throw UsageError("cannot read '" + a + "': no such file");
-            prog.steps.push_back({Step::Kind::Read, a, a, {}, {}, {}});
+            prog.steps.push_back(make_step(Step::Kind::Read, a, a));
             ++depth;
         }
     }

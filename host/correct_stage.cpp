@@ -269,6 +269,11 @@ LevelInput level_input(const std::vector<float>& texel_heights, const std::vecto
     return in;
 }
 
+std::vector<float> fix_weights(const CorrectParams& p, std::size_t n)
+{
+    return p.fix_weights ? std::vector<float>(p.fix_weights, p.fix_weights + n) : std::vector<float>();
+}
+
 void to_texels(std::vector<float>& c, const NodeGrid& g, bool forward)
 {
     for (std::size_t i = 0; i < c.size(); i += 2) {
@@ -288,9 +293,7 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
     std::fill(offsets_out, offsets_out + 2 * n, 0.0f);
     CorrectReport rep;
     const std::vector<float> texels(heights, heights + n);
-    std::vector<float> fix;
-    if (p.fix_weights)
-        fix.assign(p.fix_weights, p.fix_weights + n);
+    const std::vector<float> fix = fix_weights(p, n);
 
     auto& c = ctx.impl();
     std::lock_guard<std::mutex> lock(c.mutex);
@@ -372,9 +375,7 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
             previous = in.grid;
             rep.levels.push_back(lv);
             if (L == 0) {
-                std::vector<float> tex = offsets;
-                to_texels(tex, in.grid, true);
-                s.upload(tex);
+                // The device still holds the final offsets.
                 rep.energy_after = s.energy(&aniso, &area);
                 rep.anisotropy_after = summarise(aniso);
                 rep.area_after = summarise(area);
@@ -397,9 +398,7 @@ double correction_energy(ComputeContext& ctx, const float* heights, int w, int h
     validate(p, w, h);
     const std::size_t n = std::size_t(w) * h;
     const std::vector<float> texels(heights, heights + n);
-    std::vector<float> fix;
-    if (p.fix_weights)
-        fix.assign(p.fix_weights, p.fix_weights + n);
+    const std::vector<float> fix = fix_weights(p, n);
     auto& c = ctx.impl();
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
