@@ -58,7 +58,7 @@ TEST_CASE("cli: the documented example writes a float EXR height map with metada
     CHECK(folder_is_empty_but(dir, "height.exr"));
 }
 
-TEST_CASE("cli: -v reports device and convention; integer outputs state their scale", "[cli]")
+TEST_CASE("cli: -v reports device and convention, integer outputs state their scale", "[cli]")
 {
     auto dir = scratch("verbose");
     auto r = run_cli("-v '" + kNormal + "' --height:rays=8:radius=8 -o '" + (dir / "h.exr").string() +

@@ -1,0 +1,76 @@
+#pragma once
+// Small helpers the glue tests share: images from pixel vectors and back,
+// scratch folders, and the skip marker ctest turns into "Skipped".
+#include <OpenImageIO/imagebuf.h>
+
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <string>
+#include <vector>
+
+namespace relief::test {
+
+// An in-memory image of `format` holding `px` (w*h*nch floats, as OIIO
+// converts them: UNORM types take [0, 1]).
+inline OIIO::ImageBuf image(int w, int h, int nch, const std::vector<float>& px,
+                            OIIO::TypeDesc format = OIIO::TypeDesc::FLOAT)
+{
+    OIIO::ImageBuf b(OIIO::ImageSpec(w, h, nch, format));
+    b.set_pixels(b.roi(), OIIO::TypeDesc::FLOAT, px.data());
+    return b;
+}
+
+// All channels of `b` as floats.
+inline std::vector<float> pixels(const OIIO::ImageBuf& b)
+{
+    std::vector<float> v(std::size_t(b.spec().width) * b.spec().height * b.nchannels());
+    b.get_pixels(b.roi(), OIIO::TypeDesc::FLOAT, v.data());
+    return v;
+}
+
+// Reads a file's pixels as floats (no relief conversions).
+inline std::vector<float> file_pixels(const std::filesystem::path& p)
+{
+    OIIO::ImageBuf b(p.string());
+    if (!b.read(0, 0, true, OIIO::TypeDesc::FLOAT))
+        return {};
+    return pixels(b);
+}
+
+// An empty folder under the test build's tmp/ (removed first).
+inline std::filesystem::path scratch(const std::string& name)
+{
+    namespace fs = std::filesystem;
+    fs::path d = fs::path(RELIEF_TEST_TMP) / name;
+    fs::remove_all(d);
+    fs::create_directories(d);
+    return d;
+}
+
+template <class A, class B>
+double max_abs_diff(const A& a, const B& b)
+{
+    double m = a.size() == b.size() ? 0.0 : INFINITY;
+    for (std::size_t i = 0; i < a.size() && i < b.size(); ++i)
+        m = std::max(m, std::abs(double(a[i]) - double(b[i])));
+    return m;
+}
+
+template <class A>
+double max_abs(const A& a)
+{
+    double m = 0.0;
+    for (auto v : a)
+        m = std::max(m, std::abs(double(v)));
+    return m;
+}
+
+// Prints the marker that tests/CMakeLists.txt's SKIP_REGULAR_EXPRESSION
+// turns into a skipped ctest entry (Catch2 2 has no SKIP of its own).
+inline void mark_skipped(const std::string& why)
+{
+    std::cout << "relief-test-skipped: " << why << std::endl;
+}
+
+} // namespace relief::test

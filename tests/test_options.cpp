@@ -1,0 +1,543 @@
+// The public API's options reach the host stages: for every option, the
+// API's result equals the host call made with the same parameters (bit for
+// bit: same device, same kernels), and the option changes the result, so
+// an option that is ignored, swapped or given the wrong default fails.
+// Also boundary=auto on synthetic tiling and non-tiling maps.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <functional>
+#include <random>
+
+#include "bake_stage.h"
+#include "compute_context.h"
+#include "correct_stage.h"
+#include "poisson_stage.h"
+#include "ray_stage.h"
+#include "relief/relief.h"
+#include "slope_stage.h"
+#include "support/fields.h"
+#include "support/images.h"
+
+using namespace relief;
+using OIIO::ImageBuf;
+using OIIO::TypeDesc;
+using test::max_abs_diff;
+using test::pixels;
+
+namespace {
+
+constexpr int kW = 48, kH = 40;
+
+// Smooth tiling slopes plus non-integrable noise, so that every option that
+// changes the integral shows.
+std::vector<double> tiling_slopes(int w, int h, unsigned seed)
+{
+    test::PeriodicField f{w, h, {{1, 1, 3.0, 0.4}, {2, -1, 1.5, 1.3}, {5, 3, 0.4, 2.0}}};
+    auto g = f.slopes();
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> noise(0.0, 0.1);
+    for (double& v : g)
+        v += noise(rng);
+    return g;
+}
+
+// The slopes exactly as the API derives them from `normals`.
+std::vector<float> api_slopes(const ImageBuf& normals)
+{
+    SlopeOptions o;
+    o.normals.convention = NormalConvention::OpenGL;
+    ImageBuf s = relief::slopes(normals, o);
+    REQUIRE_FALSE(s.has_error());
+    return pixels(s);
+}
+
+std::vector<float> host_poisson(const std::vector<float>& g, int w, int h, const host::PoissonParams& p)
+{
+    auto ctx = host::ComputeContext::acquire("auto");
+    auto d = host::upload_slopes(*ctx, g.data(), w, h);
+    std::vector<float> out(std::size_t(w) * h);
+    host::integrate_poisson(*ctx, d, p, out.data());
+    return out;
+}
+
+std::vector<float> host_rays(const std::vector<float>& g, int w, int h, const host::RayParams& p, bool fast)
+{
+    auto ctx = host::ComputeContext::acquire("auto");
+    auto d = host::upload_slopes(*ctx, g.data(), w, h);
+    std::vector<float> out(std::size_t(w) * h);
+    if (fast)
+        host::integrate_rays_fast(*ctx, d, p, out.data());
+    else
+        host::integrate_rays_reference(*ctx, d, p, out.data());
+    return out;
+}
+
+std::vector<float> api_height(const ImageBuf& normals, HeightOptions o, std::string* said = nullptr)
+{
+    o.normals.convention = NormalConvention::OpenGL;
+    if (said)
+        o.exec.on_message = [said](Severity, const std::string& m) { *said += m + "\n"; };
+    ImageBuf out = relief::height(normals, o);
+    INFO(relief::geterror());
+    REQUIRE_FALSE(out.has_error());
+    return pixels(out);
+}
+
+struct HeightCase {
+    const char* name;
+    std::function<void(HeightOptions&)> api;
+    std::function<std::vector<float>(const std::vector<float>&)> host;
+};
+
+host::RayParams rays(int j, double r, double phase, bool periodic, host::DirectionSet d = host::DirectionSet::Rational)
+{
+    host::RayParams p;
+    p.rays = j;
+    p.radius = r;
+    p.phase = phase;
+    p.directions = d;
+    p.boundary = periodic ? host::RayBoundary::Periodic : host::RayBoundary::Clip;
+    return p;
+}
+
+host::PoissonParams poisson(bool periodic, double highpass = 0.0)
+{
+    host::PoissonParams p;
+    p.boundary = periodic ? host::PoissonBoundary::Periodic : host::PoissonBoundary::Free;
+    p.highpass = highpass;
+    return p;
+}
+
+// Weights in [0, 1], a fifth of them 0.
+std::vector<float> random_weights(std::size_t n, unsigned seed)
+{
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    std::vector<float> w(n);
+    for (float& v : w)
+        v = u(rng) < 0.2f ? 0.0f : u(rng);
+    return w;
+}
+
+} // namespace
+
+TEST_CASE("options: every height option reaches its integrator", "[options][height]")
+{
+    const auto g = tiling_slopes(kW, kH, 3);
+    const ImageBuf normals = test::normal_image(g, kW, kH, test::Green::OpenGL, TypeDesc::FLOAT);
+    const auto slopes = api_slopes(normals);
+    const int w = kW, h = kH;
+    using DS = host::DirectionSet;
+    const HeightCase cases[] = {
+        {"poisson periodic",
+         [](HeightOptions& o) { o.method = HeightMethod::Poisson; o.boundary = Boundary::Periodic; },
+         [&](const auto& s) { return host_poisson(s, w, h, poisson(true)); }},
+        {"poisson free",
+         [](HeightOptions& o) { o.method = HeightMethod::Poisson; o.boundary = Boundary::Free; },
+         [&](const auto& s) { return host_poisson(s, w, h, poisson(false)); }},
+        {"auto method is poisson",
+         [](HeightOptions& o) { o.boundary = Boundary::Free; },
+         [&](const auto& s) { return host_poisson(s, w, h, poisson(false)); }},
+        {"poisson periodic highpass 12",
+         [](HeightOptions& o) { o.method = HeightMethod::Poisson; o.boundary = Boundary::Periodic; o.highpass = 12; },
+         [&](const auto& s) { return host_poisson(s, w, h, poisson(true, 12)); }},
+        {"poisson free highpass 9",
+         [](HeightOptions& o) { o.boundary = Boundary::Free; o.highpass = 9; },
+         [&](const auto& s) { return host_poisson(s, w, h, poisson(false, 9)); }},
+        {"rays fast periodic (defaults)",
+         [](HeightOptions& o) { o.method = HeightMethod::Rays; o.boundary = Boundary::Periodic; },
+         [&](const auto& s) { return host_rays(s, w, h, rays(32, 64, 0.5, true), true); }},
+        {"rays fast periodic rays 8 radius 10",
+         [](HeightOptions& o) { o.method = HeightMethod::Rays; o.boundary = Boundary::Periodic; o.rays = 8; o.radius = 10; },
+         [&](const auto& s) { return host_rays(s, w, h, rays(8, 10, 0.5, true), true); }},
+        {"rays fast clip rays 12 radius 7 phase 0.25",
+         [](HeightOptions& o) {
+             o.method = HeightMethod::Rays; o.boundary = Boundary::Free; o.rays = 12; o.radius = 7; o.phase = 0.25f;
+         },
+         [&](const auto& s) { return host_rays(s, w, h, rays(12, 7, 0.25, false), true); }},
+        {"rays fast clip skip off",
+         [](HeightOptions& o) {
+             o.method = HeightMethod::Rays; o.boundary = Boundary::Free; o.rays = 12; o.radius = 7; o.phase = 0.25f;
+             o.skip_flat = false;
+         },
+         [&](const auto& s) {
+             auto p = rays(12, 7, 0.25, false);
+             p.skip_flat = false;
+             return host_rays(s, w, h, p, true);
+         }},
+        {"rays reference periodic exact directions phase 0.125",
+         [](HeightOptions& o) {
+             o.method = HeightMethod::Rays; o.boundary = Boundary::Periodic; o.impl = RayImpl::Reference;
+             o.directions = RayDirections::Exact; o.rays = 6; o.radius = 9; o.phase = 0.125f;
+         },
+         [&](const auto& s) { return host_rays(s, w, h, rays(6, 9, 0.125, true, DS::Exact), false); }},
+        {"rays reference periodic rational phase 0.125",
+         [](HeightOptions& o) {
+             o.method = HeightMethod::Rays; o.boundary = Boundary::Periodic; o.impl = RayImpl::Reference;
+             o.rays = 6; o.radius = 9; o.phase = 0.125f;
+         },
+         [&](const auto& s) { return host_rays(s, w, h, rays(6, 9, 0.125, true, DS::Rational), false); }},
+        {"rays reference clip rational",
+         [](HeightOptions& o) {
+             o.method = HeightMethod::Rays; o.boundary = Boundary::Free; o.impl = RayImpl::Reference; o.rays = 10;
+             o.radius = 8;
+         },
+         [&](const auto& s) { return host_rays(s, w, h, rays(10, 8, 0.5, false, DS::Rational), false); }},
+    };
+    std::vector<std::vector<float>> results;
+    for (const HeightCase& c : cases) {
+        INFO(c.name);
+        HeightOptions o;
+        c.api(o);
+        const auto got = api_height(normals, o);
+        const auto want = c.host(slopes);
+        REQUIRE(got.size() == want.size());
+        CHECK(max_abs_diff(got, want) == 0.0);
+        results.push_back(got);
+    }
+    // Each option changes the result: none of them could be ignored unseen.
+    for (std::size_t a = 0; a < results.size(); ++a)
+        for (std::size_t b = a + 1; b < results.size(); ++b) {
+            const bool same_by_design = (a == 1 && b == 2) || (a == 7 && b == 8);  // auto = poisson; skip
+            INFO(cases[a].name << " vs " << cases[b].name);
+            if (same_by_design)
+                CHECK(results[a] == results[b]);
+            else
+                CHECK(max_abs_diff(results[a], results[b]) > 1e-4);
+        }
+}
+
+TEST_CASE("options: mask=alpha and mask images weight the solve with their channel", "[options][mask]")
+{
+    const auto g = tiling_slopes(kW, kH, 5);
+    const std::size_t n = std::size_t(kW) * kH;
+    const auto weights = random_weights(n, 9);
+    // RGBA normals whose alpha holds the weights.
+    ImageBuf rgb = test::normal_image(g, kW, kH, test::Green::OpenGL, TypeDesc::FLOAT);
+    const auto px = pixels(rgb);
+    std::vector<float> rgba(4 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+        for (int c = 0; c < 3; ++c)
+            rgba[4 * i + c] = px[3 * i + c];
+        rgba[4 * i + 3] = weights[i];
+    }
+    const ImageBuf normals = test::image(kW, kH, 4, rgba);
+    const auto slopes = api_slopes(rgb);
+    for (bool periodic : {true, false}) {
+        INFO((periodic ? "periodic" : "free"));
+        auto p = poisson(periodic);
+        p.weights = weights.data();
+        const auto want = host_poisson(slopes, kW, kH, p);
+        HeightOptions o;
+        o.boundary = periodic ? Boundary::Periodic : Boundary::Free;
+        o.mask_alpha = true;
+        const auto by_alpha = api_height(normals, o);
+        CHECK(max_abs_diff(by_alpha, want) == 0.0);
+        // A 3-channel mask image: channel 0 holds the weights, the others not.
+        std::vector<float> m(3 * n);
+        for (std::size_t i = 0; i < n; ++i) {
+            m[3 * i] = weights[i];
+            m[3 * i + 1] = 1.0f - weights[i];
+            m[3 * i + 2] = 0.5f;
+        }
+        const ImageBuf mask = test::image(kW, kH, 3, m);
+        o.mask_alpha = false;
+        o.mask = &mask;
+        CHECK(max_abs_diff(api_height(normals, o), want) == 0.0);
+        // And the weights matter.
+        const auto plain = host_poisson(slopes, kW, kH, poisson(periodic));
+        CHECK(max_abs_diff(want, plain) > 1e-3);
+    }
+}
+
+TEST_CASE("options: an all-ones mask changes nothing, one texel less does", "[options][mask]")
+{
+    const auto g = tiling_slopes(kW, kH, 6);
+    const ImageBuf normals = test::normal_image(g, kW, kH, test::Green::OpenGL, TypeDesc::FLOAT);
+    std::vector<float> ones(std::size_t(kW) * kH, 1.0f);
+    for (bool periodic : {true, false}) {
+        HeightOptions o;
+        o.boundary = periodic ? Boundary::Periodic : Boundary::Free;
+        const auto plain = api_height(normals, o);
+        const ImageBuf mask = test::image(kW, kH, 1, ones, TypeDesc::UINT8);
+        o.mask = &mask;
+        std::string said;
+        CHECK(api_height(normals, o, &said) == plain);
+        CHECK(said.find("mask: all ones") != std::string::npos);
+        std::vector<float> almost = ones;
+        almost[kW * 7 + 11] = 0.0f;
+        const ImageBuf hole = test::image(kW, kH, 1, almost);
+        o.mask = &hole;
+        said.clear();
+        CHECK(max_abs_diff(api_height(normals, o, &said), plain) > 1e-4);
+        CHECK(said.find("conjugate-gradient") != std::string::npos);
+    }
+}
+
+TEST_CASE("options: boundary=auto integrates a tiling map periodically and a crop freely", "[options][tiling]")
+{
+    // A tiling field, and the top-left 60 x 50 of a larger tiling field (its
+    // wrap seams join unrelated texels).
+    const int big_w = 96, big_h = 80, w = 60, h = 50;
+    const auto tiling = tiling_slopes(big_w, big_h, 7);
+    std::vector<double> crop(2 * std::size_t(w) * h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < 2; ++c)
+                crop[2 * (std::size_t(y) * w + x) + c] = tiling[2 * (std::size_t(y) * big_w + x) + c];
+    const ImageBuf tile = test::normal_image(tiling, big_w, big_h, test::Green::OpenGL, TypeDesc::FLOAT);
+    const ImageBuf part = test::normal_image(crop, w, h, test::Green::OpenGL, TypeDesc::FLOAT);
+    for (bool ray_method : {false, true}) {
+        INFO((ray_method ? "rays" : "poisson"));
+        HeightOptions o;
+        if (ray_method) {
+            o.method = HeightMethod::Rays;
+            o.rays = 8;
+            o.radius = 10;
+        }
+        for (const auto& [img, tiles] : {std::pair{&tile, true}, std::pair{&part, false}}) {
+            std::string said;
+            const auto got = api_height(*img, o, &said);
+            HeightOptions explicit_b = o;
+            explicit_b.boundary = tiles ? Boundary::Periodic : Boundary::Free;
+            const auto want = api_height(*img, explicit_b);
+            INFO(said);
+            CHECK(got == want);
+            const std::string expect = tiles ? "boundary: periodic" : (ray_method ? "boundary: clip" : "boundary: free");
+            CHECK(said.find(expect) != std::string::npos);
+            HeightOptions other = o;
+            other.boundary = tiles ? Boundary::Free : Boundary::Periodic;
+            CHECK(max_abs_diff(api_height(*img, other), got) > 1e-3);
+        }
+    }
+}
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A smooth tiling height field in stored units.
+std::vector<float> waves(int w, int h, double amp, unsigned seed)
+{
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> ph(0.0, 2 * kPi);
+    const double p1 = ph(rng), p2 = ph(rng), p3 = ph(rng);
+    std::vector<float> v(std::size_t(w) * h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            v[std::size_t(y) * w + x] =
+                float(amp * (0.5 * std::sin(2 * kPi * x / w + p1) * std::cos(2 * kPi * 2 * y / h + p2) +
+                             0.25 * std::sin(2 * kPi * (3.0 * x / w + 1.0 * y / h) + p3)));
+    return v;
+}
+
+struct HostCorrection {
+    std::vector<float> offsets;
+    host::CorrectReport report;
+};
+
+HostCorrection host_correct(const std::vector<float>& hts, int w, int h, const host::CorrectParams& p)
+{
+    auto ctx = host::ComputeContext::acquire("auto");
+    HostCorrection r;
+    r.offsets.resize(2 * std::size_t(w) * h);
+    host::correct_distortion(*ctx, hts.data(), w, h, p, r.offsets.data(), &r.report);
+    return r;
+}
+
+struct ApiCorrection {
+    std::vector<float> offsets;
+    CorrectReport report;
+    ImageBuf image;
+    std::string said;
+};
+
+ApiCorrection api_correct(const ImageBuf& height, CorrectOptions o)
+{
+    ApiCorrection r;
+    o.report = &r.report;
+    o.exec.on_message = [&r](Severity, const std::string& m) { r.said += m + "\n"; };
+    r.image = relief::correct(height, o);
+    INFO(relief::geterror());
+    REQUIRE_FALSE(r.image.has_error());
+    r.offsets = pixels(r.image);
+    return r;
+}
+
+} // namespace
+
+TEST_CASE("options: every correction option reaches the solver, the report is the solver's", "[options][correct]")
+{
+    const int w = 40, h = 36;
+    const auto hts = waves(w, h, 1.0, 4);
+    const ImageBuf height = test::image(w, h, 1, hts);
+    // A fixation mask image (channel 0 = weights) and the tent's weights,
+    // computed here from the documented formula max(0, 1 - |h - H0| / DH).
+    std::vector<float> fix_px(3 * std::size_t(w) * h), fix(std::size_t(w) * h), tent(fix.size());
+    for (std::size_t i = 0; i < fix.size(); ++i) {
+        fix[i] = 2.0f + float(i % 7);
+        fix_px[3 * i] = fix[i];
+        fix_px[3 * i + 1] = 0.0f;
+        fix_px[3 * i + 2] = 100.0f;
+        tent[i] = std::max(0.0f, 1.0f - std::abs(hts[i] - 0.2f) / 0.5f);
+    }
+    const ImageBuf fix_image = test::image(w, h, 3, fix_px);
+
+    struct Case {
+        const char* name;
+        std::function<void(CorrectOptions&)> api;
+        std::function<void(host::CorrectParams&)> host;
+    };
+    // Every case starts from scale 0.3, centre nodes, periodic.
+    const Case cases[] = {
+        {"base", [](CorrectOptions&) {}, [](host::CorrectParams&) {}},
+        {"theta 2", [](CorrectOptions& o) { o.theta = 2; }, [](host::CorrectParams& p) { p.theta = 2; }},
+        {"theta 7.5", [](CorrectOptions& o) { o.theta = 7.5f; }, [](host::CorrectParams& p) { p.theta = 7.5; }},
+        {"corner nodes", [](CorrectOptions& o) { o.nodes = CorrectNodes::Corner; },
+         [](host::CorrectParams& p) { p.corner_nodes = true; }},
+        {"fixed boundary", [](CorrectOptions& o) { o.boundary = CorrectBoundary::Fixed; },
+         [](host::CorrectParams& p) { p.periodic = false; }},
+        {"corner nodes, fixed", [](CorrectOptions& o) { o.nodes = CorrectNodes::Corner; o.boundary = CorrectBoundary::Fixed; },
+         [](host::CorrectParams& p) { p.corner_nodes = true; p.periodic = false; }},
+        {"scale 0.5", [](CorrectOptions& o) { o.scale = 0.5f; }, [](host::CorrectParams& p) { p.scale = 0.5f; }},
+        {"3 iterations", [](CorrectOptions& o) { o.iterations = 3; }, [](host::CorrectParams& p) { p.iterations = 3; }},
+        {"tolerance 1e-2", [](CorrectOptions& o) { o.tolerance = 1e-2f; },
+         [](host::CorrectParams& p) { p.tolerance = 1e-2f; }},
+        {"1 level", [](CorrectOptions& o) { o.levels = 1; }, [](host::CorrectParams& p) { p.levels = 1; }},
+        {"threshold 3 (nothing to do)", [](CorrectOptions& o) { o.threshold = 3; },
+         [](host::CorrectParams& p) { p.threshold = 3; }},
+        {"fixation mask", [&](CorrectOptions& o) { o.fix_mask = &fix_image; },
+         [&](host::CorrectParams& p) { p.fix_weights = fix.data(); }},
+        {"fixation tent", [](CorrectOptions& o) { o.fix_height = 0.2f; o.fix_width = 0.5f; },
+         [&](host::CorrectParams& p) { p.fix_weights = tent.data(); }},
+        {"skip off", [](CorrectOptions& o) { o.skip_tiles = false; }, [](host::CorrectParams& p) { p.skip_tiles = false; }},
+    };
+    std::vector<std::vector<float>> results;
+    for (const Case& c : cases) {
+        INFO(c.name);
+        CorrectOptions o;
+        o.scale = 0.3f;
+        o.nodes = CorrectNodes::Center;
+        o.boundary = CorrectBoundary::Periodic;
+        c.api(o);
+        host::CorrectParams p;
+        p.scale = 0.3f;
+        p.corner_nodes = false;
+        p.periodic = true;
+        c.host(p);
+        const ApiCorrection got = api_correct(height, o);
+        const HostCorrection want = host_correct(hts, w, h, p);
+        CHECK(max_abs_diff(got.offsets, want.offsets) == 0.0);
+        const CorrectReport& r = got.report;
+        CHECK(r.skipped == want.report.skipped);
+        CHECK(r.energy_before == want.report.energy_before);
+        CHECK(r.energy_after == want.report.energy_after);
+        CHECK(r.iterations == want.report.total_iterations());
+        REQUIRE(r.levels.size() == want.report.levels.size());
+        for (std::size_t l = 0; l < r.levels.size(); ++l) {
+            CHECK(r.levels[l].iterations == want.report.levels[l].iterations);
+            CHECK(r.levels[l].energy_end == want.report.levels[l].energy_end);
+            CHECK(r.levels[l].width == want.report.levels[l].width);
+        }
+        CHECK(r.anisotropy_before.max == want.report.anisotropy_before.max);
+        CHECK(r.anisotropy_after.p95 == want.report.anisotropy_after.p95);
+        CHECK(r.area_after.mean == want.report.area_after.mean);
+        CHECK(r.boundary == (p.periodic ? "periodic" : "fixed"));
+        CHECK(r.nodes == (p.corner_nodes ? "corner" : "center"));
+        CHECK(r.scale == Approx(p.scale));
+        CHECK(got.image.spec().get_string_attribute("relief:boundary") == r.boundary);
+        CHECK(got.image.spec().get_string_attribute("relief:nodes") == r.nodes);
+        if (!r.skipped) {
+            CHECK(r.energy_after < r.energy_before * 0.999);
+            CHECK(r.anisotropy_after.mean < r.anisotropy_before.mean);
+        }
+        results.push_back(got.offsets);
+    }
+    CHECK(results.back() == results.front());  // skip=off: the same bits
+    for (std::size_t a = 0; a + 1 < results.size(); ++a)
+        for (std::size_t b = a + 1; b + 1 < results.size(); ++b) {
+            INFO(cases[a].name << " vs " << cases[b].name);
+            CHECK(max_abs_diff(results[a], results[b]) > 1e-7);
+        }
+}
+
+TEST_CASE("options: relief's own heights imply scale 1/width, others need one", "[options][correct]")
+{
+    const int w = 32, h = 24;
+    const auto hts = waves(w, h, 3.0, 2);
+    ImageBuf own = test::image(w, h, 1, hts);
+    own.specmod().attribute("relief:height_unit", "texel");
+    CorrectOptions o;
+    o.nodes = CorrectNodes::Center;
+    o.boundary = CorrectBoundary::Periodic;
+    const ApiCorrection got = api_correct(own, o);
+    host::CorrectParams p;
+    p.scale = 1.0 / w;
+    p.corner_nodes = false;
+    p.periodic = true;
+    CHECK(max_abs_diff(got.offsets, host_correct(hts, w, h, p).offsets) == 0.0);
+    CHECK(got.report.scale == Approx(1.0 / w));
+    CHECK_FALSE(got.report.skipped);
+    ImageBuf other = test::image(w, h, 1, hts);
+    ImageBuf dst;
+    CHECK_FALSE(relief::correct(dst, other, o));
+    CHECK(relief::geterror().find("scale") != std::string::npos);
+}
+
+TEST_CASE("options: correction boundary=auto finds tiling maps and crops", "[options][correct][tiling]")
+{
+    const int w = 48, h = 40;
+    const auto hts = waves(w, h, 1.0, 11);
+    // The top-left 30 x 26 of a tiling field does not tile.
+    const int cw = 30, ch = 26;
+    std::vector<float> crop(std::size_t(cw) * ch);
+    for (int y = 0; y < ch; ++y)
+        for (int x = 0; x < cw; ++x)
+            crop[std::size_t(y) * cw + x] = hts[std::size_t(y) * w + x];
+    for (const auto& [px, iw, ih, tiles] : {std::tuple{&hts, w, h, true}, std::tuple{static_cast<const std::vector<float>*>(&crop), cw, ch, false}}) {
+        INFO((tiles ? "tiling" : "crop"));
+        const ImageBuf img = test::image(iw, ih, 1, *px);
+        CorrectOptions o;
+        o.scale = 0.3f;
+        o.nodes = CorrectNodes::Center;
+        const ApiCorrection got = api_correct(img, o);
+        CHECK(got.report.boundary == (tiles ? "periodic" : "fixed"));
+        CHECK(got.said.find(tiles ? "boundary periodic" : "boundary fixed") != std::string::npos);
+        o.boundary = tiles ? CorrectBoundary::Periodic : CorrectBoundary::Fixed;
+        CHECK(api_correct(img, o).offsets == got.offsets);
+    }
+}
+
+TEST_CASE("options: bake filter and wrap reach the gather", "[options][bake]")
+{
+    const int w = 21, h = 17, nch = 2;
+    std::mt19937 rng(4);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f), d(-0.08f, 0.08f);
+    std::vector<float> src(std::size_t(w) * h * nch), off(2 * std::size_t(w) * h);
+    for (float& v : src)
+        v = u(rng);
+    for (float& v : off)
+        v = d(rng);
+    const ImageBuf tex = test::image(w, h, nch, src), offsets = test::image(w, h, 2, off);
+    auto ctx = host::ComputeContext::acquire("auto");
+    std::vector<std::vector<float>> results;
+    for (bool periodic : {false, true})
+        for (bool bicubic : {false, true}) {
+            INFO("periodic " << periodic << " bicubic " << bicubic);
+            BakeOptions o;
+            o.colorspace = BakeColorspace::Raw;
+            o.filter = bicubic ? BakeFilter::Bicubic : BakeFilter::Bilinear;
+            o.wrap = periodic ? BakeWrap::Periodic : BakeWrap::Clamp;
+            ImageBuf out = relief::bake(tex, offsets, o);
+            REQUIRE_FALSE(out.has_error());
+            std::vector<float> want(src.size());
+            host::bake_gather(*ctx, src.data(), w, h, nch, off.data(), periodic,
+                              bicubic ? host::BakeFilter::Bicubic : host::BakeFilter::Bilinear, want.data());
+            CHECK(pixels(out) == want);
+            results.push_back(want);
+        }
+    for (std::size_t a = 0; a < results.size(); ++a)
+        for (std::size_t b = a + 1; b < results.size(); ++b)
+            CHECK(max_abs_diff(results[a], results[b]) > 1e-3);
+}
