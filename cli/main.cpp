@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include <unistd.h>
 
 #include "command_line.h"
+#include "text_file.h"
 #include "relief/relief.h"
 
 namespace {
@@ -24,8 +24,6 @@ using relief::cli::Step;
 struct RuntimeError : std::runtime_error {
     using std::runtime_error::runtime_error;
 };
-
-void write_text_atomically(const std::string& path, const std::string& text);
 
 class Runner {
 public:
@@ -133,7 +131,7 @@ private:
             if (!relief::correct(out, in, o))
                 throw RuntimeError(relief::geterror());
             if (!prog_.report.empty())
-                write_text_atomically(prog_.report, report.to_json());
+                relief::cli::write_text_atomically(prog_.report, report.to_json(), "the report");
             stack_.push_back(std::move(out));
             break;
         }
@@ -175,19 +173,6 @@ private:
     const Program& prog_;
     std::vector<OIIO::ImageBuf> stack_;
 };
-
-// Writes `text` to `path` through a temporary file in the same folder.
-void write_text_atomically(const std::string& path, const std::string& text)
-{
-    const std::string tmp = path + ".relief-tmp-" + std::to_string(::getpid());
-    std::FILE* f = std::fopen(tmp.c_str(), "wb");
-    bool ok = f && std::fwrite(text.data(), 1, text.size(), f) == text.size();
-    ok = f && (std::fclose(f) == 0) && ok;
-    if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
-        std::remove(tmp.c_str());
-        throw RuntimeError("cannot write the report '" + path + "'");
-    }
-}
 
 int list_devices()
 {

@@ -1,12 +1,16 @@
 // Reading raw image data and writing outputs atomically.
 #include "relief/imageio.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <memory>
 #include <filesystem>
 #include <system_error>
 #include <unistd.h>
@@ -78,6 +82,72 @@ void say(const WriteOptions& o, Severity s, const std::string& msg)
 {
     if (o.on_message)
         o.on_message(s, msg);
+}
+
+// The file under an image writer: remembers the first write that did not
+// go through (a full disk, a file size limit) and why.
+class CheckedFile final : public OIIO::Filesystem::IOFile {
+public:
+    explicit CheckedFile(std::FILE* f) : IOFile(f, Write) {}
+    size_t write(const void* buf, size_t size) override { return note(IOFile::write(buf, size), size); }
+    size_t pwrite(const void* buf, size_t size, int64_t offset) override
+    {
+        return note(IOFile::pwrite(buf, size, offset), size);
+    }
+    int error_number() const { return errno_; }
+
+private:
+    size_t note(size_t done, size_t wanted)
+    {
+        if (done != wanted && errno_ == 0)
+            errno_ = errno ? errno : EIO;
+        return done;
+    }
+    int errno_ = 0;
+};
+
+// Writes `image` into the new file `path` as `format` with `compression`
+// (empty: the format's default); returns "" or why not. Not ImageBuf::write: it ignores the writer's close(), where PNG and
+// TIFF finish their files, and OIIO 2.4's PNG writer reports success for a
+// file the disk could not hold. So the bytes go through CheckedFile, and
+// close, flush and fsync (the data is on disk before the rename) are checked.
+std::string write_file(const ImageBuf& image, const fs::path& path, TypeDesc format,
+                       const std::string& compression)
+{
+    auto out = OIIO::ImageOutput::create(path.string());
+    if (!out)
+        return OIIO::geterror();
+    ImageSpec spec = image.spec();
+    spec.tile_width = spec.tile_height = spec.tile_depth = 0;  // scanlines
+    spec.set_format(format);
+    spec.channelformats.clear();
+    if (!compression.empty())
+        spec.attribute("compression", compression);
+    std::FILE* f = nullptr;
+    std::unique_ptr<CheckedFile> file;
+    if (out->supports("ioproxy")) {
+        f = std::fopen(path.c_str(), "wb");
+        if (!f)
+            return std::strerror(errno);
+        file = std::make_unique<CheckedFile>(f);
+        out->set_ioproxy(file.get());
+    }
+    bool ok = out->open(path.string(), spec) && image.write(out.get());
+    ok = out->close() && ok;
+    std::string why = ok ? "" : out->geterror();
+    if (file) {
+        int err = file->error_number();
+        file.reset();
+        if (std::fflush(f) != 0 || ::fsync(::fileno(f)) != 0)
+            err = err ? err : errno;
+        if (std::fclose(f) != 0)
+            err = err ? err : errno;
+        if (err)
+            why = std::strerror(err);
+    }
+    if (ok && why.empty())
+        return "";
+    return why.empty() ? "unknown error" : why;
 }
 
 } // namespace
@@ -168,13 +238,6 @@ bool write_image(const ImageBuf& image, const std::string& path, const WriteOpti
     std::string compression = options.compression;
     if (compression.empty() && ext == ".exr" && format == TypeDesc::FLOAT)
         compression = "none";
-    if (!compression.empty()) {
-        if (out != &mapped) {
-            mapped.copy(*out);
-            out = &mapped;
-        }
-        mapped.specmod().attribute("compression", compression);
-    }
 
     // Same folder, same extension (OIIO picks the writer by extension), so
     // the final rename is atomic and never crosses file systems.
@@ -182,10 +245,10 @@ bool write_image(const ImageBuf& image, const std::string& path, const WriteOpti
     const fs::path tmp = folder / (target.stem().string() + ".relief-tmp-" +
                                    std::to_string(::getpid()) + "-" +
                                    std::to_string(counter++) + target.extension().string());
-    if (!out->write(tmp.string(), format)) {
-        std::string why = out->geterror();
+    const std::string why = write_file(*out, tmp, format, compression);
+    if (!why.empty()) {
         fs::remove(tmp, ec);
-        detail::set_error("cannot write '" + path + "': " + (why.empty() ? OIIO::geterror() : why));
+        detail::set_error("cannot write '" + path + "': " + why);
         return false;
     }
     fs::rename(tmp, target, ec);

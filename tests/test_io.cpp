@@ -1,0 +1,236 @@
+// Files: writes that fail half-way (file size limit, as on a full disk)
+// leave the old file untouched and no temporary file behind, through the
+// API and the command line (images and the --report file); --compression
+// and -d reach the file; PNG alpha is read unassociated.
+#include <catch2/catch.hpp>
+
+#include <OpenImageIO/imagebuf.h>
+
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "relief/relief.h"
+#include "text_file.h"
+#include "support/images.h"
+#include "support/run_cli.h"
+
+namespace fs = std::filesystem;
+using relief::test::run_cli;
+using relief::test::slurp;
+
+namespace {
+
+const std::string kNormal = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
+const std::string kHeight = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
+
+// The names in `dir` other than `keep`.
+std::vector<std::string> others(const fs::path& dir, const std::string& keep)
+{
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir))
+        if (e.path().filename() != keep)
+            names.push_back(e.path().filename().string());
+    return names;
+}
+
+// Runs the hidden test case `child` in a fresh process (fork and exec:
+// a forked copy of a process with OpenCL and OIIO threads may deadlock)
+// whose files may not grow beyond `limit` bytes, with SIGXFSZ ignored so
+// that writes fail with EFBIG as they would with ENOSPC on a full disk.
+// `arg` reaches the child as $RELIEF_TEST_CHILD_ARG. Returns its exit
+// code: 0 when the write failed cleanly, 1 when it succeeded.
+int with_size_limit(rlim_t limit, const std::string& child, const std::string& arg)
+{
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        std::signal(SIGXFSZ, SIG_IGN);
+        const rlimit rl{limit, limit};
+        if (::setrlimit(RLIMIT_FSIZE, &rl) != 0 || ::setenv("RELIEF_TEST_CHILD_ARG", arg.c_str(), 1) != 0)
+            ::_exit(3);
+        ::execl("/proc/self/exe", "relief_tests", child.c_str(), "--out", "/dev/null", nullptr);
+        ::_exit(4);
+    }
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 100 + WTERMSIG(status);
+}
+
+// The child's argument, or null when the test runs on its own (then it
+// does nothing).
+const char* child_arg()
+{
+    const char* a = std::getenv("RELIEF_TEST_CHILD_ARG");
+    return a && *a ? a : nullptr;
+}
+
+} // namespace
+
+TEST_CASE("io: (child) write a 256x256 relief result to $RELIEF_TEST_CHILD_ARG", "[.][io-child]")
+{
+    const char* path = child_arg();
+    if (!path)
+        return;
+    std::vector<float> px(256 * 256);
+    for (std::size_t i = 0; i < px.size(); ++i)
+        px[i] = float(std::sin(0.37 * double(i)) * 10.0);  // incompressible
+    OIIO::ImageBuf img = relief::test::image(256, 256, 1, px);
+    img.specmod().attribute("relief:method", "poisson");
+    img.specmod().attribute("relief:height_unit", "texel");
+    relief::WriteOptions o;
+    const std::string ext = fs::path(path).extension().string();
+    o.format = ext == ".png" ? OIIO::TypeDesc::UINT16 : OIIO::TypeDesc::FLOAT;
+    o.compression = ext == ".png" ? "" : "none";
+    std::_Exit(relief::write_image(img, path, o) ? 1 : 0);
+}
+
+TEST_CASE("io: a write that fails half-way keeps the old file and leaves no temporary", "[io][errors]")
+{
+    const auto dir = relief::test::scratch("io/partial");
+    const std::string child = "io: (child) write a 256x256 relief result to $RELIEF_TEST_CHILD_ARG";
+    for (const char* name : {"h.exr", "h.tif", "h.png"}) {
+        INFO(name);
+        const fs::path target = dir / name;
+        const std::string old = "the previous version of this file, which must survive\n";
+        std::ofstream(target, std::ios::binary) << old;
+        // 256x256 pixels need 128 KiB and more; 20 KiB is not enough.
+        CHECK(with_size_limit(20 * 1024, child, target.string()) == 0);
+        CHECK(slurp(target) == old);
+        CHECK(others(dir, name).empty());
+        // Without the limit the same write succeeds and replaces the file.
+        CHECK(with_size_limit(RLIM_INFINITY, child, target.string()) == 1);
+        CHECK(slurp(target) != old);
+        CHECK(others(dir, name).empty());
+        fs::remove(target);
+    }
+}
+
+TEST_CASE("io: (child) write 4 KiB of text to $RELIEF_TEST_CHILD_ARG", "[.][io-child]")
+{
+    const char* path = child_arg();
+    if (!path)
+        return;
+    try {
+        relief::cli::write_text_atomically(path, std::string(4096, 'x'), "the report");
+        std::_Exit(1);
+    } catch (const std::runtime_error& e) {
+        // 0 only with the message the CLI prints.
+        std::_Exit(std::string(e.what()) == "cannot write the report '" + std::string(path) + "'" ? 0 : 5);
+    }
+}
+
+TEST_CASE("io: the --report writer keeps the old file when the disk is full", "[io][errors]")
+{
+    const auto dir = relief::test::scratch("io/text");
+    const fs::path target = dir / "r.json";
+    const std::string old = "{\"old\": true}\n";
+    std::ofstream(target, std::ios::binary) << old;
+    const std::string child = "io: (child) write 4 KiB of text to $RELIEF_TEST_CHILD_ARG";
+    CHECK(with_size_limit(1024, child, target.string()) == 0);
+    CHECK(slurp(target) == old);
+    CHECK(others(dir, "r.json").empty());
+    CHECK(with_size_limit(RLIM_INFINITY, child, target.string()) == 1);
+    CHECK(slurp(target) == std::string(4096, 'x'));
+    CHECK(others(dir, "r.json").empty());
+}
+
+TEST_CASE("cli: a full disk during -o keeps the old file, exit 1", "[cli][io][errors]")
+{
+    const auto dir = relief::test::scratch("io/cli_partial");
+    const std::string old = "precious\n";
+    // dash's ulimit -f counts 512-byte blocks; an ignored SIGXFSZ is inherited.
+    // PoCL writes temporary files of a few MiB when it loads kernels (even
+    // from its cache): 16 MiB holds those but not the 32 MiB of slopes of a
+    // 2048^2 map (a flat 8-bit PNG of a few KiB).
+    const std::string limited = "trap '' XFSZ; ulimit -f 32768;";
+    OIIO::ImageBuf flat = relief::test::image(2048, 2048, 3, std::vector<float>(2048 * 2048 * 3, 0.5f),
+                                              OIIO::TypeDesc::UINT8);
+    const fs::path input = dir / "flat.png";
+    REQUIRE(flat.write(input.string()));
+    {
+        const std::string args = "'" + input.string() + "' --slopes:normal=opengl -o '";
+        REQUIRE(run_cli(args + (dir / "warm.exr").string() + "'").rc == 0);
+        fs::remove(dir / "warm.exr");
+        std::ofstream(dir / "h.exr", std::ios::binary) << old;
+        auto r = run_cli(args + (dir / "h.exr").string() + "'", limited);
+        INFO(r.err);
+        CHECK(r.rc == 1);
+        CHECK(r.err.find("relief: error: cannot write") != std::string::npos);
+        CHECK(slurp(dir / "h.exr") == old);
+        CHECK(others(dir, "h.exr") == std::vector<std::string>{"flat.png"});
+    }
+}
+
+TEST_CASE("cli: --compression and -d reach the file", "[cli][io]")
+{
+    const auto dir = relief::test::scratch("io/formats");
+    auto r = run_cli("'" + kNormal + "' --height:normal=directx -o '" + (dir / "plain.exr").string() +
+                     "' --compression zip -o '" + (dir / "zip.exr").string() + "' --compression piz -d half -o '" +
+                     (dir / "piz_half.exr").string() + "' -d uint16 -o '" + (dir / "h16.tif").string() +
+                     "' -d uint8 -o '" + (dir / "h8.tif").string() + "'");
+    INFO(r.err);
+    REQUIRE(r.rc == 0);
+    struct Expect {
+        const char* file;
+        OIIO::TypeDesc format;
+        const char* compression;  // nullptr: not checked
+    };
+    for (const Expect& e : {Expect{"plain.exr", OIIO::TypeDesc::FLOAT, "none"},
+                            Expect{"zip.exr", OIIO::TypeDesc::FLOAT, "zip"},
+                            Expect{"piz_half.exr", OIIO::TypeDesc::HALF, "piz"},
+                            Expect{"h16.tif", OIIO::TypeDesc::UINT16, nullptr},
+                            Expect{"h8.tif", OIIO::TypeDesc::UINT8, nullptr}}) {
+        INFO(e.file);
+        OIIO::ImageBuf b((dir / e.file).string());
+        REQUIRE(b.read());
+        CHECK(b.spec().format == e.format);
+        if (e.compression)
+            CHECK(b.spec().get_string_attribute("compression") == e.compression);
+    }
+    // The same heights in every file (within each type's precision).
+    const auto f = relief::test::file_pixels(dir / "plain.exr");
+    CHECK(relief::test::file_pixels(dir / "zip.exr") == f);
+    const double spread = relief::test::max_abs(f);
+    CHECK(relief::test::max_abs_diff(relief::test::file_pixels(dir / "piz_half.exr"), f) < 1e-3 * spread);
+    // Integer files: data = (value - 0.5) * scale.
+    for (const char* name : {"h16.tif", "h8.tif"}) {
+        OIIO::ImageBuf q((dir / name).string());
+        REQUIRE(q.read(0, 0, true, OIIO::TypeDesc::FLOAT));
+        const std::string desc = q.spec().get_string_attribute("ImageDescription");
+        const std::string key = "relief: data = (value - 0.5) * ";
+        REQUIRE(desc.rfind(key, 0) == 0);
+        const double scale = std::stod(desc.substr(key.size()));
+        CHECK(scale == Approx(2.0 * spread).epsilon(1e-6));
+        auto v = relief::test::pixels(q);
+        for (float& x : v)
+            x = float((x - 0.5) * scale);
+        const double step = std::string(name) == "h8.tif" ? 255.0 : 65535.0;
+        CHECK(relief::test::max_abs_diff(v, f) <= 0.5 * scale / step * 1.01);
+    }
+}
+
+TEST_CASE("io: PNG alpha is read unassociated (RGB not premultiplied)", "[io]")
+{
+    const auto dir = relief::test::scratch("io/alpha");
+    const int w = 8, h = 4;
+    std::vector<float> px(std::size_t(w) * h * 4);
+    for (int i = 0; i < w * h; ++i) {
+        px[4 * i + 0] = 0.8f;
+        px[4 * i + 1] = 0.4f;
+        px[4 * i + 2] = 1.0f;
+        px[4 * i + 3] = float(i % 5) / 4.0f;  // alpha 0 .. 1
+    }
+    OIIO::ImageBuf out = relief::test::image(w, h, 4, px, OIIO::TypeDesc::UINT8);
+    out.specmod().attribute("oiio:UnassociatedAlpha", 1);
+    REQUIRE(out.write((dir / "n.png").string()));
+    OIIO::ImageBuf in;
+    REQUIRE(relief::read_image(in, (dir / "n.png").string()));
+    CHECK(in.nativespec().format == OIIO::TypeDesc::UINT8);
+    const auto got = relief::test::pixels(in);
+    REQUIRE(got.size() == px.size());
+    for (std::size_t i = 0; i < px.size(); ++i)
+        REQUIRE(std::abs(got[i] - std::round(px[i] * 255.0f) / 255.0f) < 1e-6);
+}
