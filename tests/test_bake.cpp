@@ -6,8 +6,10 @@
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
 
+#include <array>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <random>
 
 #include "bake_stage.h"
@@ -15,7 +17,11 @@
 #include "compute_context.h"
 #include "reference/bake_reference.h"
 #include "relief/bake.h"
+#include "relief/correct.h"
 #include "relief/errors.h"
+#include "relief/imageio.h"
+#include "support/fields.h"
+#include "support/images.h"
 #include "support/run_cli.h"
 
 using namespace relief;
@@ -202,11 +208,263 @@ TEST_CASE("bake: normal maps are renormalised, bad input fails cleanly", "[bake]
     CHECK(geterror().find("displacement") != std::string::npos);
 }
 
-TEST_CASE("cli: correct and bake, the documented examples", "[cli][bake]")
+namespace {
+
+// Unit direction of a normal stored as UNORM ([0, 1]) or signed values.
+template <class T>
+std::array<double, 3> direction(const T* v, bool unorm)
+{
+    std::array<double, 3> n;
+    double len = 0.0;
+    for (int c = 0; c < 3; ++c) {
+        n[c] = unorm ? 2.0 * v[c] - 1.0 : v[c];
+        len += n[c] * n[c];
+    }
+    len = std::sqrt(len);
+    for (double& x : n)
+        x /= len;
+    return n;
+}
+
+// The largest angle (radians) between the baked normals and the golden
+// gather's, renormalised; `length_error` gets the largest ||n| - 1| of the
+// baked ones (they are renormalised).
+double worst_normal_angle(const std::vector<float>& baked, const std::vector<double>& gold, int nch, bool unorm,
+                          double& length_error)
+{
+    double worst = 0.0;
+    length_error = 0.0;
+    for (std::size_t i = 0; i < baked.size(); i += nch) {
+        const auto a = direction(&baked[i], unorm);
+        const auto b = direction(&gold[i], unorm);
+        double len = 0.0;
+        for (int c = 0; c < 3; ++c) {
+            const double v = unorm ? 2.0 * baked[i + c] - 1.0 : baked[i + c];
+            len += v * v;
+        }
+        length_error = std::max(length_error, std::abs(std::sqrt(len) - 1.0));
+        const double dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        worst = std::max(worst, std::acos(std::min(1.0, dot)));
+    }
+    return worst;
+}
+
+// A bumpy tangent-space normal map (unit vectors, +z up), OpenGL.
+OIIO::ImageBuf bumpy_normals(int w, int h, OIIO::TypeDesc type, int nch = 3)
+{
+    const test::PeriodicField f{w, h, {{1, 1, 3.0, 0.4}, {3, -2, 1.0, 1.1}}};
+    return test::normal_image(f.slopes(), w, h, test::Green::OpenGL, type, nch);
+}
+
+} // namespace
+
+TEST_CASE("bake: 8- and 16-bit normal maps bake to the golden gather's directions", "[bake]")
+{
+    const int w = 24, h = 20;
+    const auto off = random_field(2 * std::size_t(w) * h, 12, -0.06f, 0.06f);
+    for (OIIO::TypeDesc type : {OIIO::TypeDesc::UINT8, OIIO::TypeDesc::UINT16})
+        for (int nch : {3, 4})
+            for (bool periodic : {true, false}) {
+                INFO(type << " " << nch << " channels, periodic " << periodic);
+                const OIIO::ImageBuf tex = bumpy_normals(w, h, type, nch);
+                const auto src = pixels(tex);
+                BakeOptions o;  // kind=auto: recognised as a normal map by its texels
+                o.wrap = periodic ? BakeWrap::Periodic : BakeWrap::Clamp;
+                std::string said;
+                o.exec.on_message = [&](Severity, const std::string& m) { said += m; };
+                OIIO::ImageBuf out;
+                REQUIRE(bake(out, tex, image(w, h, 2, off), o));
+                CHECK(said.find("normal map") != std::string::npos);
+                CHECK(out.spec().get_string_attribute("relief:native_format") == type.c_str());
+                const auto got = pixels(out);
+                const auto gold = reference::bake_gather(std::vector<double>(src.begin(), src.end()), w, h, nch,
+                                                         std::vector<double>(off.begin(), off.end()), periodic, false);
+                double length_error = 0.0;
+                CHECK(worst_normal_angle(got, gold, nch, true, length_error) < 1e-5);
+                CHECK(length_error < 1e-5);
+                if (nch == 4)  // alpha is filtered, not renormalised
+                    for (std::size_t i = 3; i < got.size(); i += 4)
+                        REQUIRE(std::abs(got[i] - gold[i]) < 1e-5);
+            }
+}
+
+TEST_CASE("bake: colorspace=auto decodes 8-bit PNGs as sRGB, floats as linear", "[bake][colour]")
+{
+    const auto dir = scratch("auto_space");
+    const int w = 16, h = 12;
+    const auto src = random_field(std::size_t(w) * h * 3, 21, 0.0f, 1.0f);
+    const auto off = random_field(2 * std::size_t(w) * h, 22, -0.1f, 0.1f);
+    struct Case {
+        const char* file;
+        OIIO::TypeDesc type;
+        BakeColorspace same_as;
+    };
+    for (const Case& c : {Case{"albedo.png", OIIO::TypeDesc::UINT8, BakeColorspace::SRGB},
+                          Case{"albedo16.png", OIIO::TypeDesc::UINT16, BakeColorspace::SRGB},
+                          Case{"albedo.tif", OIIO::TypeDesc::UINT8, BakeColorspace::SRGB},
+                          Case{"albedo.exr", OIIO::TypeDesc::FLOAT, BakeColorspace::Linear}}) {
+        INFO(c.file);
+        REQUIRE(image(w, h, 3, src).write((dir / c.file).string(), c.type));
+        OIIO::ImageBuf tex;
+        REQUIRE(relief::read_image(tex, (dir / c.file).string()));
+        auto baked = [&](BakeColorspace cs) {
+            BakeOptions o;
+            o.kind = BakeKind::Color;
+            o.colorspace = cs;
+            OIIO::ImageBuf out;
+            REQUIRE(bake(out, tex, image(w, h, 2, off), o));
+            return pixels(out);
+        };
+        const auto automatic = baked(BakeColorspace::Auto);
+        const BakeColorspace other = c.same_as == BakeColorspace::SRGB ? BakeColorspace::Linear : BakeColorspace::SRGB;
+        CHECK(automatic == baked(c.same_as));
+        CHECK(test::max_abs_diff(automatic, baked(other)) > 1e-3);
+    }
+}
+
+TEST_CASE("bake: wrap=auto wraps when the offsets say periodic", "[bake]")
+{
+    const int w = 20, h = 14;
+    const auto src = random_field(std::size_t(w) * h, 31, 0.0f, 1.0f);
+    const auto off = random_field(2 * std::size_t(w) * h, 32, -0.15f, 0.15f);
+    auto baked = [&](BakeWrap wrap, const char* boundary) {
+        BakeOptions o;
+        o.colorspace = BakeColorspace::Raw;
+        o.wrap = wrap;
+        OIIO::ImageBuf offsets = image(w, h, 2, off);
+        if (boundary)
+            offsets.specmod().attribute("relief:boundary", boundary);
+        OIIO::ImageBuf out;
+        REQUIRE(bake(out, image(w, h, 1, src), offsets, o));
+        return pixels(out);
+    };
+    const auto periodic = baked(BakeWrap::Periodic, nullptr), clamp = baked(BakeWrap::Clamp, nullptr);
+    CHECK(test::max_abs_diff(periodic, clamp) > 1e-3);
+    CHECK(baked(BakeWrap::Auto, "periodic") == periodic);
+    CHECK(baked(BakeWrap::Auto, "fixed") == clamp);
+    CHECK(baked(BakeWrap::Auto, nullptr) == clamp);
+    CHECK(baked(BakeWrap::Clamp, "periodic") == clamp);  // an explicit choice wins
+}
+
+TEST_CASE("cli: bake uses the OCIO config named by $OCIO", "[cli][bake][colour]")
+{
+    // A config whose "sRGB" is a plain gamma 2 curve: a half-texel shift of
+    // a black/white edge gives sqrt(0.5) = 0.7071 (180 of 255) with it and
+    // 0.7354 (188) with the built-in sRGB curve.
+    const auto dir = scratch("ocio");
+    std::ofstream(dir / "config.ocio") << R"(ocio_profile_version: 2
+roles:
+  default: linear
+  scene_linear: linear
+  data: raw
+file_rules:
+  - !<Rule> {name: Default, colorspace: default}
+displays:
+  sRGB:
+    - !<View> {name: Raw, colorspace: raw}
+active_displays: []
+active_views: []
+colorspaces:
+  - !<ColorSpace>
+    name: linear
+  - !<ColorSpace>
+    name: raw
+    isdata: true
+  - !<ColorSpace>
+    name: sRGB
+    to_scene_reference: !<ExponentTransform> {value: 2.0}
+)";
+    const int w = 8, h = 4;
+    std::vector<float> src(std::size_t(w) * h * 3), off(2 * std::size_t(w) * h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            for (int c = 0; c < 3; ++c)
+                src[(std::size_t(y) * w + x) * 3 + c] = x < w / 2 ? 0.0f : 1.0f;
+            off[2 * (std::size_t(y) * w + x)] = 0.5f / w;
+        }
+    REQUIRE(image(w, h, 3, src).write((dir / "albedo.png").string(), OIIO::TypeDesc::UINT8));
+    REQUIRE(image(w, h, 2, off).write((dir / "offsets.exr").string()));
+    const std::string args = "'" + (dir / "albedo.png").string() + "' '" + (dir / "offsets.exr").string() +
+                             "' --bake:kind=color -o '";
+    for (const auto& [env, code] : {std::pair{std::string("OCIO='") + (dir / "config.ocio").string() + "'", 180},
+                                    std::pair{std::string("OCIO="), 188}}) {
+        INFO(env);
+        auto r = run_cli(args + (dir / "out.png").string() + "'", env);
+        INFO(r.err);
+        REQUIRE(r.rc == 0);
+        CHECK(r.err.find(code == 180 ? "OCIO config" : "raw config") != std::string::npos);
+        const auto px = test::file_pixels(dir / "out.png");
+        REQUIRE(px.size() == src.size());
+        CHECK(std::lround(px[(w / 2 - 1) * 3] * 255.0f) == code);
+        CHECK(px[0] == 0.0f);
+        CHECK(px[(w - 1) * 3] == 1.0f);
+    }
+}
+
+TEST_CASE("bake: a declared colour space needs a config that has it", "[bake][colour]")
+{
+    const int w = 4, h = 4;
+    OIIO::ImageBuf tex = image(w, h, 3, random_field(std::size_t(w) * h * 3, 51, 0.0f, 1.0f));
+    tex.specmod().attribute("oiio:ColorSpace", "ACEScg");
+    BakeOptions o;
+    o.kind = BakeKind::Color;
+    OIIO::ImageBuf out;
+    CHECK_FALSE(bake(out, tex, image(w, h, 2, std::vector<float>(2 * w * h, 0.01f)), o));
+    CHECK(geterror().find("'ACEScg' needs an OCIO config") != std::string::npos);
+    tex.specmod().attribute("oiio:ColorSpace", "scene_linear");
+    REQUIRE(bake(out, tex, image(w, h, 2, std::vector<float>(2 * w * h, 0.0f)), o));
+    CHECK(pixels(out) == pixels(tex));
+}
+
+TEST_CASE("cli: a baked 8-bit normal map keeps its type and the golden directions", "[cli][bake]")
+{
+    const auto dir = scratch("normal_png");
+    const int w = 32, h = 24;
+    REQUIRE(bumpy_normals(w, h, OIIO::TypeDesc::UINT8).write((dir / "wall_normal.png").string()));
+    const auto off = random_field(2 * std::size_t(w) * h, 41, -0.05f, 0.05f);
+    OIIO::ImageBuf offsets = image(w, h, 2, off);
+    offsets.specmod().attribute("relief:boundary", "periodic");
+    REQUIRE(offsets.write((dir / "offsets.exr").string()));
+    auto r = run_cli("'" + (dir / "wall_normal.png").string() + "' '" + (dir / "offsets.exr").string() +
+                     "' --bake -o '" + (dir / "baked.png").string() + "'");
+    INFO(r.err);
+    REQUIRE(r.rc == 0);
+    OIIO::ImageBuf baked((dir / "baked.png").string());
+    REQUIRE(baked.read(0, 0, true, OIIO::TypeDesc::FLOAT));
+    CHECK(baked.nativespec().format == OIIO::TypeDesc::UINT8);
+    const auto src = test::file_pixels(dir / "wall_normal.png");
+    const auto gold = reference::bake_gather(std::vector<double>(src.begin(), src.end()), w, h, 3,
+                                             std::vector<double>(off.begin(), off.end()), true, false);
+    // 8-bit storage: within about one code of the direction.
+    double length_error = 0.0;
+    CHECK(worst_normal_angle(pixels(baked), gold, 3, true, length_error) < 0.02);
+    CHECK(length_error < 2.0 / 255.0);
+}
+
+namespace {
+
+// The number after "key": in a JSON text (the first occurrence).
+double json_number(const std::string& json, const std::string& key)
+{
+    const std::size_t at = json.find("\"" + key + "\": ");
+    REQUIRE(at != std::string::npos);
+    return std::strtod(json.c_str() + at + key.size() + 4, nullptr);
+}
+
+OIIO::ImageBuf read(const std::string& path)
+{
+    OIIO::ImageBuf b;
+    REQUIRE(relief::read_image(b, path));
+    return b;
+}
+
+} // namespace
+
+TEST_CASE("cli: correct and bake, the documented examples, equal the API's results", "[cli][bake]")
 {
     auto dir = scratch("examples");
     const std::string height = kData + "/height.png", normal = kData + "/normal.png";
-    // The issue's first example, with a report.
+    // The first example, with a report.
     auto r = run_cli("'" + height + "' --correct:scale=0.05:theta=5:nodes=center:boundary=periodic -o '" +
                      (dir / "offsets.exr").string() + "' --report '" + (dir / "report.json").string() + "'");
     INFO(r.err);
@@ -216,10 +474,27 @@ TEST_CASE("cli: correct and bake, the documented examples", "[cli][bake]")
     CHECK(off.spec().nchannels == 2);
     CHECK(off.spec().format == OIIO::TypeDesc::FLOAT);
     CHECK(off.spec().get_string_attribute("relief:boundary") == "periodic");
+    CorrectOptions co;
+    co.scale = 0.05f;
+    co.theta = 5.0f;
+    co.nodes = CorrectNodes::Center;
+    co.boundary = CorrectBoundary::Periodic;
+    CorrectReport rep;
+    co.report = &rep;
+    const OIIO::ImageBuf api_off = relief::correct(read(height), co);
+    REQUIRE_FALSE(api_off.has_error());
+    CHECK(pixels(off) == pixels(api_off));
     const std::string json = relief::test::slurp(dir / "report.json");
-    for (const char* key : {"\"energy_before\"", "\"energy_after\"", "\"iterations\"", "\"anisotropy\"",
-                            "\"area_ratio\"", "\"p95\"", "\"seconds\""})
+    for (const char* key : {"\"anisotropy\"", "\"area_ratio\"", "\"p95\"", "\"seconds\""})
         CHECK(json.find(key) != std::string::npos);
+    CHECK(json_number(json, "energy_before") == Approx(rep.energy_before).epsilon(1e-8));
+    CHECK(json_number(json, "energy_after") == Approx(rep.energy_after).epsilon(1e-8));
+    CHECK(json_number(json, "energy_after") < json_number(json, "energy_before"));
+    CHECK(json_number(json, "iterations") == rep.iterations);
+    CHECK(rep.iterations > 0);
+    CHECK(json_number(json, "width") == 512);
+    CHECK(json.find("\"nodes\": \"center\"") != std::string::npos);
+    CHECK(json.find("\"boundary\": \"periodic\"") != std::string::npos);
 
     // The second: a colour texture baked through the offsets, kept 8-bit.
     // (The metal set's normal map stands in for an albedo: 3 channels,
@@ -230,9 +505,23 @@ TEST_CASE("cli: correct and bake, the documented examples", "[cli][bake]")
     INFO(r.err);
     REQUIRE(r.rc == 0);
     OIIO::ImageBuf baked((dir / "albedo_fixed.png").string());
-    REQUIRE(baked.read());
-    CHECK(baked.spec().format == OIIO::TypeDesc::UINT8);
+    REQUIRE(baked.read(0, 0, true, OIIO::TypeDesc::FLOAT));
+    CHECK(baked.nativespec().format == OIIO::TypeDesc::UINT8);
     CHECK(baked.spec().width == 512);
+    CorrectOptions c2;
+    c2.scale = 0.05f;
+    c2.nodes = CorrectNodes::Center;
+    const OIIO::ImageBuf off2 = relief::correct(read(height), c2);
+    CHECK(pixels(off2) == test::file_pixels(dir / "off2.exr"));
+    BakeOptions bo;
+    bo.filter = BakeFilter::Bilinear;
+    bo.colorspace = BakeColorspace::SRGB;
+    bo.kind = BakeKind::Color;
+    const OIIO::ImageBuf api_baked = relief::bake(read(normal), off2, bo);
+    REQUIRE_FALSE(api_baked.has_error());
+    const auto want = pixels(api_baked), got = pixels(baked);
+    CHECK(test::max_abs_diff(got, want) <= 0.5 / 255.0 + 1e-6);  // 8-bit rounding only
+    CHECK(test::max_abs_diff(got, test::file_pixels(normal)) > 10.0 / 255.0);  // it moved
 
     // Zero offsets bake an 8-bit texture back exactly.
     r = run_cli("'" + normal + "' '" + height + "' --correct:scale=1e-9 --bake:kind=color -o '" +

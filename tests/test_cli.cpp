@@ -4,13 +4,17 @@
 
 #include <OpenImageIO/imagebuf.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
+#include "relief/relief.h"
+#include "support/images.h"
 #include "support/run_cli.h"
 
 namespace fs = std::filesystem;
 using relief::test::run_cli;
+using relief::test::max_abs_diff;
 using relief::test::slurp;
 
 namespace {
@@ -228,6 +232,120 @@ TEST_CASE("cli: --help and --version exit 0", "[cli]")
     CHECK(v.out.find("relief ") == 0);
 }
 
+namespace {
+
+OIIO::ImageBuf read(const std::string& path)
+{
+    OIIO::ImageBuf b;
+    REQUIRE(relief::read_image(b, path));
+    return b;
+}
+
+// Runs relief with `args` + " -o OUT" and returns OUT's pixels.
+std::vector<float> cli_result(const fs::path& dir, const std::string& args)
+{
+    const fs::path out = dir / "cli_result.exr";
+    fs::remove(out);
+    auto r = run_cli(args + " -o '" + out.string() + "'");
+    INFO("relief " << args << "\n" << r.err);
+    REQUIRE(r.rc == 0);
+    return relief::test::file_pixels(out);
+}
+
+} // namespace
+
+TEST_CASE("cli: results equal the API's for the same modifiers and files", "[cli][options]")
+{
+    using namespace relief;
+    auto dir = scratch("equals_api");
+    const auto in = [](const fs::path& p) { return "'" + p.string() + "' "; };
+    const int w = 64, h = 48;
+    // A float normal map stored in [0, 1] (range=unsigned), RGBA with
+    // weights in alpha, and a 3-channel mask whose channel 0 is the weight.
+    std::vector<float> rgba(std::size_t(w) * h * 4), mask(std::size_t(w) * h * 3);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const std::size_t i = std::size_t(y) * w + x;
+            const double gx = 0.8 * std::sin(0.3 * x) + 0.2 * std::cos(0.7 * y), gy = 0.5 * std::cos(0.21 * x * y / 9.0);
+            const double len = std::sqrt(gx * gx + gy * gy + 1.0);
+            rgba[4 * i] = float(0.5 - 0.5 * gx / len);
+            rgba[4 * i + 1] = float(0.5 + 0.5 * gy / len);
+            rgba[4 * i + 2] = float(0.5 + 0.5 / len);
+            rgba[4 * i + 3] = (x * 7 + y * 3) % 11 == 0 ? 0.0f : 0.25f + float((x + y) % 4) / 4.0f;
+            mask[3 * i] = rgba[4 * i + 3];
+            mask[3 * i + 1] = 1.0f - mask[3 * i];
+            mask[3 * i + 2] = 0.0f;
+        }
+    const fs::path normals = dir / "n_unsigned.exr", normals_png = dir / "n.png", mask_file = dir / "mask.tif",
+                   heights = dir / "h.exr";
+    REQUIRE(relief::test::image(w, h, 4, rgba).write(normals.string()));
+    OIIO::ImageBuf png = relief::test::image(w, h, 4, rgba, OIIO::TypeDesc::UINT8);
+    png.specmod().attribute("oiio:UnassociatedAlpha", 1);
+    REQUIRE(png.write(normals_png.string()));
+    REQUIRE(relief::test::image(w, h, 3, mask).write(mask_file.string(), OIIO::TypeDesc::UINT8));
+
+    SlopeOptions so;
+    so.normals.float_encoding = FloatEncoding::Unsigned;
+    so.normals.max_angle = 40.0f;
+    so.normals.convention = NormalConvention::DirectX;
+    CHECK(max_abs_diff(cli_result(dir, in(normals) + "--slopes:range=unsigned:max_angle=40:normal=directx"),
+                       relief::test::pixels(relief::slopes(read(normals.string()), so))) == 0.0);
+
+    HeightOptions ho;
+    ho.normals = so.normals;
+    ho.method = HeightMethod::Rays;
+    ho.rays = 8;
+    ho.radius = 10;
+    ho.phase = 0.25f;
+    ho.boundary = Boundary::Free;
+    const OIIO::ImageBuf api_rays = relief::height(read(normals.string()), ho);
+    INFO(relief::geterror());
+    REQUIRE_FALSE(api_rays.has_error());
+    CHECK(max_abs_diff(cli_result(dir, in(normals) + "--height:range=unsigned:max_angle=40:normal=directx:rays=8:"
+                                                     "radius=10:phase=0.25:boundary=clip"),
+                       relief::test::pixels(api_rays)) == 0.0);
+
+    HeightOptions mo;
+    mo.normals.convention = NormalConvention::OpenGL;
+    mo.boundary = Boundary::Free;
+    mo.mask_alpha = true;
+    const auto by_alpha = relief::test::pixels(relief::height(read(normals_png.string()), mo));
+    CHECK(max_abs_diff(cli_result(dir, in(normals_png) + "--height:normal=opengl:boundary=free:mask=alpha"), by_alpha) ==
+          0.0);
+    const OIIO::ImageBuf mask_image = read(mask_file.string());
+    mo.mask_alpha = false;
+    mo.mask = &mask_image;
+    const auto by_file = relief::test::pixels(relief::height(read(normals_png.string()), mo));
+    CHECK(max_abs_diff(cli_result(dir, in(normals_png) + "--height:normal=opengl:boundary=free:mask=" +
+                                           mask_file.string()),
+                       by_file) == 0.0);
+    CHECK(max_abs_diff(by_alpha, by_file) == 0.0);  // the same 8-bit weights
+    mo.mask = nullptr;
+    CHECK(relief::test::max_abs_diff(relief::test::pixels(relief::height(read(normals_png.string()), mo)), by_file) >
+          1e-3);
+
+    // Correction with a fixation mask file and with a height tent.
+    std::vector<float> hts(std::size_t(w) * h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            hts[std::size_t(y) * w + x] = float(std::sin(2 * M_PI * x / w) * std::cos(2 * M_PI * 2 * y / h));
+    REQUIRE(relief::test::image(w, h, 1, hts).write(heights.string()));
+    CorrectOptions co;
+    co.scale = 0.1f;
+    co.nodes = CorrectNodes::Center;
+    co.fix_mask = &mask_image;
+    const auto fixed_by_file = relief::test::pixels(relief::correct(read(heights.string()), co));
+    CHECK(max_abs_diff(cli_result(dir, in(heights) + "--correct:scale=0.1:nodes=center:fix=" + mask_file.string()),
+                       fixed_by_file) == 0.0);
+    co.fix_mask = nullptr;
+    co.fix_height = 0.5f;
+    co.fix_width = 0.25f;
+    const auto fixed_by_tent = relief::test::pixels(relief::correct(read(heights.string()), co));
+    CHECK(max_abs_diff(cli_result(dir, in(heights) + "--correct:scale=0.1:nodes=center:fix=height:0.5:0.25"),
+                       fixed_by_tent) == 0.0);
+    CHECK(relief::test::max_abs_diff(fixed_by_file, fixed_by_tent) > 1e-6);
+}
+
 TEST_CASE("cli: a mask file weights the least-squares solve", "[cli][mask]")
 {
     auto dir = scratch("mask");
@@ -248,4 +366,11 @@ TEST_CASE("cli: a mask file weights the least-squares solve", "[cli][mask]")
     OIIO::ImageBuf h(out.string());
     REQUIRE(h.read());
     CHECK(h.spec().get_string_attribute("relief:parameters").find("mask=image") != std::string::npos);
+    // The values are the API's with the same mask, and the mask matters.
+    relief::HeightOptions o;
+    const OIIO::ImageBuf mask = read((dir / "mask.png").string());
+    o.mask = &mask;
+    const auto api = relief::test::pixels(relief::height(read(kNormal), o));
+    CHECK(max_abs_diff(relief::test::pixels(h), api) == 0.0);
+    CHECK(relief::test::max_abs_diff(api, relief::test::pixels(relief::height(read(kNormal)))) > 1e-2);
 }

@@ -2,6 +2,7 @@
 // Small helpers the glue tests share: images from pixel vectors and back,
 // scratch folders, and the skip marker ctest turns into "Skipped".
 #include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imageio.h>
 
 #include <cmath>
 #include <filesystem>
@@ -29,13 +30,19 @@ inline std::vector<float> pixels(const OIIO::ImageBuf& b)
     return v;
 }
 
-// Reads a file's pixels as floats (no relief conversions).
+// Reads a file's pixels as floats (no relief conversions). Not through
+// ImageBuf: OIIO's shared ImageCache would hand back an earlier file of
+// the same name.
 inline std::vector<float> file_pixels(const std::filesystem::path& p)
 {
-    OIIO::ImageBuf b(p.string());
-    if (!b.read(0, 0, true, OIIO::TypeDesc::FLOAT))
+    auto in = OIIO::ImageInput::open(p.string());
+    if (!in)
         return {};
-    return pixels(b);
+    const OIIO::ImageSpec& spec = in->spec();
+    std::vector<float> v(std::size_t(spec.width) * spec.height * spec.nchannels);
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, v.data()))
+        return {};
+    return v;
 }
 
 // An empty folder under the test build's tmp/ (removed first).
