@@ -4,6 +4,7 @@
 // seams, determinism).
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -190,6 +191,57 @@ TEST_CASE("correct: one device iteration equals the golden model's", "[correct]"
     }
 }
 
+TEST_CASE("correct: corner nodes, one device iteration equals the golden model's", "[correct]")
+{
+    // Corner nodes (the default): node (i, j) sits at the corner between
+    // texels (i-1, j-1) and (i, j), with the mean of those four texels'
+    // heights (wrapping when periodic, clamped at a fixed border: W+1 x H+1
+    // nodes); the offset of a texel is the mean of its four corners'.
+    for (auto [w, h, periodic] : {std::tuple{24, 16, true}, std::tuple{23, 17, true},
+                                  std::tuple{20, 19, false}, std::tuple{17, 22, false}}) {
+        const auto hts = waves(w, h, 1.0, 10);
+        const double scale = 0.3;
+        const int nx = periodic ? w : w + 1, ny = periodic ? h : h + 1;
+        auto texel = [&](int x, int y) {
+            x = periodic ? (x + w) % w : std::clamp(x, 0, w - 1);
+            y = periodic ? (y + h) % h : std::clamp(y, 0, h - 1);
+            return double(hts[std::size_t(y) * w + x]);
+        };
+        ref::CorrectionGrid g;
+        g.nx = nx;
+        g.ny = ny;
+        g.periodic = periodic;
+        g.theta = 5.0;
+        for (int j = 0; j < ny; ++j)
+            for (int i = 0; i < nx; ++i)
+                g.z.push_back(0.25 * (texel(i - 1, j - 1) + texel(i, j - 1) + texel(i - 1, j) + texel(i, j)) *
+                              scale * w);
+        std::vector<double> c(2 * std::size_t(nx) * ny, 0.0);
+        ref::iterate(g, c);
+        auto node = [&](int i, int j, int ch) { return c[2 * (std::size_t(j % ny) * nx + i % nx) + ch]; };
+        auto p = params(scale, periodic, true);
+        p.levels = 1;
+        p.iterations = 1;
+        p.skip_tiles = false;
+        p.threshold = 0.0;
+        const auto out = run(hts, w, h, p);
+        double worst = 0.0, largest = 0.0;
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x)
+                for (int ch = 0; ch < 2; ++ch) {
+                    const double gold = 0.25 * (node(x, y, ch) + node(x + 1, y, ch) + node(x, y + 1, ch) +
+                                                node(x + 1, y + 1, ch));
+                    const double dev = double(out[2 * (std::size_t(y) * w + x) + ch]) * (ch ? h : w);
+                    worst = std::max(worst, std::abs(dev - gold));
+                    largest = std::max(largest, std::abs(gold));
+                }
+        INFO(w << "x" << h << " periodic " << periodic << ": max |texel offset| " << largest
+                << " texels, max |device - golden| " << worst);
+        CHECK(largest > 1e-2);
+        CHECK(worst <= 2e-3 * largest);
+    }
+}
+
 TEST_CASE("correct: the energy never rises, iteration after iteration", "[correct]")
 {
     const int w = 40, h = 36;
@@ -197,7 +249,7 @@ TEST_CASE("correct: the energy never rises, iteration after iteration", "[correc
     auto ctx = host::ComputeContext::acquire("auto");
     for (bool corner : {false, true})
         for (bool periodic : {true, false}) {
-            double previous = INFINITY;
+            double previous = INFINITY, first = 0.0;
             for (int it = 0; it <= 6; ++it) {
                 auto p = params(0.4, periodic, corner);
                 p.levels = 1;
@@ -209,8 +261,13 @@ TEST_CASE("correct: the energy never rises, iteration after iteration", "[correc
                 INFO("corner " << corner << " periodic " << periodic << " iteration " << it);
                 REQUIRE(std::isfinite(e));
                 CHECK(e <= previous * (1.0 + 1e-7));
+                if (it == 0)
+                    first = e;
                 previous = e;
             }
+            // ... and it does fall: something moved.
+            INFO("corner " << corner << " periodic " << periodic << ": " << first << " -> " << previous);
+            CHECK(previous < first * (1.0 - 1e-3));
         }
 }
 
@@ -329,7 +386,8 @@ TEST_CASE("correct: corner nodes, fixed boundary and fixation", "[correct]")
 {
     const int w = 33, h = 30;
     const auto hts = waves(w, h, 1.0, 12);
-    // Fixed: border texels' corners stay put, the offsets stay finite.
+    // Fixed: the border nodes stay put (corner nodes: checked against the
+    // golden model below), the offsets stay finite.
     auto p = params(0.1, false, true);
     host::CorrectReport rep;
     const auto out = run(hts, w, h, p, &rep);
@@ -337,6 +395,19 @@ TEST_CASE("correct: corner nodes, fixed boundary and fixation", "[correct]")
     CHECK(rep.anisotropy_after.p95 < rep.anisotropy_before.p95);
     for (float v : out)
         REQUIRE(std::isfinite(v));
+    // Centre nodes: the border texels are the border nodes.
+    const auto centre = run(hts, w, h, params(0.1, false, false));
+    double interior = 0.0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int ch = 0; ch < 2; ++ch) {
+                const float v = centre[2 * (std::size_t(y) * w + x) + ch];
+                if (x == 0 || y == 0 || x == w - 1 || y == h - 1)
+                    REQUIRE(v == 0.0f);
+                else
+                    interior = std::max(interior, double(std::abs(v)));
+            }
+    CHECK(interior > 1e-4);
     // Fixation weight 4: no texel moves 1/4 texel or more.
     std::vector<float> fix(std::size_t(w) * h, 4.0f);
     auto pf = params(0.3, true, false);

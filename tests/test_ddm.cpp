@@ -211,7 +211,11 @@ TEST_CASE("grazing normals are clamped to max_angle keeping their azimuth", "[dd
         const double t = std::tan(angle * M_PI / 180.0);
         for (int i = 0; i < 3; ++i) {
             CHECK(std::hypot(g[2 * i], g[2 * i + 1]) == Approx(t).epsilon(1e-5));
-            CHECK(g[2 * i] * px[3 * i] <= 0.0f);  // gx = -nx/nz keeps the sign
+            // The azimuth stays: DirectX rows point along +G, so
+            // g = -(R, G) / nz points along -(R, G).
+            const double r = px[3 * i], gr = px[3 * i + 1], len = std::hypot(r, gr);
+            CHECK(g[2 * i] / t == Approx(-r / len).margin(1e-5));
+            CHECK(g[2 * i + 1] / t == Approx(-gr / len).margin(1e-5));
         }
         CHECK(g[6] == 0.0f);
         CHECK(g[7] == 0.0f);
