@@ -541,3 +541,30 @@ TEST_CASE("options: bake filter and wrap reach the gather", "[options][bake]")
         for (std::size_t b = a + 1; b < results.size(); ++b)
             CHECK(max_abs_diff(results[a], results[b]) > 1e-3);
 }
+
+TEST_CASE("options: skip=on skips flat tiles and says so, skip=off runs them all", "[options][height]")
+{
+    // A bump in one corner of a flat 128^2 map: most 32^2 tiles see only
+    // zero slopes within the radius.
+    const int n = 128;
+    std::vector<double> g(2 * std::size_t(n) * n, 0.0);
+    for (int y = 0; y < 24; ++y)
+        for (int x = 0; x < 24; ++x) {
+            g[2 * (std::size_t(y) * n + x)] = 0.3 * std::sin(0.5 * x);
+            g[2 * (std::size_t(y) * n + x) + 1] = 0.2 * std::cos(0.4 * y);
+        }
+    const ImageBuf normals = test::normal_image(g, n, n, test::Green::OpenGL, TypeDesc::FLOAT);
+    HeightOptions o;
+    o.method = HeightMethod::Rays;
+    o.boundary = Boundary::Free;
+    o.rays = 8;
+    o.radius = 8;
+    std::string on, off;
+    const auto a = api_height(normals, o, &on);
+    o.skip_flat = false;
+    const auto b = api_height(normals, o, &off);
+    CHECK(a == b);
+    INFO(on);
+    CHECK(on.find("rays: skipped 12 of 16 tiles") != std::string::npos);
+    CHECK(off.find("skipped") == std::string::npos);
+}
