@@ -24,7 +24,8 @@ Arguments are read left to right over a stack of images, like oiiotool:
                         zero mean)
   --correct[:MODS]      pop a height map, push its distortion-correcting
                         offset map (2 channels du, dv in texture units:
-                        1 = the width, height; DESIGN.md 4.5)
+                        1 = the width, height; the surface point at u
+                        shows the texture at u + offset)
   --bake[:MODS]         pop an offset map and the texture below it, push the
                         texture resampled at u + offset(u)
   -o FILE               write the top of the stack (atomically)
@@ -45,12 +46,14 @@ Modifiers of --height:
   boundary=auto|periodic|free|clip  periodic: the texture tiles; free (clip
                         for rays): it does not; auto (default): periodic when
                         the slopes are continuous across the wrap seams
-  method=poisson: least squares (Frankot-Chellappa, DESIGN.md 4.4)
+  method=poisson: least squares (Frankot-Chellappa: the height whose
+                        gradient is closest to the slopes)
     highpass=R          relief balance: remove structure larger than R
                         texels (default 0 = off)
     mask=FILE|alpha     per-texel weights in [0,1] (channel 0 of FILE, or
                         the normal map's alpha); 0 excludes a texel's slopes
-  method=rays: radial ray integration (DESIGN.md 4.2, 4.3)
+  method=rays: radial ray integration (height minus its mean over the disk
+                        of radius R, from J rays per texel)
     impl=fast|reference fast (default): cost independent of the radius
     rays=J              ray directions (default 32)
     radius=R            ray length in texels (default 64)

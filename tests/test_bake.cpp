@@ -346,6 +346,45 @@ TEST_CASE("bake: wrap=auto wraps when the offsets say periodic", "[bake]")
     CHECK(baked(BakeWrap::Clamp, "periodic") == clamp);  // an explicit choice wins
 }
 
+TEST_CASE("bake: kind=auto tells normal and height maps by name and by origin", "[bake]")
+{
+    const auto dir = scratch("kinds");
+    const int w = 12, h = 10;
+    const auto noise = random_field(std::size_t(w) * h * 3, 61, 0.0f, 1.0f);
+    const auto off = image(w, h, 2, random_field(2 * std::size_t(w) * h, 62, -0.05f, 0.05f));
+    auto kind_of = [&](const OIIO::ImageBuf& tex) {
+        std::string said;
+        BakeOptions o;
+        o.exec.on_message = [&](Severity, const std::string& m) { said += m; };
+        OIIO::ImageBuf out;
+        if (!bake(out, tex, off, o))
+            return std::string("refused: ") + geterror();
+        return said;
+    };
+    auto read_back = [&](const std::string& name, int nch, const std::vector<float>& px) {
+        REQUIRE(image(w, h, nch, px).write((dir / name).string(), OIIO::TypeDesc::UINT8));
+        OIIO::ImageBuf b;
+        REQUIRE(relief::read_image(b, (dir / name).string()));
+        return b;
+    };
+    // Noise named like a normal map bakes as one; named otherwise, as colour.
+    CHECK(kind_of(read_back("brick_nrm.png", 3, noise)).find("as normal map") != std::string::npos);
+    CHECK(kind_of(read_back("brick_Normal.png", 3, noise)).find("as normal map") != std::string::npos);
+    CHECK(kind_of(read_back("brick_albedo.png", 3, noise)).find("as colour") != std::string::npos);
+    // One-channel maps named like heights, and relief's own heights, are refused.
+    const std::vector<float> one(noise.begin(), noise.begin() + w * h);
+    for (const char* name : {"rock_height.png", "rock_disp.png", "rock_bump.png", "rock_depth.png"}) {
+        INFO(name);
+        CHECK(kind_of(read_back(name, 1, one)).find("refused: bake: refusing to bake a displacement") == 0);
+    }
+    CHECK(kind_of(read_back("rock_roughness.png", 1, one)).find("as colour") != std::string::npos);
+    OIIO::ImageBuf own = image(w, h, 1, one);
+    for (const char* method : {"poisson", "rays"}) {
+        own.specmod().attribute("relief:method", method);
+        CHECK(kind_of(own).find("refused") == 0);
+    }
+}
+
 TEST_CASE("cli: bake uses the OCIO config named by $OCIO", "[cli][bake][colour]")
 {
     // A config whose "sRGB" is a plain gamma 2 curve: a half-texel shift of

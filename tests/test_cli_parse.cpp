@@ -314,6 +314,9 @@ TEST_CASE("parse: nonsense is a usage error naming the argument", "[cli][parse][
         {{kIn, "--report", "r.json", "--height"}, "exactly one --correct"},
         {{"-o", "x.exr"}, "needs 1 image(s)"},
         {{kIn, "--device"}, "needs a value"},
+        {{kIn, "--correct", "--report", "/nonexistent-folder/r.json"}, "its folder must exist"},
+        {{kIn, "--correct", "--report", "."}, "not a writable file path"},
+        {{kIn, "--correct", "--correct", "--report", "r.json"}, "exactly one --correct, there are 2"},
     };
     for (const auto& [args, message] : bad) {
         std::string joined;

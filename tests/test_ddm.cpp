@@ -271,3 +271,23 @@ TEST_CASE("8- and 16-bit flat codes decode to exactly zero slope", "[ddm]")
         CHECK(s[7] != 0.0);  // a real tilt stays
     }
 }
+
+TEST_CASE("a float map stored in [0, 1] read as signed warns to use range=unsigned", "[ddm]")
+{
+    const auto g = kField.slopes();
+    auto img = test::normal_image(g, kField.width, kField.height, Green::OpenGL, TypeDesc::FLOAT, 3, true);
+    std::string warned;
+    SlopeOptions o = with(NormalConvention::OpenGL);
+    o.exec.on_message = [&](Severity s, const std::string& m) {
+        if (s == Severity::Warning)
+            warned += m;
+    };
+    REQUIRE_FALSE(relief::slopes(img, o).has_error());
+    CHECK(warned.find("range=unsigned") != std::string::npos);
+    warned.clear();
+    o.normals.float_encoding = FloatEncoding::Unsigned;
+    auto out = relief::slopes(img, o);
+    REQUIRE_FALSE(out.has_error());
+    CHECK(warned.empty());
+    CHECK(max_diff(pixels(out), g) < 2e-5);
+}

@@ -286,8 +286,15 @@ TEST_CASE("options: boundary=auto integrates a tiling map periodically and a cro
         for (int x = 0; x < w; ++x)
             for (int c = 0; c < 2; ++c)
                 crop[2 * (std::size_t(y) * w + x) + c] = tiling[2 * (std::size_t(y) * big_w + x) + c];
+    // And the left 60 columns at full height: only one seam joins unrelated texels.
+    std::vector<double> strip(2 * std::size_t(w) * big_h);
+    for (int y = 0; y < big_h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < 2; ++c)
+                strip[2 * (std::size_t(y) * w + x) + c] = tiling[2 * (std::size_t(y) * big_w + x) + c];
     const ImageBuf tile = test::normal_image(tiling, big_w, big_h, test::Green::OpenGL, TypeDesc::FLOAT);
     const ImageBuf part = test::normal_image(crop, w, h, test::Green::OpenGL, TypeDesc::FLOAT);
+    const ImageBuf column = test::normal_image(strip, w, big_h, test::Green::OpenGL, TypeDesc::FLOAT);
     for (bool ray_method : {false, true}) {
         INFO((ray_method ? "rays" : "poisson"));
         HeightOptions o;
@@ -296,7 +303,7 @@ TEST_CASE("options: boundary=auto integrates a tiling map periodically and a cro
             o.rays = 8;
             o.radius = 10;
         }
-        for (const auto& [img, tiles] : {std::pair{&tile, true}, std::pair{&part, false}}) {
+        for (const auto& [img, tiles] : {std::pair{&tile, true}, std::pair{&part, false}, std::pair{&column, false}}) {
             std::string said;
             const auto got = api_height(*img, o, &said);
             HeightOptions explicit_b = o;
@@ -436,9 +443,14 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
         CHECK(r.iterations == want.report.total_iterations());
         REQUIRE(r.levels.size() == want.report.levels.size());
         for (std::size_t l = 0; l < r.levels.size(); ++l) {
-            CHECK(r.levels[l].iterations == want.report.levels[l].iterations);
-            CHECK(r.levels[l].energy_end == want.report.levels[l].energy_end);
-            CHECK(r.levels[l].width == want.report.levels[l].width);
+            const host::CorrectLevel& hl = want.report.levels[l];
+            CHECK(r.levels[l].iterations == hl.iterations);
+            CHECK(r.levels[l].energy_start == hl.energy_start);
+            CHECK(r.levels[l].energy_end == hl.energy_end);
+            CHECK(r.levels[l].width == hl.width);
+            CHECK(r.levels[l].height == hl.height);
+            CHECK(r.levels[l].converged == hl.converged);
+            CHECK(r.levels[l].tiles_run == Approx(double(hl.tile_phases_run) / double(hl.tile_phases)));
         }
         CHECK(r.anisotropy_before.max == want.report.anisotropy_before.max);
         CHECK(r.anisotropy_after.p95 == want.report.anisotropy_after.p95);
@@ -448,6 +460,12 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
         CHECK(r.scale == Approx(p.scale));
         CHECK(got.image.spec().get_string_attribute("relief:boundary") == r.boundary);
         CHECK(got.image.spec().get_string_attribute("relief:nodes") == r.nodes);
+        CHECK(got.image.spec().get_float_attribute("relief:scale") == Approx(p.scale));
+        CHECK(got.image.spec().get_string_attribute("relief:method") == "correct");
+        const std::string par = got.image.spec().get_string_attribute("relief:parameters");
+        CHECK(par.find("theta=" + test::format_number(p.theta)) != std::string::npos);
+        CHECK(par.find("nodes=" + r.nodes) != std::string::npos);
+        CHECK(par.find("boundary=" + r.boundary) != std::string::npos);
         if (!r.skipped) {
             CHECK(r.energy_after < r.energy_before * 0.999);
             CHECK(r.anisotropy_after.mean < r.anisotropy_before.mean);
@@ -489,14 +507,19 @@ TEST_CASE("options: correction boundary=auto finds tiling maps and crops", "[opt
 {
     const int w = 48, h = 40;
     const auto hts = waves(w, h, 1.0, 11);
-    // The top-left 30 x 26 of a tiling field does not tile.
-    const int cw = 30, ch = 26;
-    std::vector<float> crop(std::size_t(cw) * ch);
-    for (int y = 0; y < ch; ++y)
-        for (int x = 0; x < cw; ++x)
-            crop[std::size_t(y) * cw + x] = hts[std::size_t(y) * w + x];
-    for (const auto& [px, iw, ih, tiles] : {std::tuple{&hts, w, h, true}, std::tuple{static_cast<const std::vector<float>*>(&crop), cw, ch, false}}) {
-        INFO((tiles ? "tiling" : "crop"));
+    // The top-left 30 x 26 of a tiling field does not tile; nor does its
+    // left 30 columns (only the top/bottom seam continuous).
+    auto cut = [&](int cw, int ch) {
+        std::vector<float> crop(std::size_t(cw) * ch);
+        for (int y = 0; y < ch; ++y)
+            for (int x = 0; x < cw; ++x)
+                crop[std::size_t(y) * cw + x] = hts[std::size_t(y) * w + x];
+        return crop;
+    };
+    const auto crop = cut(30, 26), strip = cut(30, h);
+    for (const auto& [px, iw, ih, tiles] :
+         {std::tuple{&hts, w, h, true}, std::tuple{&crop, 30, 26, false}, std::tuple{&strip, 30, h, false}}) {
+        INFO(iw << "x" << ih << (tiles ? " tiling" : " crop"));
         const ImageBuf img = test::image(iw, ih, 1, *px);
         CorrectOptions o;
         o.scale = 0.3f;
@@ -567,4 +590,28 @@ TEST_CASE("options: skip=on skips flat tiles and says so, skip=off runs them all
     INFO(on);
     CHECK(on.find("rays: skipped 12 of 16 tiles") != std::string::npos);
     CHECK(off.find("skipped") == std::string::npos);
+}
+
+TEST_CASE("options: correction skip=on skips still tiles, skip=off runs them all", "[options][correct]")
+{
+    // A bump in a flat sea, one level: far tiles have nothing to do.
+    const int w = 96, h = 80;
+    std::vector<float> hts(std::size_t(w) * h, 0.0f);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const double r2 = ((x - 20.0) * (x - 20.0) + (y - 18.0) * (y - 18.0)) / 25.0;
+            hts[std::size_t(y) * w + x] = r2 < 9 ? float(std::exp(-r2)) : 0.0f;
+        }
+    const ImageBuf height = test::image(w, h, 1, hts);
+    CorrectOptions o;
+    o.scale = 0.15f;
+    o.nodes = CorrectNodes::Center;
+    o.boundary = CorrectBoundary::Periodic;
+    o.levels = 1;
+    const ApiCorrection on = api_correct(height, o);
+    o.skip_tiles = false;
+    const ApiCorrection off = api_correct(height, o);
+    CHECK(on.offsets == off.offsets);
+    CHECK(on.report.levels.back().tiles_run < 1.0);  // measured 0.984
+    CHECK(off.report.levels.back().tiles_run == 1.0);
 }

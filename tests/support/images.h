@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <iostream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -71,6 +72,14 @@ double max_abs(const A& a)
     for (auto v : a)
         m = std::max(m, std::abs(double(v)));
     return m;
+}
+
+// A number as std::ostream writes it by default ("0.3", "7.5", "5").
+inline std::string format_number(double v)
+{
+    std::ostringstream s;
+    s << v;
+    return s.str();
 }
 
 // Prints the marker that tests/CMakeLists.txt's SKIP_REGULAR_EXPRESSION
