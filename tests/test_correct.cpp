@@ -420,6 +420,30 @@ TEST_CASE("correct: corner nodes, fixed boundary and fixation", "[correct]")
     CHECK(largest > 0.0);
 }
 
+TEST_CASE("correct: fixation holds in fine texels on every pyramid level", "[correct]")
+{
+    // Coarse levels scale the weights by their coarseness, so their offsets
+    // respect the same limit in finest texels: the finest level starts from
+    // them below the zero-offset energy. (Unscaled, they would cross the
+    // fine barrier and the finest level would start from zero.)
+    const int w = 64, h = 64;
+    const auto hts = waves(w, h, 1.0, 13);
+    std::vector<float> fix(std::size_t(w) * h, 1.5f);
+    auto p = params(0.3, true, false);
+    p.fix_weights = fix.data();
+    host::CorrectReport rep;
+    const auto out = run(hts, w, h, p, &rep);
+    REQUIRE(rep.levels.size() == 3);
+    INFO("energy at zero offsets " << rep.energy_before << ", finest level starts at "
+                                   << rep.levels.back().energy_start);
+    CHECK(rep.levels.back().energy_start < rep.energy_before * (1.0 - 1e-3));
+    double largest = 0.0;
+    for (std::size_t k = 0; k < out.size(); ++k)
+        largest = std::max(largest, std::abs(double(out[k]) * (k % 2 ? h : w)));
+    CHECK(largest < 1.0 / 1.5);
+    CHECK(largest > 0.05);
+}
+
 TEST_CASE("correct: the pyramid helpers", "[correct]")
 {
     // Area downsampling keeps the mean, also for odd sizes.
