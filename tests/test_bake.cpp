@@ -64,6 +64,20 @@ std::vector<float> pixels(const OIIO::ImageBuf& b)
     return v;
 }
 
+// A black (left) / white (right) RGB edge, and offsets that read half a
+// texel to the right: the texel left of the edge gets the mean of 0 and 1.
+void edge_shifted_half_a_texel(int w, int h, std::vector<float>& src, std::vector<float>& off)
+{
+    src.assign(std::size_t(w) * h * 3, 0.0f);
+    off.assign(2 * std::size_t(w) * h, 0.0f);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            for (int c = 0; c < 3; ++c)
+                src[(std::size_t(y) * w + x) * 3 + c] = x < w / 2 ? 0.0f : 1.0f;
+            off[2 * (std::size_t(y) * w + x)] = 0.5f / w;
+        }
+}
+
 } // namespace
 
 TEST_CASE("bake: device gather equals the golden model", "[bake]")
@@ -126,13 +140,8 @@ TEST_CASE("bake: colour is filtered in linear light", "[bake]")
     // A sharp black/white edge shifted half a texel: the linear mean of 0
     // and 1 is 0.5, which sRGB encodes as 0.735 (not 0.5).
     const int w = 8, h = 4;
-    std::vector<float> src(std::size_t(w) * h * 3), off(2 * std::size_t(w) * h);
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-            for (int c = 0; c < 3; ++c)
-                src[(std::size_t(y) * w + x) * 3 + c] = x < w / 2 ? 0.0f : 1.0f;
-            off[2 * (std::size_t(y) * w + x)] = 0.5f / w;
-        }
+    std::vector<float> src, off;
+    edge_shifted_half_a_texel(w, h, src, off);
     BakeOptions o;
     o.colorspace = BakeColorspace::SRGB;
     OIIO::ImageBuf out;
@@ -414,13 +423,8 @@ colorspaces:
     to_scene_reference: !<ExponentTransform> {value: 2.0}
 )";
     const int w = 8, h = 4;
-    std::vector<float> src(std::size_t(w) * h * 3), off(2 * std::size_t(w) * h);
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-            for (int c = 0; c < 3; ++c)
-                src[(std::size_t(y) * w + x) * 3 + c] = x < w / 2 ? 0.0f : 1.0f;
-            off[2 * (std::size_t(y) * w + x)] = 0.5f / w;
-        }
+    std::vector<float> src, off;
+    edge_shifted_half_a_texel(w, h, src, off);
     REQUIRE(image(w, h, 3, src).write((dir / "albedo.png").string(), OIIO::TypeDesc::UINT8));
     REQUIRE(image(w, h, 2, off).write((dir / "offsets.exr").string()));
     const std::string args = "'" + (dir / "albedo.png").string() + "' '" + (dir / "offsets.exr").string() +

@@ -14,28 +14,13 @@
 #include "reference/correct_reference.h"
 #include "relief/correct.h"
 #include "relief/errors.h"
+#include "support/fields.h"
 
 using namespace relief;
 namespace ref = relief::reference;
+using relief::test::waves;
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-
-// A smooth periodic height field (stored units), w x h.
-std::vector<float> waves(int w, int h, double amp = 1.0, unsigned seed = 1)
-{
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<double> ph(0.0, 2 * kPi);
-    const double p1 = ph(rng), p2 = ph(rng), p3 = ph(rng);
-    std::vector<float> v(std::size_t(w) * h);
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x)
-            v[std::size_t(y) * w + x] =
-                float(amp * (0.5 * std::sin(2 * kPi * x / w + p1) * std::cos(2 * kPi * 2 * y / h + p2) +
-                             0.25 * std::sin(2 * kPi * (3.0 * x / w + 1.0 * y / h) + p3)));
-    return v;
-}
 
 // The golden model's grid for centre nodes (heights in texels).
 ref::CorrectionGrid centre_grid(const std::vector<float>& h, int w, int ht, double scale,

@@ -24,6 +24,7 @@ using OIIO::ImageBuf;
 using OIIO::TypeDesc;
 using test::max_abs_diff;
 using test::pixels;
+using test::waves;
 
 namespace {
 
@@ -321,23 +322,6 @@ TEST_CASE("options: boundary=auto integrates a tiling map periodically and a cro
 }
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-
-// A smooth tiling height field in stored units.
-std::vector<float> waves(int w, int h, double amp, unsigned seed)
-{
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<double> ph(0.0, 2 * kPi);
-    const double p1 = ph(rng), p2 = ph(rng), p3 = ph(rng);
-    std::vector<float> v(std::size_t(w) * h);
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x)
-            v[std::size_t(y) * w + x] =
-                float(amp * (0.5 * std::sin(2 * kPi * x / w + p1) * std::cos(2 * kPi * 2 * y / h + p2) +
-                             0.25 * std::sin(2 * kPi * (3.0 * x / w + 1.0 * y / h) + p3)));
-    return v;
-}
 
 struct HostCorrection {
     std::vector<float> offsets;

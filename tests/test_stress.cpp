@@ -275,7 +275,7 @@ TEST_CASE("stress: results are identical whatever POCL_MAX_PTHREAD_COUNT is", "[
                 std::hypot(x - 200.0, y - 300.0) < 60.0 ? 0.0f : 0.3f + 0.7f * float(x) / float(n);
     const std::string mask = (dir / "mask.exr").string();
     REQUIRE(test::image(n, n, 1, m).write(mask));
-    for (const std::string args :
+    for (const std::string& args :
          {normal + "--height:method=poisson:boundary=free", normal + "--height:method=poisson:boundary=periodic",
           normal + "--height:rays=16:radius=24:boundary=clip", normal + "--height:rays=16:radius=24:boundary=periodic",
           normal + "--height:boundary=free:mask=" + mask, normal + "--height:boundary=periodic:mask=" + mask,

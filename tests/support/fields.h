@@ -4,6 +4,7 @@
 #include <OpenImageIO/imagebuf.h>
 
 #include <cmath>
+#include <random>
 #include <vector>
 
 namespace relief::test {
@@ -103,6 +104,22 @@ inline OIIO::ImageBuf normal_image(const std::vector<double>& g, int w, int h, G
     }
     img.set_pixels(img.roi(), OIIO::TypeDesc::FLOAT, px.data());
     return img;
+}
+
+// A smooth tiling height field (stored units, float), w x h: two waves
+// with random phases (distortion-correction tests).
+inline std::vector<float> waves(int w, int h, double amp = 1.0, unsigned seed = 1)
+{
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> ph(0.0, 2 * M_PI);
+    const double p1 = ph(rng), p2 = ph(rng), p3 = ph(rng);
+    std::vector<float> v(std::size_t(w) * h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            v[std::size_t(y) * w + x] =
+                float(amp * (0.5 * std::sin(2 * M_PI * x / w + p1) * std::cos(2 * M_PI * 2 * y / h + p2) +
+                             0.25 * std::sin(2 * M_PI * (3.0 * x / w + 1.0 * y / h) + p3)));
+    return v;
 }
 
 inline double rms(const std::vector<double>& a)
