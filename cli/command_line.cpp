@@ -284,6 +284,8 @@ Step parse_height(const std::string& arg)
         method = ray_option ? "rays" : "auto";
     if (method == "rays" && poisson_option)
         throw UsageError(arg + ": highpass and mask apply to method=poisson, not to rays");
+    if (h.highpass > 0.0f && (h.mask_alpha || !s.mask.empty()))
+        throw UsageError(arg + ": highpass cannot be combined with a mask yet");
     if (method == "poisson" && ray_option)
         throw UsageError(arg + ": impl, directions, rays, radius, phase and skip apply to method=rays");
     if (method == "rays" && boundary == "free")

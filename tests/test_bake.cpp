@@ -209,7 +209,15 @@ TEST_CASE("bake: normal maps are renormalised, bad input fails cleanly", "[bake]
 
     BakeOptions d;
     CHECK_FALSE(bake(out, image(w, h, 3, nrm), image(w + 1, h, 2, std::vector<float>(2 * (w + 1) * h)), d));
-    CHECK(geterror().find("offset map is") != std::string::npos);
+    CHECK(geterror().find("offset map is 17x16") != std::string::npos);
+    CHECK_FALSE(bake(out, image(w, h, 3, nrm), image(w, h - 1, 2, std::vector<float>(2 * w * (h - 1))), d));
+    CHECK(geterror().find("offset map is 16x15, the texture 16x16") != std::string::npos);
+    for (float bad : {std::nanf(""), INFINITY, -INFINITY}) {
+        auto broken = off;
+        broken[37] = bad;
+        CHECK_FALSE(bake(out, image(w, h, 3, nrm), image(w, h, 2, broken), d));
+        CHECK(geterror().find("the offset map has NaN or infinite values") != std::string::npos);
+    }
     CHECK_FALSE(bake(out, image(w, h, 3, nrm), image(w, h, 1, std::vector<float>(w * h)), d));
     CHECK(geterror().find("channel") != std::string::npos);
     d.kind = BakeKind::Height;
@@ -295,6 +303,27 @@ TEST_CASE("bake: 8- and 16-bit normal maps bake to the golden gather's direction
                     for (std::size_t i = 3; i < got.size(); i += 4)
                         REQUIRE(std::abs(got[i] - gold[i]) < 1e-5);
             }
+}
+
+TEST_CASE("bake: half and float normal maps (signed) bake to the golden gather's directions", "[bake]")
+{
+    const int w = 24, h = 20;
+    const auto off = random_field(2 * std::size_t(w) * h, 14, -0.06f, 0.06f);
+    for (OIIO::TypeDesc type : {OIIO::TypeDesc::HALF, OIIO::TypeDesc::FLOAT}) {
+        INFO(type);
+        const OIIO::ImageBuf tex = bumpy_normals(w, h, type);
+        const auto src = pixels(tex);
+        BakeOptions o;
+        o.kind = BakeKind::Normal;
+        o.wrap = BakeWrap::Periodic;
+        OIIO::ImageBuf out;
+        REQUIRE(bake(out, tex, image(w, h, 2, off), o));
+        const auto gold = reference::bake_gather(std::vector<double>(src.begin(), src.end()), w, h, 3,
+                                                 std::vector<double>(off.begin(), off.end()), true, false);
+        double length_error = 0.0;
+        CHECK(worst_normal_angle(pixels(out), gold, 3, false, length_error) < 1e-5);
+        CHECK(length_error < 1e-5);
+    }
 }
 
 TEST_CASE("bake: colorspace=auto decodes 8-bit PNGs as sRGB, floats as linear", "[bake][colour]")
@@ -588,6 +617,10 @@ TEST_CASE("cli: correct and bake refuse bad input and leave nothing behind", "[c
     r = run_cli("'" + height + "' --correct -o '" + out + "'");  // no scale, not relief's own height
     CHECK(r.rc != 0);
     CHECK(r.err.find("scale") != std::string::npos);
+    // ... and a failed correction writes no report.
+    r = run_cli("'" + height + "' --correct --report '" + (dir / "r.json").string() + "' -o '" + out + "'");
+    CHECK(r.rc == 1);
+    CHECK(r.err.find("relief: error: correct: give the displacement scale") != std::string::npos);
     r = run_cli("'" + height + "' --correct:scale=0.05:theta=30 -o '" + out + "'");
     CHECK(r.rc == 2);
     r = run_cli("'" + height + "' --correct:scale=0.05:fix=height:0.5 -o '" + out + "'");

@@ -181,6 +181,8 @@ TEST_CASE("cli: bad input fails with a clear message, a non-zero exit and no out
          "does not exist"},
         {"unknown output format", ok + " --height -o '" + (dir / "h.xyz").string() + "'", "",
          "unknown image format"},
+        {"output is a folder", ok + " --height -o '" + (dir / "kernels").string() + "'", "", "it is a folder"},
+        {"input is a folder", "'" + (dir / "no_vendors").string() + "' --height -o " + out, "", "it is a folder"},
         {"empty stack", "--height -o " + out, "", "needs 1 image"},
         {"-o without a value", ok + " --height -o", "", "needs a value"},
         {"no OpenCL device", ok + " --height -o " + out,
@@ -220,6 +222,34 @@ TEST_CASE("cli: a failure never clobbers an existing output", "[cli][errors]")
     for (const auto& e : fs::directory_iterator(dir))
         files += e.is_regular_file();
     CHECK(files == 1);
+}
+
+TEST_CASE("cli: nothing to do is a usage error; --list-devices lists", "[cli]")
+{
+    for (const char* args : {"", "-v", "--device cpu"}) {
+        INFO("relief " << args);
+        auto r = run_cli(args);
+        CHECK(r.rc == 2);
+        CHECK(r.err.find("Usage: relief") != std::string::npos);
+    }
+    auto l = run_cli("--list-devices");
+    INFO(l.err);
+    CHECK(l.rc == 0);
+    CHECK(l.out.find("0:0  ") == 0);
+    auto none = run_cli("--list-devices", "OCL_ICD_VENDORS=/nonexistent-folder");
+    CHECK(none.rc == 1);
+    CHECK(none.err.find("relief: error:") != std::string::npos);
+}
+
+TEST_CASE("cli: warnings are printed without -v", "[cli]")
+{
+    auto dir = scratch("warnings");
+    // A flat 8-bit map: no curl to tell the convention by.
+    REQUIRE(relief::test::image(16, 16, 3, std::vector<float>(16 * 16 * 3, 0.5f), OIIO::TypeDesc::UINT8)
+                .write((dir / "flat.png").string()));
+    auto r = run_cli("'" + (dir / "flat.png").string() + "' --slopes -o '" + (dir / "s.exr").string() + "'");
+    CHECK(r.rc == 0);
+    CHECK(r.err.find("relief: warning: normal convention is ambiguous") != std::string::npos);
 }
 
 TEST_CASE("cli: --help and --version exit 0", "[cli]")

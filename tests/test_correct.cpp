@@ -429,6 +429,68 @@ TEST_CASE("correct: fixation holds in fine texels on every pyramid level", "[cor
     CHECK(largest > 0.05);
 }
 
+TEST_CASE("correct: the distortion statistics are the triangles' singular values", "[correct]")
+{
+    // Zero offsets on a centre-node periodic grid: every node owns
+    // [p, p+(1,0), p+(1,-1)] and [p, p+(1,-1), p+(0,-1)] (texels, y down).
+    const int w = 9, h = 8;
+    const double scale = 0.3;
+    const auto hts = waves(w, h, 1.0, 14);
+    auto z = [&](int i, int j) { return double(hts[std::size_t((j + h) % h) * w + (i + w) % w]) * scale * w; };
+    std::vector<double> aniso, area;
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i)
+            for (int t = 0; t < 2; ++t) {
+                const ref::Vec2 e1 = t == 0 ? ref::Vec2{1, 0} : ref::Vec2{1, -1};
+                const ref::Vec2 e2 = t == 0 ? ref::Vec2{1, -1} : ref::Vec2{0, -1};
+                const ref::Vec3 f1{e1[0], e1[1], z(i + int(e1[0]), j + int(e1[1])) - z(i, j)};
+                const ref::Vec3 f2{e2[0], e2[1], z(i + int(e2[0]), j + int(e2[1])) - z(i, j)};
+                const auto sv = ref::triangle_singular_values(e1, e2, f1, f2);
+                aniso.push_back(sv[0] / sv[1]);
+                area.push_back(sv[0] * sv[1]);
+            }
+    auto p95 = [](std::vector<double> v) {
+        std::sort(v.begin(), v.end());
+        return v[std::size_t(std::ceil(0.95 * double(v.size()))) - 1];
+    };
+    auto mean = [](const std::vector<double>& v) {
+        double s = 0;
+        for (double x : v)
+            s += x;
+        return s / double(v.size());
+    };
+    auto ctx = host::ComputeContext::acquire("auto");
+    const std::vector<float> zero(2 * std::size_t(w) * h, 0.0f);
+    host::DistortionStats a, r;
+    host::correction_energy(*ctx, hts.data(), w, h, params(scale, true), zero.data(), &a, &r);
+    CHECK(a.mean == Approx(mean(aniso)).epsilon(1e-5));
+    CHECK(a.p95 == Approx(p95(aniso)).epsilon(1e-5));
+    CHECK(a.max == Approx(*std::max_element(aniso.begin(), aniso.end())).epsilon(1e-5));
+    CHECK(r.mean == Approx(mean(area)).epsilon(1e-5));
+    CHECK(r.p95 == Approx(p95(area)).epsilon(1e-5));
+    CHECK(r.max == Approx(*std::max_element(area.begin(), area.end())).epsilon(1e-5));
+}
+
+TEST_CASE("correct: every pyramid level measures heights in its own texels", "[correct]")
+{
+    // The coarsest level starts at zero offsets: its energy is the golden
+    // model's on the area-downsampled heights, in that level's texels.
+    const int w = 64, h = 64;
+    const auto hts = waves(w, h, 1.0, 15);
+    host::CorrectReport rep;
+    run(hts, w, h, params(0.3, true), &rep);
+    REQUIRE(rep.levels.size() == 3);
+    const auto& coarsest = rep.levels.front();
+    REQUIRE(coarsest.width == 16);
+    const auto small = host::area_downsample(hts, w, h, 16, 16);
+    const double gold = ref::total_energy(centre_grid(small, 16, 16, 0.3, true),
+                                          std::vector<double>(2 * 16 * 16, 0.0));
+    CHECK(coarsest.energy_start == Approx(gold).epsilon(1e-5));
+    CHECK(rep.energy_before == Approx(ref::total_energy(centre_grid(hts, w, h, 0.3, true),
+                                                        std::vector<double>(2 * std::size_t(w) * h, 0.0)))
+                                   .epsilon(1e-5));
+}
+
 TEST_CASE("correct: the pyramid helpers", "[correct]")
 {
     // Area downsampling keeps the mean, also for odd sizes.
@@ -449,6 +511,24 @@ TEST_CASE("correct: the pyramid helpers", "[correct]")
     const auto up = host::upsample_offsets(c, coarse, fine);
     for (std::size_t i = 0; i < up.size(); ++i)
         REQUIRE(up[i] == Approx(i % 2 ? -0.01f : 0.02f));
+    // A linear ramp of offsets upsamples to the ramp at the fine nodes'
+    // positions (centre nodes sit half a texel in), away from clamped edges.
+    for (bool corner : {false, true}) {
+        host::NodeGrid from(8, 6, corner, false), to(16, 12, corner, false);
+        std::vector<float> ramp(2 * std::size_t(from.nx) * from.ny);
+        for (int j = 0; j < from.ny; ++j)
+            for (int i = 0; i < from.nx; ++i) {
+                ramp[2 * (std::size_t(j) * from.nx + i)] = float(from.u(i));
+                ramp[2 * (std::size_t(j) * from.nx + i) + 1] = float(from.v(j));
+            }
+        const auto fine = host::upsample_offsets(ramp, from, to);
+        for (int j = 2; j < to.ny - 2; ++j)
+            for (int i = 2; i < to.nx - 2; ++i) {
+                INFO("corner " << corner << " node " << i << "," << j);
+                REQUIRE(fine[2 * (std::size_t(j) * to.nx + i)] == Approx(to.u(i)).margin(1e-6));
+                REQUIRE(fine[2 * (std::size_t(j) * to.nx + i) + 1] == Approx(to.v(j)).margin(1e-6));
+            }
+    }
     CHECK(host::pyramid_sizes(1024, 1024, 0).size() == 7);
     CHECK(host::pyramid_sizes(1024, 1024, 1).size() == 1);
 }

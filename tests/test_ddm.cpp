@@ -71,6 +71,7 @@ TEST_CASE("every encoding decodes like the reference and within its quantisation
         {"float RGBA", TypeDesc::FLOAT, 4, false, 2e-5},
         {"float XY", TypeDesc::FLOAT, 2, false, 1e-4},
         {"float RGB in [0,1]", TypeDesc::FLOAT, 3, true, 2e-5},
+        {"half RGB in [0,1]", TypeDesc::HALF, 3, true, 2e-2},
         {"half RGB", TypeDesc::HALF, 3, false, 1e-2},
         {"uint16 RGB", TypeDesc::UINT16, 3, false, 1e-3},
         {"uint8 RGB", TypeDesc::UINT8, 3, false, 0.15},
@@ -245,6 +246,8 @@ TEST_CASE("an ROI gives the same slopes as the whole image over that region", "[
     CHECK(part.spec().width == 30);
     CHECK(part.spec().height == 20);
     CHECK(part.spec().x == 10);
+    CHECK(part.spec().y == 5);
+    CHECK(part.spec().channelnames == std::vector<std::string>{"gx", "gy"});
     auto got = pixels(part);
     for (int y = 0; y < 20; ++y)
         for (int x = 0; x < 30; ++x)

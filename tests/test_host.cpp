@@ -20,9 +20,17 @@ TEST_CASE("device specs: auto finds a device, malformed specs are refused", "[ho
     auto same = choose_device(std::to_string(chosen.platform_index) + ":" +
                               std::to_string(chosen.device_index));
     CHECK(same.name == chosen.name);
-    // PoCL's CPU device is there wherever the tests run.
+    // PoCL's CPU device is there wherever the tests run; "gpu" finds a GPU
+    // or fails, never falling back to something else.
     const DeviceInfo cpu = choose_device("cpu");
     CHECK_FALSE(cpu.is_gpu);
+    bool any_gpu = false;
+    for (const auto& d : devices)
+        any_gpu |= d.is_gpu;
+    if (any_gpu)
+        CHECK(choose_device("gpu").is_gpu);
+    else
+        CHECK_THROWS_AS(choose_device("gpu"), NoDeviceError);
     for (const char* bad : {"banana", "0:", ":0", "0:x", "-1:0", "1:2:3"})
         CHECK_THROWS_AS(choose_device(bad), Error);
     CHECK_THROWS_AS(choose_device("99:99"), NoDeviceError);

@@ -171,7 +171,7 @@ TEST_CASE("cli: --compression and -d reach the file", "[cli][io]")
                      "' --compression zip -o '" + (dir / "zip.exr").string() + "' --compression piz -d half -o '" +
                      (dir / "piz_half.exr").string() + "' -d uint16 -o '" + (dir / "h16.tif").string() +
                      "' -d uint8 -o '" + (dir / "h8.tif").string() + "' -d float -o '" +
-                     (dir / "float_asked.png").string() + "'");
+                     (dir / "float_asked.png").string() + "' -d half -o '" + (dir / "half_asked.png").string() + "'");
     INFO(r.err);
     REQUIRE(r.rc == 0);
     struct Expect {
@@ -185,7 +185,8 @@ TEST_CASE("cli: --compression and -d reach the file", "[cli][io]")
                             Expect{"h16.tif", OIIO::TypeDesc::UINT16, nullptr},
                             Expect{"h8.tif", OIIO::TypeDesc::UINT8, nullptr},
                             // PNG has no float pixels: 16 bits rather than 8.
-                            Expect{"float_asked.png", OIIO::TypeDesc::UINT16, nullptr}}) {
+                            Expect{"float_asked.png", OIIO::TypeDesc::UINT16, nullptr},
+                            Expect{"half_asked.png", OIIO::TypeDesc::UINT16, nullptr}}) {
         INFO(e.file);
         OIIO::ImageBuf b((dir / e.file).string());
         REQUIRE(b.read());
@@ -199,7 +200,7 @@ TEST_CASE("cli: --compression and -d reach the file", "[cli][io]")
     const double spread = relief::test::max_abs(f);
     CHECK(relief::test::max_abs_diff(relief::test::file_pixels(dir / "piz_half.exr"), f) < 1e-3 * spread);
     // Integer files: data = (value - 0.5) * scale.
-    for (const char* name : {"h16.tif", "h8.tif"}) {
+    for (const char* name : {"h16.tif", "h8.tif", "float_asked.png", "half_asked.png"}) {
         OIIO::ImageBuf q((dir / name).string());
         REQUIRE(q.read(0, 0, true, OIIO::TypeDesc::FLOAT));
         const std::string desc = q.spec().get_string_attribute("ImageDescription");

@@ -314,6 +314,15 @@ TEST_CASE("options: boundary=auto integrates a tiling map periodically and a cro
             CHECK(got == want);
             const std::string expect = tiles ? "boundary: periodic" : (ray_method ? "boundary: clip" : "boundary: free");
             CHECK(said.find(expect) != std::string::npos);
+            // relief:parameters records what was chosen, not "auto".
+            HeightOptions again = o;
+            again.normals.convention = NormalConvention::OpenGL;
+            const std::string par = relief::height(*img, again).spec().get_string_attribute("relief:parameters");
+            const std::string chosen = tiles ? "periodic" : (ray_method ? "clip" : "free");
+            if (ray_method)
+                CHECK(par == "method=rays impl=fast rays=8 radius=10 phase=0.5 directions=rational boundary=" + chosen);
+            else
+                CHECK(par == "method=poisson boundary=" + chosen + " highpass=0");
             HeightOptions other = o;
             other.boundary = tiles ? Boundary::Free : Boundary::Periodic;
             CHECK(max_abs_diff(api_height(*img, other), got) > 1e-3);
@@ -436,9 +445,18 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
             CHECK(r.levels[l].converged == hl.converged);
             CHECK(r.levels[l].tiles_run == Approx(double(hl.tile_phases_run) / double(hl.tile_phases)));
         }
-        CHECK(r.anisotropy_before.max == want.report.anisotropy_before.max);
-        CHECK(r.anisotropy_after.p95 == want.report.anisotropy_after.p95);
-        CHECK(r.area_after.mean == want.report.area_after.mean);
+        for (const auto& [got_s, want_s] :
+             {std::pair{r.anisotropy_before, want.report.anisotropy_before},
+              std::pair{r.anisotropy_after, want.report.anisotropy_after},
+              std::pair{r.area_before, want.report.area_before}, std::pair{r.area_after, want.report.area_after}}) {
+            CHECK(got_s.mean == want_s.mean);
+            CHECK(got_s.p95 == want_s.p95);
+            CHECK(got_s.max == want_s.max);
+        }
+        CHECK(r.width == w);
+        CHECK(r.height == h);
+        const std::string json = r.to_json();
+        CHECK(json.find("\"width\": 40, \"height\": 36") != std::string::npos);
         CHECK(r.boundary == (p.periodic ? "periodic" : "fixed"));
         CHECK(r.nodes == (p.corner_nodes ? "corner" : "center"));
         CHECK(r.scale == Approx(p.scale));
@@ -450,6 +468,9 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
         CHECK(par.find("theta=" + test::format_number(p.theta)) != std::string::npos);
         CHECK(par.find("nodes=" + r.nodes) != std::string::npos);
         CHECK(par.find("boundary=" + r.boundary) != std::string::npos);
+        CHECK(par.find(" levels=" + (p.levels ? std::to_string(p.levels) : std::string("auto"))) != std::string::npos);
+        CHECK(par.find(" iterations=" + (p.iterations ? std::to_string(p.iterations) : std::string("auto"))) !=
+              std::string::npos);
         if (!r.skipped) {
             CHECK(r.energy_after < r.energy_before * 0.999);
             CHECK(r.anisotropy_after.mean < r.anisotropy_before.mean);
@@ -598,4 +619,127 @@ TEST_CASE("options: correction skip=on skips still tiles, skip=off runs them all
     CHECK(on.offsets == off.offsets);
     CHECK(on.report.levels.back().tiles_run < 1.0);  // measured 0.984
     CHECK(off.report.levels.back().tiles_run == 1.0);
+}
+
+TEST_CASE("options: max_iterations stops a level that has not converged, and says so", "[options][correct]")
+{
+    const int w = 40, h = 36;
+    const auto hts = waves(w, h, 1.0, 4);
+    CorrectOptions o;
+    o.scale = 0.3f;
+    o.nodes = CorrectNodes::Center;
+    o.boundary = CorrectBoundary::Periodic;
+    o.levels = 1;
+    o.max_iterations = 2;
+    const ApiCorrection got = api_correct(test::image(w, h, 1, hts), o);
+    REQUIRE(got.report.levels.size() == 1);
+    CHECK(got.report.levels[0].iterations == 2);
+    CHECK_FALSE(got.report.levels[0].converged);
+    CHECK(got.said.find("stopped at 2 iterations") != std::string::npos);
+    host::CorrectParams p;
+    p.scale = 0.3f;
+    p.corner_nodes = false;
+    p.levels = 1;
+    p.max_iterations = 2;
+    CHECK(max_abs_diff(got.offsets, host_correct(hts, w, h, p).offsets) == 0.0);
+}
+
+TEST_CASE("options: inconsistent or out-of-range options are refused by the API", "[options][errors]")
+{
+    const int w = 48, h = 40;
+    const auto g = tiling_slopes(w, h, 8);
+    const ImageBuf normals = test::normal_image(g, w, h, test::Green::OpenGL, TypeDesc::FLOAT);
+    auto height_error = [&](const HeightOptions& o) {
+        ImageBuf out;
+        return relief::height(out, normals, o) ? std::string("accepted") : relief::geterror();
+    };
+    const ImageBuf short_mask = test::image(w, h - 1, 1, std::vector<float>(std::size_t(w) * (h - 1), 0.5f));
+    const ImageBuf narrow_mask = test::image(w - 1, h, 1, std::vector<float>(std::size_t(w - 1) * h, 0.5f));
+    const ImageBuf half_mask = test::image(w, h, 1, std::vector<float>(std::size_t(w) * h, 0.5f));
+    std::vector<float> bad_values(std::size_t(w) * h, 0.5f);
+    bad_values[17] = 1.5f;
+    const ImageBuf over_mask = test::image(w, h, 1, bad_values);
+    struct HCase {
+        const char* what;
+        std::function<void(HeightOptions&)> set;
+        const char* message;
+    };
+    const HCase hcases[] = {
+        {"mask one row short", [&](HeightOptions& o) { o.mask = &short_mask; }, "the mask is 48x39"},
+        {"mask one column short", [&](HeightOptions& o) { o.mask = &narrow_mask; }, "the mask is 47x40"},
+        {"mask value above 1", [&](HeightOptions& o) { o.mask = &over_mask; }, "mask values must be in [0, 1]"},
+        {"mask and rays", [&](HeightOptions& o) { o.mask = &half_mask; o.method = HeightMethod::Rays; }, "mask applies to method=poisson"},
+        {"mask and highpass", [&](HeightOptions& o) { o.mask = &half_mask; o.highpass = 8; }, "highpass cannot be combined with a mask"},
+        {"alpha mask and highpass", [&](HeightOptions& o) { o.mask_alpha = true; o.highpass = 8; }, "highpass cannot be combined with a mask"},
+        {"highpass and rays", [&](HeightOptions& o) { o.highpass = 8; o.method = HeightMethod::Rays; }, "highpass applies to method=poisson"},
+        {"phase 1", [](HeightOptions& o) { o.phase = 1.0f; }, "phase must be in [0, 1)"},
+        {"phase negative", [](HeightOptions& o) { o.phase = -0.25f; }, "phase must be in [0, 1)"},
+        {"radius too large", [](HeightOptions& o) { o.radius = 70000.0f; }, "radius"},
+        {"max_angle 90", [](HeightOptions& o) { o.normals.max_angle = 90.0f; }, "max_angle must be in (0, 90)"},
+        {"max_angle 0", [](HeightOptions& o) { o.normals.max_angle = 0.0f; }, "max_angle must be in (0, 90)"},
+        {"fast with exact directions", [](HeightOptions& o) { o.method = HeightMethod::Rays; o.directions = RayDirections::Exact; }, "impl=fast needs directions=rational"},
+    };
+    for (const HCase& c : hcases) {
+        INFO(c.what);
+        HeightOptions o;
+        o.normals.convention = NormalConvention::OpenGL;
+        c.set(o);
+        const std::string e = height_error(o);
+        CHECK(e.find(c.message) != std::string::npos);
+        CHECK(e.rfind("height: ", 0) == 0);
+    }
+
+    const int cw = 40, ch = 36;
+    const ImageBuf height = test::image(cw, ch, 1, waves(cw, ch, 1.0, 4));
+    const ImageBuf tall_fix = test::image(cw, ch + 1, 1, std::vector<float>(std::size_t(cw) * (ch + 1), 1.0f));
+    const ImageBuf wide_fix = test::image(cw + 1, ch, 1, std::vector<float>(std::size_t(cw + 1) * ch, 1.0f));
+    std::vector<float> negative(std::size_t(cw) * ch, 1.0f);
+    negative[5] = -1.0f;
+    const ImageBuf negative_fix = test::image(cw, ch, 1, negative);
+    struct CCase {
+        const char* what;
+        std::function<void(CorrectOptions&)> set;
+        const char* message;
+    };
+    const CCase ccases[] = {
+        {"fixation mask one row long", [&](CorrectOptions& o) { o.fix_mask = &tall_fix; }, "the fixation mask is 40x37, the height map 40x36"},
+        {"fixation mask one column wide", [&](CorrectOptions& o) { o.fix_mask = &wide_fix; }, "the fixation mask is 41x36"},
+        {"negative fixation weight", [&](CorrectOptions& o) { o.fix_mask = &negative_fix; }, "fixation weights must be finite and >= 0"},
+        {"mask and tent", [&](CorrectOptions& o) { o.fix_mask = &wide_fix; o.fix_width = 1; }, "not both"},
+        {"theta above 20", [](CorrectOptions& o) { o.theta = 20.5f; }, "theta must be in [0, 20]"},
+        {"tolerance 0", [](CorrectOptions& o) { o.tolerance = 0.0f; }, "tolerance must be in (0, 1)"},
+        {"negative threshold", [](CorrectOptions& o) { o.threshold = -1.0f; }, "threshold must be >= 0"},
+        {"negative levels", [](CorrectOptions& o) { o.levels = -1; }, "iterations and levels must be >= 0"},
+        {"NaN scale", [](CorrectOptions& o) { o.scale = std::nanf(""); }, "scale must be > 0"},
+    };
+    for (const CCase& c : ccases) {
+        INFO(c.what);
+        CorrectOptions o;
+        o.scale = 0.3f;
+        c.set(o);
+        ImageBuf out;
+        CHECK_FALSE(relief::correct(out, height, o));
+        const std::string e = relief::geterror();
+        CHECK(e.find(c.message) != std::string::npos);
+        CHECK(e.rfind("correct: ", 0) == 0);
+    }
+}
+
+TEST_CASE("options: a failed call's returned image carries the error", "[options][errors]")
+{
+    const ImageBuf gray(OIIO::ImageSpec(8, 8, 1, TypeDesc::FLOAT));
+    const ImageBuf s = relief::slopes(gray);
+    CHECK(s.has_error());
+    CHECK(s.geterror().find("slopes: unsupported channel count 1") != std::string::npos);
+    const ImageBuf h = relief::height(gray);
+    CHECK(h.has_error());
+    CHECK(h.geterror().find("height: unsupported channel count 1") != std::string::npos);
+    CorrectOptions co;
+    co.scale = -1.0f;
+    const ImageBuf c = relief::correct(gray, co);
+    CHECK(c.has_error());
+    CHECK(c.geterror().find("correct: scale must be > 0") != std::string::npos);
+    const ImageBuf b = relief::bake(gray, gray);
+    CHECK(b.has_error());
+    CHECK(b.geterror().find("bake: the offset map has 1 channel(s)") != std::string::npos);
 }

@@ -51,6 +51,8 @@ void validate(const HeightOptions& o)
         throw std::invalid_argument("a mask applies to method=poisson, not to rays");
     if (o.mask && o.mask_alpha)
         throw std::invalid_argument("give a mask image or mask_alpha, not both");
+    if ((o.mask || o.mask_alpha) && o.highpass > 0.0f)
+        throw std::invalid_argument("highpass cannot be combined with a mask yet");
 }
 
 // Resolves boundary=auto from the slopes' seams, and says why.
