@@ -10,7 +10,6 @@
 #include <string>
 #include <vector>
 
-
 #include "command_line.h"
 #include "text_file.h"
 #include "relief/relief.h"

@@ -10,8 +10,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <memory>
 #include <filesystem>
+#include <memory>
 #include <system_error>
 #include <unistd.h>
 #include <vector>
@@ -107,10 +107,11 @@ private:
 };
 
 // Writes `image` into the new file `path` as `format` with `compression`
-// (empty: the format's default); returns "" or why not. Not ImageBuf::write: it ignores the writer's close(), where PNG and
-// TIFF finish their files, and OIIO 2.4's PNG writer reports success for a
-// file the disk could not hold. So the bytes go through CheckedFile, and
-// close, flush and fsync (the data is on disk before the rename) are checked.
+// (empty: the format's default); returns "" or why not. Not through
+// ImageBuf::write: it ignores the writer's close(), where PNG and TIFF
+// finish their files, and OIIO 2.4's PNG writer reports success for a file
+// the disk could not hold. So the bytes go through CheckedFile, and close,
+// flush and fsync (the data is on disk before the rename) are checked.
 std::string write_file(const ImageBuf& image, const fs::path& path, TypeDesc format,
                        const std::string& compression)
 {
