@@ -224,7 +224,7 @@ TEST_CASE("cli: a failure never clobbers an existing output", "[cli][errors]")
     CHECK(files == 1);
 }
 
-TEST_CASE("cli: nothing to do is a usage error; --list-devices lists", "[cli]")
+TEST_CASE("cli: nothing to do is a usage error, --list-devices lists", "[cli]")
 {
     for (const char* args : {"", "-v", "--device cpu"}) {
         INFO("relief " << args);
