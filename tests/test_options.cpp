@@ -311,7 +311,7 @@ TEST_CASE("options: boundary=auto integrates a tiling map periodically and a cro
             explicit_b.boundary = tiles ? Boundary::Periodic : Boundary::Free;
             const auto want = api_height(*img, explicit_b);
             INFO(said);
-            CHECK(got == want);
+            CHECK(max_abs_diff(got, want) == 0.0);
             const std::string expect = tiles ? "boundary: periodic" : (ray_method ? "boundary: clip" : "boundary: free");
             CHECK(said.find(expect) != std::string::npos);
             // relief:parameters records what was chosen, not "auto".
@@ -533,7 +533,7 @@ TEST_CASE("options: correction boundary=auto finds tiling maps and crops", "[opt
         CHECK(got.report.boundary == (tiles ? "periodic" : "fixed"));
         CHECK(got.said.find(tiles ? "boundary periodic" : "boundary fixed") != std::string::npos);
         o.boundary = tiles ? CorrectBoundary::Periodic : CorrectBoundary::Fixed;
-        CHECK(api_correct(img, o).offsets == got.offsets);
+        CHECK(max_abs_diff(api_correct(img, o).offsets, got.offsets) == 0.0);
     }
 }
 
@@ -616,7 +616,7 @@ TEST_CASE("options: correction skip=on skips still tiles, skip=off runs them all
     const ApiCorrection on = api_correct(height, o);
     o.skip_tiles = false;
     const ApiCorrection off = api_correct(height, o);
-    CHECK(on.offsets == off.offsets);
+    CHECK(max_abs_diff(on.offsets, off.offsets) == 0.0);
     CHECK(on.report.levels.back().tiles_run < 1.0);  // measured 0.984
     CHECK(off.report.levels.back().tiles_run == 1.0);
 }
