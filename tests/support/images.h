@@ -56,12 +56,16 @@ inline std::filesystem::path scratch(const std::string& name)
     return d;
 }
 
+// The largest |a[i] - b[i]|; infinite when the sizes differ or a
+// difference is not a number (a NaN on either side).
 template <class A, class B>
 double max_abs_diff(const A& a, const B& b)
 {
     double m = a.size() == b.size() ? 0.0 : INFINITY;
-    for (std::size_t i = 0; i < a.size() && i < b.size(); ++i)
-        m = std::max(m, std::abs(double(a[i]) - double(b[i])));
+    for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) {
+        const double d = std::abs(double(a[i]) - double(b[i]));
+        m = std::isnan(d) ? INFINITY : std::max(m, d);
+    }
     return m;
 }
 
