@@ -45,6 +45,17 @@ host::CorrectParams params(double scale, bool periodic, bool corner = false)
     return p;
 }
 
+// Exactly one iteration at a single resolution, every tile run, nothing
+// skipped as too flat: what the golden model's iterate() does.
+host::CorrectParams one_iteration(host::CorrectParams p)
+{
+    p.levels = 1;
+    p.iterations = 1;
+    p.skip_tiles = false;
+    p.threshold = 0.0;
+    return p;
+}
+
 std::vector<float> run(const std::vector<float>& h, int w, int ht, const host::CorrectParams& p,
                        host::CorrectReport* rep = nullptr)
 {
@@ -154,12 +165,7 @@ TEST_CASE("correct: one device iteration equals the golden model's", "[correct]"
         ref::CorrectionGrid g = centre_grid(hts, w, h, scale, periodic);
         std::vector<double> c(2 * std::size_t(w) * h, 0.0);
         ref::iterate(g, c);
-        auto p = params(scale, periodic);
-        p.levels = 1;
-        p.iterations = 1;
-        p.skip_tiles = false;
-        p.threshold = 0.0;
-        const auto out = run(hts, w, h, p);
+        const auto out = run(hts, w, h, one_iteration(params(scale, periodic)));
         double worst = 0.0, largest = 0.0;
         std::vector<double> dev(c.size());
         for (std::size_t k = 0; k < c.size(); ++k) {
@@ -204,12 +210,7 @@ TEST_CASE("correct: corner nodes, one device iteration equals the golden model's
         std::vector<double> c(2 * std::size_t(nx) * ny, 0.0);
         ref::iterate(g, c);
         auto node = [&](int i, int j, int ch) { return c[2 * (std::size_t(j % ny) * nx + i % nx) + ch]; };
-        auto p = params(scale, periodic, true);
-        p.levels = 1;
-        p.iterations = 1;
-        p.skip_tiles = false;
-        p.threshold = 0.0;
-        const auto out = run(hts, w, h, p);
+        const auto out = run(hts, w, h, one_iteration(params(scale, periodic, true)));
         double worst = 0.0, largest = 0.0;
         for (int y = 0; y < h; ++y)
             for (int x = 0; x < w; ++x)
