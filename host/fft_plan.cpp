@@ -11,76 +11,122 @@
 
 namespace relief::host {
 
-struct FftPlan::Impl {
-    VkFFTApplication app = {};
-    cl_device_id device = nullptr;
-    cl_context context = nullptr;
-    cl_platform_id platform = nullptr;
-    cl_mem buffer = nullptr;
-    uint64_t size = 0;
-    bool initialised = false;
+namespace {
+
+// One VkFFT application: a batched 1-D transform along the contiguous axis.
+class Transform1d {
+public:
+    Transform1d(ComputeContext::Impl& c, std::size_t n, std::size_t batches, bool real,
+                cl::Buffer& buffer, std::size_t bytes)
+        : device_(c.device()), context_(c.context()), buffer_(buffer()), size_(bytes)
+    {
+        platform_ = c.device.getInfo<CL_DEVICE_PLATFORM>();
+        VkFFTConfiguration config = {};
+        config.FFTdim = 1;
+        config.size[0] = n;
+        config.numberBatches = batches;
+        config.performR2C = real ? 1 : 0;
+        config.normalize = 1;
+        config.device = &device_;
+        config.context = &context_;
+        config.platform = &platform_;
+        config.buffer = &buffer_;
+        config.bufferSize = &size_;
+        VkFFTResult r = initializeVkFFT(&app_, config);
+        if (r != VKFFT_SUCCESS)
+            throw Error("VkFFT could not plan a transform of size " + std::to_string(n) +
+                        " (VkFFT error " + std::to_string(int(r)) + ")");
+    }
+    ~Transform1d() { deleteVkFFT(&app_); }
+    Transform1d(const Transform1d&) = delete;
+    Transform1d& operator=(const Transform1d&) = delete;
+
+    void run(cl::CommandQueue& queue, cl::Buffer& buffer, int direction)
+    {
+        cl_command_queue q = queue();
+        cl_mem b = buffer();
+        VkFFTLaunchParams launch = {};
+        launch.commandQueue = &q;
+        launch.buffer = &b;
+        VkFFTResult r = VkFFTAppend(&app_, direction, &launch);
+        if (r != VKFFT_SUCCESS)
+            throw Error("VkFFT transform failed (VkFFT error " + std::to_string(int(r)) + ")");
+    }
+
+private:
+    VkFFTApplication app_ = {};
+    cl_device_id device_;
+    cl_context context_;
+    cl_platform_id platform_ = nullptr;
+    cl_mem buffer_;
+    uint64_t size_;
 };
 
-FftPlan::FftPlan(cl::Context& context, cl::Device& device, Kind kind, std::size_t n0,
-                 std::size_t n1, cl::Buffer& buffer)
-    : impl_(new Impl)
+} // namespace
+
+struct FftPlan::Impl {
+    ComputeContext::Impl& c;
+    std::size_t n0, n1, columns;
+    std::unique_ptr<Transform1d> rows;     // R2C along axis 0, n1 batches
+    cl::Buffer work;                       // the transposed half spectrum
+    std::unique_ptr<Transform1d> columns_fft;  // C2C along axis 1, `columns` batches
+    cl::Kernel transpose;
+
+    explicit Impl(ComputeContext::Impl& ctx) : c(ctx) {}
+
+    void transpose_to(cl::Buffer& in, int rows_in, int columns_in, cl::Buffer& out)
+    {
+        transpose.setArg(0, in);
+        transpose.setArg(1, cl_int(rows_in));
+        transpose.setArg(2, cl_int(columns_in));
+        transpose.setArg(3, out);
+        c.queue.enqueueNDRangeKernel(transpose, cl::NullRange,
+                                     cl::NDRange(padded(std::size_t(rows_in) * columns_in)),
+                                     cl::NDRange(kGroupSize));
+    }
+};
+
+FftPlan::FftPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1) : impl_(new Impl(c))
 {
     if (n0 < 2 || n1 < 1)
         throw Error("internal error: FFT plan of size " + std::to_string(n0) + "x" +
                     std::to_string(n1));
-    impl_->device = device();
-    impl_->context = context();
-    impl_->platform = device.getInfo<CL_DEVICE_PLATFORM>();
-    impl_->size = sizeof(float) * row_stride(kind, n0) * n1;
-    impl_->buffer = buffer();
-
-    VkFFTConfiguration config = {};
-    config.FFTdim = n1 > 1 ? 2 : 1;
-    config.size[0] = n0;
-    config.size[1] = n1;
-    if (kind == Kind::RealToComplex)
-        config.performR2C = 1;
-    else
-        config.performDCT = 2;
-    config.normalize = 1;
-    config.device = &impl_->device;
-    config.context = &impl_->context;
-    config.platform = &impl_->platform;
-    config.buffer = &impl_->buffer;
-    config.bufferSize = &impl_->size;
-    VkFFTResult r = initializeVkFFT(&impl_->app, config);
-    if (r != VKFFT_SUCCESS)
-        throw Error("VkFFT could not plan a " + std::to_string(n0) + "x" + std::to_string(n1) +
-                    " transform (VkFFT error " + std::to_string(int(r)) + ")");
-    impl_->initialised = true;
+    auto& p = *impl_;
+    p.n0 = n0;
+    p.n1 = n1;
+    p.columns = n0 / 2 + 1;
+    const std::size_t bytes = sizeof(float) * row_stride(n0) * n1;
+    // VkFFT builds its kernels against a buffer; launches name their own.
+    p.work = cl::Buffer(c.context, CL_MEM_READ_WRITE, bytes);
+    p.rows.reset(new Transform1d(c, n0, n1, true, p.work, bytes));
+    if (n1 > 1) {
+        p.columns_fft.reset(new Transform1d(c, n1, p.columns, false, p.work, bytes));
+        p.transpose = cl::Kernel(c.program("fft.cl"), "fft_transpose");
+    }
 }
 
-FftPlan::~FftPlan()
+FftPlan::~FftPlan() = default;
+
+void FftPlan::forward(cl::Buffer& buffer)
 {
-    if (impl_->initialised)
-        deleteVkFFT(&impl_->app);
+    auto& p = *impl_;
+    p.rows->run(p.c.queue, buffer, -1);
+    if (p.n1 == 1)
+        return;
+    p.transpose_to(buffer, int(p.n1), int(p.columns), p.work);
+    p.columns_fft->run(p.c.queue, p.work, -1);
+    p.transpose_to(p.work, int(p.columns), int(p.n1), buffer);
 }
 
-void FftPlan::run(cl::CommandQueue& queue, cl::Buffer& buffer, int direction)
+void FftPlan::inverse(cl::Buffer& buffer)
 {
-    cl_command_queue q = queue();
-    cl_mem b = buffer();
-    VkFFTLaunchParams launch = {};
-    launch.commandQueue = &q;
-    launch.buffer = &b;
-    VkFFTResult r = VkFFTAppend(&impl_->app, direction, &launch);
-    if (r != VKFFT_SUCCESS)
-        throw Error("VkFFT transform failed (VkFFT error " + std::to_string(int(r)) + ")");
-}
-
-void FftPlan::forward(cl::CommandQueue& queue, cl::Buffer& buffer)
-{
-    run(queue, buffer, -1);
-}
-
-void FftPlan::inverse(cl::CommandQueue& queue, cl::Buffer& buffer)
-{
-    run(queue, buffer, 1);
+    auto& p = *impl_;
+    if (p.n1 > 1) {
+        p.transpose_to(buffer, int(p.n1), int(p.columns), p.work);
+        p.columns_fft->run(p.c.queue, p.work, 1);
+        p.transpose_to(p.work, int(p.columns), int(p.n1), buffer);
+    }
+    p.rows->run(p.c.queue, buffer, 1);
 }
 
 } // namespace relief::host

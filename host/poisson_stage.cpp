@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include "errors.h"
+#include "dct_plan.h"
 #include "fft_plan.h"
 #include "field_ops.h"
 #include "opencl_context.h"
@@ -40,8 +42,8 @@ void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes, const Po
     const bool transposed = w == 1;
     const int n0 = transposed ? h : w, n1 = transposed ? 1 : h;
     const bool periodic = p.boundary == PoissonBoundary::Periodic;
-    const auto kind = periodic ? FftPlan::Kind::RealToComplex : FftPlan::Kind::Dct2;
-    const std::size_t stride = FftPlan::row_stride(kind, n0);
+    const std::size_t stride =
+        periodic ? FftPlan::row_stride(n0) : std::size_t(n0);
     const std::size_t bytes = sizeof(float) * stride * n1;
     const float sigma = float(highpass_sigma(p.highpass));
 
@@ -51,7 +53,13 @@ void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes, const Po
         cl::Program& prog = c.program("poisson.cl");
         cl::Buffer gx(c.context, CL_MEM_READ_WRITE, bytes);
         cl::Buffer gy(c.context, CL_MEM_READ_WRITE, bytes);
-        FftPlan plan(c.context, c.device, kind, n0, n1, gx);
+        std::optional<FftPlan> fft;
+        std::optional<DctPlan> dct;
+        if (periodic)
+            fft.emplace(c, n0, n1);
+        else
+            dct.emplace(c, n0, n1);
+        auto forward = [&](cl::Buffer& b) { periodic ? fft->forward(b) : dct->forward(b); };
         const std::size_t grid = padded(std::size_t(n0) * n1);
 
         cl::Kernel split(prog, "poisson_split");
@@ -67,41 +75,28 @@ void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes, const Po
         split.setArg(a++, gy);
         c.queue.enqueueNDRangeKernel(split, cl::NullRange, cl::NDRange(grid),
                                      cl::NDRange(kGroupSize));
-        plan.forward(c.queue, gx);
-        plan.forward(c.queue, gy);
+        forward(gx);
+        forward(gy);
 
-        cl::Buffer* solution = &gx;
-        cl::Buffer result;
-        if (periodic) {
-            cl::Kernel divide(prog, "poisson_periodic_divide");
-            divide.setArg(0, gx);
-            divide.setArg(1, gy);
-            divide.setArg(2, cl_int(n0));
-            divide.setArg(3, cl_int(n1));
-            divide.setArg(4, sigma);
-            c.queue.enqueueNDRangeKernel(divide, cl::NullRange,
-                                         cl::NDRange(padded(std::size_t(n0 / 2 + 1) * n1)),
-                                         cl::NDRange(kGroupSize));
-        } else {
-            // The coefficients are read at mirrored indices: out of place.
-            result = cl::Buffer(c.context, CL_MEM_READ_WRITE, bytes);
-            cl::Kernel divide(prog, "poisson_free_divide");
-            divide.setArg(0, gx);
-            divide.setArg(1, gy);
-            divide.setArg(2, cl_int(n0));
-            divide.setArg(3, cl_int(n1));
-            divide.setArg(4, sigma);
-            divide.setArg(5, result);
-            c.queue.enqueueNDRangeKernel(divide, cl::NullRange, cl::NDRange(grid),
-                                         cl::NDRange(kGroupSize));
-            solution = &result;
-        }
-        plan.inverse(c.queue, *solution);
+        // In place on gx's spectrum (the free kernel pairs k with n0 - k).
+        cl::Kernel divide(prog, periodic ? "poisson_periodic_divide" : "poisson_free_divide");
+        divide.setArg(0, gx);
+        divide.setArg(1, gy);
+        divide.setArg(2, cl_int(n0));
+        divide.setArg(3, cl_int(n1));
+        divide.setArg(4, sigma);
+        c.queue.enqueueNDRangeKernel(divide, cl::NullRange,
+                                     cl::NDRange(padded(std::size_t(n0 / 2 + 1) * n1)),
+                                     cl::NDRange(kGroupSize));
+        if (periodic)
+            fft->inverse(gx);
+        else
+            dct->inverse(gx);
 
-        cl::Buffer out(c.context, CL_MEM_WRITE_ONLY, sizeof(float) * n);
+        cl::Buffer& out = gy;  // no longer needed; at least n floats
         cl::Kernel gather(prog, "poisson_gather");
         a = 0;
-        gather.setArg(a++, *solution);
+        gather.setArg(a++, gx);
         gather.setArg(a++, cl_int(stride));
         gather.setArg(a++, cl_int(n0));
         gather.setArg(a++, cl_int(n1));

@@ -210,7 +210,7 @@ void integrate_rays_by_fft(ComputeContext& ctx, const DeviceSlopes& slopes, cons
     // A one-texel-wide texture is a 1-D transform along y (as in Poisson).
     const bool transposed = w == 1;
     const int n0 = transposed ? h : w, n1 = transposed ? 1 : h;
-    const std::size_t stride = FftPlan::row_stride(FftPlan::Kind::RealToComplex, n0);
+    const std::size_t stride = FftPlan::row_stride(n0);
     const std::size_t grid = stride * n1;
 
     // The kernels, mirrored (K'(o) = K(-o)) so that A = K' * g, wrapped.
@@ -247,7 +247,7 @@ void integrate_rays_by_fft(ComputeContext& ctx, const DeviceSlopes& slopes, cons
         cl::Buffer gx(c.context, CL_MEM_READ_WRITE, bytes), gy(c.context, CL_MEM_READ_WRITE, bytes);
         cl::Buffer bx(c.context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, kxf.data());
         cl::Buffer by(c.context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, kyf.data());
-        FftPlan plan(c.context, c.device, FftPlan::Kind::RealToComplex, n0, n1, gx);
+        FftPlan plan(c, n0, n1);
         const cl::NDRange local(kGroupSize);
 
         cl::Kernel split(spectral, "poisson_split");
@@ -263,7 +263,7 @@ void integrate_rays_by_fft(ComputeContext& ctx, const DeviceSlopes& slopes, cons
         split.setArg(a++, gy);
         c.queue.enqueueNDRangeKernel(split, cl::NullRange, cl::NDRange(padded(n)), local);
         for (cl::Buffer* b : {&gx, &gy, &bx, &by})
-            plan.forward(c.queue, *b);
+            plan.forward(*b);
         if (progress) {
             c.queue.finish();
             progress(0.5);
@@ -278,7 +278,7 @@ void integrate_rays_by_fft(ComputeContext& ctx, const DeviceSlopes& slopes, cons
         combine.setArg(4, cl_int(count));
         combine.setArg(5, cl_float(-1.0 / total));
         c.queue.enqueueNDRangeKernel(combine, cl::NullRange, cl::NDRange(padded(count)), local);
-        plan.inverse(c.queue, gx);
+        plan.inverse(gx);
 
         cl::Buffer out(c.context, CL_MEM_WRITE_ONLY, sizeof(float) * n);
         cl::Kernel gather(spectral, "poisson_gather");

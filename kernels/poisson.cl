@@ -1,6 +1,6 @@
 // Least-squares (Poisson) integration by Frankot–Chellappa projection
-// (DESIGN.md §4.4). common.h is prepended by the host; VkFFT does the
-// transforms between these kernels.
+// (DESIGN.md §4.4). common.h is prepended by the host; host/fft_plan (R2C)
+// and host/dct_plan (DCT-II) do the transforms between these kernels.
 //
 // The solve works on an n0 x n1 grid: the texture itself, or its transpose
 // when the texture is one texel wide (so that a 1-D texture is always a 1-D
@@ -71,18 +71,34 @@ __kernel void poisson_periodic_divide(__global float2* gx, __global const float2
     gx[gid] = (float2)(s.y * scale, -s.x * scale);
 }
 
-__kernel void poisson_free_divide(__global const float* dx, __global const float* dy, int n0,
-                                  int n1, float sigma, __global float* out)
+inline float free_coefficient(float b, float c, int k, int l, int n0, int n1, float sigma)
 {
-    int gid = get_global_id(0);
-    if (gid >= n0 * n1)
-        return;
-    int k = gid % n0, l = gid / n0;
     float wk = M_PI_F * k / n0, wl = M_PI_F * l / n1;
     float w2 = wk * wk + wl * wl;
-    float b = k > 0 ? dx[l * n0 + (n0 - k)] : 0.0f;
+    return w2 > 0.0f ? -(wk * b + wl * c) * highpass_gain(w2, sigma) / w2 : 0.0f;
+}
+
+// In place on dx: a_kl needs dx at (n0 - k, l), so one work item solves the
+// pair k and n0 - k (k = 0 reads nothing from dx).
+__kernel void poisson_free_divide(__global float* dx, __global const float* dy, int n0, int n1,
+                                  float sigma)
+{
+    int pairs = n0 / 2 + 1;
+    int gid = get_global_id(0);
+    if (gid >= pairs * n1)
+        return;
+    int k = gid % pairs, l = gid / pairs;
     float c = l > 0 ? dy[(n1 - l) * n0 + k] : 0.0f;
-    out[gid] = w2 > 0.0f ? -(wk * b + wl * c) * highpass_gain(w2, sigma) / w2 : 0.0f;
+    if (k == 0) {
+        dx[l * n0] = free_coefficient(0.0f, c, 0, l, n0, n1, sigma);
+        return;
+    }
+    int m = n0 - k;  // the partner; m == k when n0 is even and k = n0/2
+    float b = dx[l * n0 + m], bm = dx[l * n0 + k];
+    float cm = l > 0 ? dy[(n1 - l) * n0 + m] : 0.0f;
+    dx[l * n0 + k] = free_coefficient(b, c, k, l, n0, n1, sigma);
+    if (m != k)
+        dx[l * n0 + m] = free_coefficient(bm, cm, m, l, n0, n1, sigma);
 }
 
 __kernel void poisson_gather(__global const float* grid, int stride, int n0, int n1, int width,

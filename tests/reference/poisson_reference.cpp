@@ -105,51 +105,93 @@ std::vector<double> poisson(const std::vector<double>& g, int w, int h, const Po
     return out;
 }
 
+namespace {
+
+// The spectral derivative along one axis of length n as an n x n matrix
+// (row-major): the derivative of the Frankot–Chellappa basis, Nyquist term
+// dropped; for a free axis, that of the even extension, cropped. `project`
+// gives instead the projection that only drops the Nyquist term (the other
+// axis's share of a dropped 2-D frequency).
+std::vector<double> axis_operator(int n, bool periodic, bool project)
+{
+    std::vector<double> m(std::size_t(n) * n, 0.0);
+    const int N = periodic ? n : 2 * n;
+    for (int j = 0; j < n; ++j) {
+        std::vector<cd> line(N, 0.0);
+        line[j] = 1.0;
+        if (!periodic)
+            line[N - 1 - j] = 1.0;
+        dft_axis(line, N, 1, 0, -1);
+        for (int k = 0; k < N; ++k) {
+            const bool nyquist = N > 1 && 2 * k == N;
+            line[k] = nyquist ? 0.0 : project ? line[k] : cd(0, signed_omega(k, N)) * line[k];
+        }
+        dft_axis(line, N, 1, 0, +1);
+        for (int i = 0; i < n; ++i)
+            m[std::size_t(i) * n + j] = line[i].real() / N;
+    }
+    return m;
+}
+
+// out = (A along x, B along y) v for a w x h field; A is w x w, B h x h.
+std::vector<double> separable(const std::vector<double>& A, const std::vector<double>& B,
+                              const std::vector<double>& v, int w, int h, bool transpose)
+{
+    auto at = [&](const std::vector<double>& M, int n, int i, int j) {
+        return transpose ? M[std::size_t(j) * n + i] : M[std::size_t(i) * n + j];
+    };
+    std::vector<double> tmp(v.size(), 0.0), out(v.size(), 0.0);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int j = 0; j < w; ++j)
+                tmp[std::size_t(y) * w + x] += at(A, w, x, j) * v[std::size_t(y) * w + j];
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int j = 0; j < h; ++j)
+                out[std::size_t(y) * w + x] += at(B, h, y, j) * tmp[std::size_t(j) * w + x];
+    return out;
+}
+
+} // namespace
+
 std::vector<double> poisson_weighted(const std::vector<double>& g, int w, int h,
                                      const std::vector<double>& wt, bool periodic, double eps)
 {
-    struct Edge {
-        std::size_t p, q;
-        double c, t;
-    };
-    std::vector<Edge> edges;
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-            const std::size_t p = std::size_t(y) * w + x;
-            for (int axis = 0; axis < 2; ++axis) {
-                int nx = x + (axis == 0), ny = y + (axis == 1);
-                if (nx == w || ny == h) {
-                    if (!periodic)
-                        continue;
-                    nx %= w;
-                    ny %= h;
-                }
-                if (nx == x && ny == y)
-                    continue;  // a one-texel axis has no edges
-                const std::size_t q = std::size_t(ny) * w + nx;
-                const double we = std::min(wt[p], wt[q]), c = std::max(we, eps);
-                edges.push_back({p, q, c, we / c * 0.5 * (g[2 * p + axis] + g[2 * q + axis])});
-            }
-        }
     const std::size_t n = std::size_t(w) * h;
-    auto apply = [&](const std::vector<double>& v) {
-        std::vector<double> out(n, 0.0);
-        for (const Edge& e : edges) {
-            const double d = e.c * (v[e.p] - v[e.q]);
-            out[e.p] += d;
-            out[e.q] -= d;
-        }
-        return out;
-    };
-    std::vector<double> b(n, 0.0), x(n, 0.0);
-    for (const Edge& e : edges) {
-        b[e.q] += e.c * e.t;
-        b[e.p] -= e.c * e.t;
+    const auto Dx = axis_operator(w, periodic, false), Px = axis_operator(w, periodic, true);
+    const auto Dy = axis_operator(h, periodic, false), Py = axis_operator(h, periodic, true);
+    std::vector<double> c(n), tx(n), ty(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        c[i] = std::max(wt[i], eps);
+        tx[i] = wt[i] / c[i] * g[2 * i];
+        ty[i] = wt[i] / c[i] * g[2 * i + 1];
     }
-    auto dot = [&](const std::vector<double>& a, const std::vector<double>& c) {
+    // G^T C (G v - t) = 0 for G v = (Dx (x) Py, Px (x) Dy) v.
+    auto gradient_adjoint = [&](const std::vector<double>& ax, const std::vector<double>& ay) {
+        auto a = separable(Dx, Py, ax, w, h, true);
+        auto b = separable(Px, Dy, ay, w, h, true);
+        for (std::size_t i = 0; i < n; ++i)
+            a[i] += b[i];
+        return a;
+    };
+    auto apply = [&](const std::vector<double>& v) {
+        auto gx = separable(Dx, Py, v, w, h, false), gy = separable(Px, Dy, v, w, h, false);
+        for (std::size_t i = 0; i < n; ++i) {
+            gx[i] *= c[i];
+            gy[i] *= c[i];
+        }
+        return gradient_adjoint(gx, gy);
+    };
+    std::vector<double> cx(n), cy(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        cx[i] = c[i] * tx[i];
+        cy[i] = c[i] * ty[i];
+    }
+    std::vector<double> b = gradient_adjoint(cx, cy), x(n, 0.0);
+    auto dot = [&](const std::vector<double>& a, const std::vector<double>& e) {
         double s = 0;
         for (std::size_t i = 0; i < n; ++i)
-            s += a[i] * c[i];
+            s += a[i] * e[i];
         return s;
     };
     std::vector<double> r = b, d = b;

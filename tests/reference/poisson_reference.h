@@ -18,10 +18,11 @@ struct PoissonSettings {
 std::vector<double> poisson(const std::vector<double>& slopes, int width, int height,
                             const PoissonSettings& settings);
 
-// Weighted discrete least squares (kernels/poisson_weighted.cl): edges to
-// the right and lower neighbours, w_e = min of the two weights, c_e =
-// max(w_e, eps), target (w_e / c_e) * mean slope; solved by plain conjugate
-// gradients in double to a relative residual of 1e-12. Zero mean.
+// Weighted least squares with the spectral gradient of poisson() (the
+// derivative of the Frankot–Chellappa basis, as dense separable matrices):
+// minimise sum_p c_p |grad h(p) - t_p|^2, c_p = max(w_p, eps), t_p =
+// (w_p / c_p) g_p; plain conjugate gradients in double to a relative
+// residual of 1e-12. Zero mean. Weights of all ones give poisson().
 std::vector<double> poisson_weighted(const std::vector<double>& slopes, int width, int height,
                                      const std::vector<double>& weights, bool periodic,
                                      double eps);

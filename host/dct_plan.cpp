@@ -1,0 +1,58 @@
+#include "dct_plan.h"
+
+namespace relief::host {
+
+DctPlan::DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1)
+    : c_(c),
+      n0_(n0),
+      n1_(n1),
+      work_(c.context, CL_MEM_READ_WRITE,
+            sizeof(float) * FftPlan::row_stride(n0) * n1),
+      fft_(c, n0, n1)
+{
+    cl::Program& prog = c.program("dct.cl");
+    reorder_ = cl::Kernel(prog, "dct_reorder");
+    unreorder_ = cl::Kernel(prog, "dct_unreorder");
+    post_ = cl::Kernel(prog, "dct_forward_post");
+    pre_ = cl::Kernel(prog, "dct_inverse_pre");
+    const cl_int stride = cl_int(FftPlan::row_stride(n0));
+    for (cl::Kernel* k : {&reorder_, &unreorder_}) {
+        k->setArg(1, cl_int(n0));
+        k->setArg(2, cl_int(n1));
+        k->setArg(3, stride);
+    }
+    reorder_.setArg(4, work_);
+    unreorder_.setArg(0, work_);
+    post_.setArg(0, work_);
+    post_.setArg(1, cl_int(n0));
+    post_.setArg(2, cl_int(n1));
+    pre_.setArg(1, cl_int(n0));
+    pre_.setArg(2, cl_int(n1));
+    pre_.setArg(3, work_);
+}
+
+void DctPlan::launch(cl::Kernel& kernel, std::size_t items)
+{
+    c_.queue.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(padded(items)),
+                                  cl::NDRange(kGroupSize));
+}
+
+void DctPlan::forward(cl::Buffer& buffer)
+{
+    reorder_.setArg(0, buffer);
+    launch(reorder_, n0_ * n1_);
+    fft_.forward(work_);
+    post_.setArg(3, buffer);
+    launch(post_, n0_ * n1_);
+}
+
+void DctPlan::inverse(cl::Buffer& buffer)
+{
+    pre_.setArg(0, buffer);
+    launch(pre_, (n0_ / 2 + 1) * n1_);
+    fft_.inverse(work_);
+    unreorder_.setArg(4, buffer);
+    launch(unreorder_, n0_ * n1_);
+}
+
+} // namespace relief::host

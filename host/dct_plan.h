@@ -1,0 +1,36 @@
+#pragma once
+// 2-D (or 1-D) DCT-II and its inverse on the device, by one VkFFT real
+// transform of the same size and the reordering kernels of kernels/dct.cl.
+// VkFFT 1.2.26's own DCT segfaults at sizes such as 64x3001 and refuses
+// shapes that need more than one pass on GPUs; its R2C has neither problem.
+// Included only by host/*.cpp.
+#include <CL/opencl.hpp>
+
+#include <cstddef>
+
+#include "fft_plan.h"
+#include "opencl_context.h"
+
+namespace relief::host {
+
+class DctPlan {
+public:
+    // A plan over n0 (fast axis) x n1 dense floats (n1 == 1: 1-D). n0 >= 2.
+    DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1);
+
+    // In place on a dense n0 x n1 float buffer. forward: the unnormalised
+    // DCT-II X[k0,k1] = sum x cos(pi k0 (2i+1)/2n0) cos(pi k1 (2j+1)/2n1);
+    // inverse(forward(x)) == x.
+    void forward(cl::Buffer& buffer);
+    void inverse(cl::Buffer& buffer);
+
+private:
+    void launch(cl::Kernel& kernel, std::size_t items);
+    ComputeContext::Impl& c_;
+    std::size_t n0_, n1_;
+    cl::Buffer work_;  // the R2C grid
+    FftPlan fft_;
+    cl::Kernel reorder_, unreorder_, post_, pre_;
+};
+
+} // namespace relief::host

@@ -1,0 +1,92 @@
+// DCT-II and its inverse (DCT-III) by one real FFT of the same size
+// (Makhoul, "A fast cosine transform in one and two dimensions", 1980), so
+// that the free-boundary solves rely on VkFFT's plain R2C transforms only:
+// VkFFT's own DCT crashed or refused to plan at some sizes. common.h is
+// prepended by the host; VkFFT does the R2C / C2R between these kernels.
+//
+// X[k0,k1] = sum_x sum_y x[x,y] cos(pi k0 (2x+1) / 2n0) cos(pi k1 (2y+1) / 2n1)
+//
+// Reordering v[m] = x[2m] (m < ceil(n/2)), x[2(n-1-m)+1] (the rest) on each
+// axis turns it into the DFT V of v:
+//   X[k0,k1] = Re(e^{-i(a0+a1)} V[k0,k1] + e^{-i(a0-a1)} V[k0,n1-k1]) / 2,
+//   a = pi k / 2n;
+// and back: V[k0,k1] = e^{i(a0+a1)} ((X[k0,k1] - X[n0-k0,n1-k1])
+//                                    - i (X[n0-k0,k1] + X[k0,n1-k1])),
+// with X = 0 at index n. Dense arrays are n0 x n1 floats, row-major; the
+// R2C grid has rows of `stride` floats (n0/2 + 1 complex values).
+
+inline int dct_source(int m, int n)
+{
+    return m < (n + 1) / 2 ? 2 * m : 2 * (n - 1 - m) + 1;
+}
+
+__kernel void dct_reorder(__global const float* x, int n0, int n1, int stride,
+                          __global float* v)
+{
+    int gid = get_global_id(0);
+    if (gid >= n0 * n1)
+        return;
+    int m0 = gid % n0, m1 = gid / n0;
+    v[m1 * stride + m0] = x[dct_source(m1, n1) * n0 + dct_source(m0, n0)];
+}
+
+__kernel void dct_unreorder(__global const float* v, int n0, int n1, int stride,
+                            __global float* x)
+{
+    int gid = get_global_id(0);
+    if (gid >= n0 * n1)
+        return;
+    int m0 = gid % n0, m1 = gid / n0;
+    x[dct_source(m1, n1) * n0 + dct_source(m0, n0)] = v[m1 * stride + m0];
+}
+
+// V[k0,k1] of a real signal from its R2C half spectrum (k0 <= n0/2 stored).
+inline float2 dct_spectrum(__global const float2* V, int k0, int k1, int n0, int n1)
+{
+    k1 = k1 % n1;
+    int columns = n0 / 2 + 1;
+    if (k0 < columns)
+        return V[k1 * columns + k0];
+    float2 c = V[((n1 - k1) % n1) * columns + (n0 - k0)];
+    return (float2)(c.x, -c.y);
+}
+
+// Re((c + i s) * z)
+inline float re_rotated(float c, float s, float2 z)
+{
+    return c * z.x - s * z.y;
+}
+
+__kernel void dct_forward_post(__global const float2* V, int n0, int n1, __global float* X)
+{
+    int gid = get_global_id(0);
+    if (gid >= n0 * n1)
+        return;
+    int k0 = gid % n0, k1 = gid / n0;
+    // Twiddle angles in units of pi: a0 = k0 / 2n0, a1 = k1 / 2n1.
+    float a0 = (float)k0 / (2.0f * n0), a1 = (float)k1 / (2.0f * n1);
+    float2 p = dct_spectrum(V, k0, k1, n0, n1);
+    float2 q = dct_spectrum(V, k0, n1 - k1, n0, n1);
+    X[gid] = 0.5f * (re_rotated(cospi(a0 + a1), -sinpi(a0 + a1), p) +
+                     re_rotated(cospi(a0 - a1), -sinpi(a0 - a1), q));
+}
+
+inline float dct_coefficient(__global const float* X, int k0, int k1, int n0, int n1)
+{
+    return k0 < n0 && k1 < n1 ? X[k1 * n0 + k0] : 0.0f;
+}
+
+__kernel void dct_inverse_pre(__global const float* X, int n0, int n1, __global float2* V)
+{
+    int columns = n0 / 2 + 1;
+    int gid = get_global_id(0);
+    if (gid >= columns * n1)
+        return;
+    int k0 = gid % columns, k1 = gid / columns;
+    int m0 = k0 > 0 ? n0 - k0 : n0, m1 = k1 > 0 ? n1 - k1 : n1;
+    float re = dct_coefficient(X, k0, k1, n0, n1) - dct_coefficient(X, m0, m1, n0, n1);
+    float im = -(dct_coefficient(X, m0, k1, n0, n1) + dct_coefficient(X, k0, m1, n0, n1));
+    float a = (float)k0 / (2.0f * n0) + (float)k1 / (2.0f * n1);
+    float c = cospi(a), s = sinpi(a);
+    V[gid] = (float2)(c * re - s * im, s * re + c * im);
+}
