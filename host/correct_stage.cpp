@@ -221,7 +221,9 @@ public:
             lv.iterations = it;
             if (on_iteration)
                 on_iteration(it);
-            if (p_.iterations == 0 && rel < tolerance) {
+            // An infinite energy (a flipped start, or one beyond the
+            // device's range without fp64) is never "converged".
+            if (p_.iterations == 0 && std::isfinite(e) && std::isfinite(rel) && rel < tolerance) {
                 lv.converged = true;
                 break;
             }

@@ -51,8 +51,22 @@ inline float correct_pow_theta(float x, float theta, int itheta)
 #endif
 }
 
-inline float correct_triangle_energy(float2 e1, float2 e2, float3 f1, float3 f2, float theta,
-                                     int itheta)
+// In energy_t (double where the device has fp64): at theta = 20, k^theta
+// passes float's range once the area ratio reaches about 60 (a 60-texel step).
+inline energy_t correct_pow_theta_total(energy_t x, float theta)
+{
+#ifdef CORRECT_ITHETA
+    energy_t r = 1;
+    for (int n = 0; n < CORRECT_ITHETA; ++n)
+        r *= x;
+    return r;
+#else
+    return pow(x, (energy_t)theta);
+#endif
+}
+
+inline energy_t correct_triangle_energy(float2 e1, float2 e2, float3 f1, float3 f2, float theta,
+                                        int itheta)
 {
     const float auv = 0.5f * (e1.y * e2.x - e1.x * e2.y);
     if (!(auv > 0.0f))
@@ -62,7 +76,7 @@ inline float correct_triangle_energy(float2 e1, float2 e2, float3 f1, float3 f2,
     const float q = m11 * dot(e2, e2) - 2.0f * m12 * dot(e1, e2) + m22 * dot(e1, e1);
     const float inv = 1.0f / (a3 * auv);
     const float k = (a3 * a3 + auv * auv) * inv;
-    return 0.25f * q * inv * correct_pow_theta(k, theta, itheta);
+    return (energy_t)(0.25f * q * inv) * correct_pow_theta_total((energy_t)k, theta);
 }
 
 // Fixation energy of a node with weight w (texel units): 0.5 / (1 - w^2 |c|^2),
@@ -104,9 +118,8 @@ kernel void correct_energy(global const float2* c, global const float* z,
             const float3 f2 = (float3)(1.0f, 0.0f, z[n2] - zp);
             const float3 f1 = (float3)(1.0f, -1.0f, z[n1] - zp);
             const float3 f0 = (float3)(0.0f, -1.0f, z[n0] - zp);
-            const float ea = correct_triangle_energy(e2, e1, f2, f1, theta, itheta);
-            const float eb = correct_triangle_energy(e1, e0, f1, f0, theta, itheta);
-            sum = (energy_t)ea + (energy_t)eb;
+            sum = correct_triangle_energy(e2, e1, f2, f1, theta, itheta) +
+                  correct_triangle_energy(e1, e0, f1, f0, theta, itheta);
             if (want_stats) {
                 // s1/s2 from k' = s1/s2 + s2/s1 >= 2; s1 s2 = A3 / Auv.
                 float2 ee[2][2] = {{e2, e1}, {e1, e0}};
@@ -188,13 +201,18 @@ inline float8 correct_pow_theta8(float8 x, float theta)
 #endif
 }
 
-// Energy of node p's fan (plus fixation) after moving p by t along d. The
-// six triangles sit in lanes 0-5 of float8s (lanes 6, 7 hold a zero-energy
-// dummy): per triangle, Auv(t) = a0 + a1 t and Q(t) = q0 + q1 t + q2 t^2.
+// Energy of node p's fan (plus fixation) after moving p by t along d, times
+// K^-theta, K the fan's largest k at t = 0: the line search compares
+// energies of one fan only, and unscaled ones overflow float at theta = 20
+// (k ~ 60). The six triangles sit in lanes 0-5 of float8s (lanes 6, 7 hold
+// a zero-energy dummy): per triangle, Auv(t) = a0 + a1 t and
+// Q(t) = q0 + q1 t + q2 t^2.
 // Vector lanes rather than a loop because CPU back ends vectorise only
 // innermost loops, and the work-item loop is not one here.
 typedef struct {
     float8 a0, a1, q0, q1, q2, a3;
+    float inv_k;      // 1 / K
+    float fix_scale;  // K^-theta, for the fixation term
 } FanPolys;
 
 inline float correct_fan_energy(float t, const FanPolys* fp, float2 cp, float2 d, float w,
@@ -203,13 +221,13 @@ inline float correct_fan_energy(float t, const FanPolys* fp, float2 cp, float2 d
     const float8 auv = fp->a0 + t * fp->a1;
     const float8 q = fp->q0 + t * (fp->q1 + t * fp->q2);
     const float8 inv = 1.0f / (fp->a3 * auv);
-    const float8 k = (fp->a3 * fp->a3 + auv * auv) * inv;
+    const float8 k = (fp->a3 * fp->a3 + auv * auv) * inv * fp->inv_k;
     const float8 e8 = select((float8)(INFINITY), 0.25f * q * inv * correct_pow_theta8(k, theta),
                              auv > 0.0f);
     const float4 e4 = e8.lo + e8.hi;
     float e = (e4.x + e4.y) + (e4.z + e4.w);
     if (use_fix)
-        e += correct_fix_energy(cp + t * d, w);
+        e += fp->fix_scale * correct_fix_energy(cp + t * d, w);
     return e;
 }
 
@@ -239,6 +257,7 @@ inline NodeSearch correct_prepare(global const float2* c, global const float* z,
     ns.w = 0.0f;
     ns.fp.a0 = ns.fp.a3 = (float8)(1.0f);
     ns.fp.a1 = ns.fp.q0 = ns.fp.q1 = ns.fp.q2 = (float8)(0.0f);
+    ns.fp.inv_k = ns.fp.fix_scale = 1.0f;
     if (i >= nx || j >= ny)
         return ns;
     const int odd_x = periodic && (nx & 1), odd_y = periodic && (ny & 1);
@@ -265,9 +284,9 @@ inline NodeSearch correct_prepare(global const float2* c, global const float* z,
     }
 
     // Analytic gradient with respect to p's texture position (vertex 0 of
-    // every fan triangle [p, Na, Nb]).
-    float a3[6], m11[6], m12[6], m22[6];
-    float2 g = (float2)(0.0f);
+    // every fan triangle [p, Na, Nb]), times K^-theta (as the fan energy).
+    float a3[6], m11[6], m12[6], m22[6], auvs[6], qs[6], kks[6];
+    float kmax = 0.0f;
 #pragma unroll
     for (int k = 0; k < 6; ++k) {
         const int ia = (8 - k) % 6, ib = (7 - k) % 6;  // (2,1) (1,0) (0,5) (5,4) (4,3) (3,2)
@@ -277,11 +296,23 @@ inline NodeSearch correct_prepare(global const float2* c, global const float* z,
         m11[k] = dot(f1, f1);
         m12[k] = dot(f1, f2);
         m22[k] = dot(f2, f2);
-        const float auv = 0.5f * (e1.y * e2.x - e1.x * e2.y);
-        const float q = m11[k] * dot(e2, e2) - 2.0f * m12[k] * dot(e1, e2) + m22[k] * dot(e1, e1);
+        auvs[k] = 0.5f * (e1.y * e2.x - e1.x * e2.y);
+        qs[k] = m11[k] * dot(e2, e2) - 2.0f * m12[k] * dot(e1, e2) + m22[k] * dot(e1, e1);
+        kks[k] = (a3[k] * a3[k] + auvs[k] * auvs[k]) / (a3[k] * auvs[k]);
+        kmax = fmax(kmax, kks[k]);
+    }
+    if (!(kmax > 0.0f) || !isfinite(kmax))
+        return ns;  // a flipped or degenerate fan: nothing to search
+    const float inv_k = 1.0f / kmax;
+    const float fix_scale = exp2(-theta * log2(kmax));
+    float2 g = (float2)(0.0f);
+#pragma unroll
+    for (int k = 0; k < 6; ++k) {
+        const int ia = (8 - k) % 6, ib = (7 - k) % 6;
+        const float2 e1 = e[ia], e2 = e[ib];
+        const float auv = auvs[k], q = qs[k], kk = kks[k];
         const float inv = 1.0f / (a3[k] * auv);
-        const float kk = (a3[k] * a3[k] + auv * auv) * inv;
-        const float gk = correct_pow_theta(kk, theta, itheta);
+        const float gk = correct_pow_theta(kk * inv_k, theta, itheta);  // (k/K)^theta
         const float F = 0.25f * q * inv;
         const float dE_dQ = 0.25f * inv * gk;
         const float dE_dA = F * (-gk / auv + theta * (gk / kk) * (1.0f / a3[k] - a3[k] / (auv * auv)));
@@ -291,7 +322,7 @@ inline NodeSearch correct_prepare(global const float2* c, global const float* z,
     }
     if (use_fix) {
         const float u = 1.0f - w * w * dot(cp, cp);
-        g += w * w * cp / (u * u);
+        g += fix_scale * w * w * cp / (u * u);
     }
     const float gn = length(g);
     if (!(gn > 0.0f) || !isfinite(gn))
@@ -330,6 +361,8 @@ inline NodeSearch correct_prepare(global const float2* c, global const float* z,
     ns.fp.q1 = (float8)(q1[0], q1[1], q1[2], q1[3], q1[4], q1[5], 0.0f, 0.0f);
     ns.fp.q2 = (float8)(q2[0], q2[1], q2[2], q2[3], q2[4], q2[5], 0.0f, 0.0f);
     ns.fp.a3 = (float8)(a3[0], a3[1], a3[2], a3[3], a3[4], a3[5], 1.0f, 1.0f);
+    ns.fp.inv_k = inv_k;
+    ns.fp.fix_scale = fix_scale;
     ns.cp = cp;
     ns.d = d;
     ns.w = w;
@@ -374,9 +407,16 @@ kernel void correct_phase(global float2* c, global const float* z, global const 
                 const float m2 = hi[n] - (hi[n] - lo[n]) * (1.0f / 3.0f);
                 const float E1 = correct_fan_energy(m1, &ns[n].fp, ns[n].cp, ns[n].d, ns[n].w, use_fix, theta);
                 const float E2 = correct_fan_energy(m2, &ns[n].fp, ns[n].cp, ns[n].d, ns[n].w, use_fix, theta);
-                // Energies that no longer differ beyond rounding cannot
-                // narrow the bracket further: stop (the midpoint is kept).
-                if (fabs(E1 - E2) <= CORRECT_FLAT * (E1 + E2))
+                // The energy is finite at t = 0: an infinite (flipped,
+                // overflowed) or NaN value at m1 or m2 puts the minimum
+                // before it. Energies that no longer differ beyond rounding
+                // cannot narrow the bracket further: stop (the midpoint is
+                // kept).
+                if (!isfinite(E1))
+                    hi[n] = m1;
+                else if (!isfinite(E2))
+                    hi[n] = m2;
+                else if (fabs(E1 - E2) <= CORRECT_FLAT * (E1 + E2))
                     hi[n] = lo[n] = 0.5f * (lo[n] + hi[n]);
                 else if (E1 < E2)
                     hi[n] = m2;
@@ -394,7 +434,7 @@ kernel void correct_phase(global float2* c, global const float* z, global const 
         const float Et = correct_fan_energy(t, &ns[n].fp, ns[n].cp, ns[n].d, ns[n].w, use_fix, theta);
         // A step must lower the fan energy by more than rounding: moves
         // within the noise would keep converged tiles busy forever.
-        if (!(Et < E0 - CORRECT_GAIN * E0))
+        if (!(Et < E0 - CORRECT_GAIN * E0) || !isfinite(Et))
             continue;
         const float2 next = ns[n].cp + t * ns[n].d;
         if (next.x != ns[n].cp.x || next.y != ns[n].cp.y) {
