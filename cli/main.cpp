@@ -2,6 +2,9 @@
 // images (oiiotool style); see `relief --help`.
 #include <OpenImageIO/imagebuf.h>
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -22,6 +25,38 @@ using relief::cli::Step;
 
 struct RuntimeError : std::runtime_error {
     using std::runtime_error::runtime_error;
+};
+
+// While it lives (unless verbose), the image libraries' own diagnostics on
+// stderr ("libpng error: ...", "OIIO DEBUG: ...") go to /dev/null: relief
+// reports the failure itself, once. Reads and writes run on this thread.
+class QuietLibraries {
+public:
+    explicit QuietLibraries(bool verbose)
+    {
+        if (verbose)
+            return;
+        std::fflush(stderr);
+        saved_ = dup(2);
+        const int null = open("/dev/null", O_WRONLY | O_CLOEXEC);
+        if (saved_ >= 0 && null >= 0)
+            dup2(null, 2);
+        if (null >= 0)
+            close(null);
+    }
+    ~QuietLibraries()
+    {
+        if (saved_ < 0)
+            return;
+        std::fflush(stderr);
+        dup2(saved_, 2);
+        close(saved_);
+    }
+    QuietLibraries(const QuietLibraries&) = delete;
+    QuietLibraries& operator=(const QuietLibraries&) = delete;
+
+private:
+    int saved_ = -1;
 };
 
 class Runner {
@@ -67,6 +102,12 @@ private:
         return e;
     }
 
+    bool read(OIIO::ImageBuf& img, const std::string& path) const
+    {
+        QuietLibraries quiet(prog_.verbose);
+        return relief::read_image(img, path);
+    }
+
     OIIO::ImageBuf pop()
     {
         OIIO::ImageBuf top = std::move(stack_.back());
@@ -79,7 +120,7 @@ private:
         switch (s.kind) {
         case Step::Kind::Read: {
             OIIO::ImageBuf img;
-            if (!relief::read_image(img, s.path))
+            if (!read(img, s.path))
                 throw RuntimeError(relief::geterror());
             if (prog_.verbose) {
                 const auto& spec = img.spec();
@@ -103,7 +144,7 @@ private:
             o.exec = execution(s);
             OIIO::ImageBuf mask;
             if (!s.mask.empty()) {
-                if (!relief::read_image(mask, s.mask))
+                if (!read(mask, s.mask))
                     throw RuntimeError("mask: " + relief::geterror());
                 o.mask = &mask;
             }
@@ -120,7 +161,7 @@ private:
             o.exec = execution(s);
             OIIO::ImageBuf fix;
             if (!s.fix_mask.empty()) {
-                if (!relief::read_image(fix, s.fix_mask))
+                if (!read(fix, s.fix_mask))
                     throw RuntimeError("fix: " + relief::geterror());
                 o.fix_mask = &fix;
             }

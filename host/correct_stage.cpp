@@ -160,7 +160,9 @@ public:
     }
 
     // Iterates; returns what happened.
-    CorrectLevel solve(const std::function<void(int)>& on_iteration, double tolerance)
+    // on_iteration(it, rel): after iteration it, with the relative energy
+    // change it made.
+    CorrectLevel solve(const std::function<void(int, double)>& on_iteration, double tolerance)
     {
         CorrectLevel lv;
         lv.width = g_.width;
@@ -220,7 +222,7 @@ public:
             e = next;
             lv.iterations = it;
             if (on_iteration)
-                on_iteration(it);
+                on_iteration(it, rel);
             // An infinite energy (a flipped start, or one beyond the
             // device's range without fp64) is never "converged".
             if (p_.iterations == 0 && std::isfinite(e) && std::isfinite(rel) && rel < tolerance) {
@@ -359,10 +361,25 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
             }
             const auto level_t0 = std::chrono::steady_clock::now();
             const double weight = double(lw) * lh / total_weight;
+            // A level's share of the progress: the iterations done of a fixed
+            // count, or (until the tolerance) how far the relative energy
+            // change has fallen from its first value towards the tolerance,
+            // on a log scale; never backwards, never 100% before the end.
+            double level_done = 0.0, first_rel = 0.0;
+            const int fixed = p.iterations;
             CorrectLevel lv = s.solve(
-                [&](int it) {
+                [&](int it, double rel) {
+                    double f = fixed > 0 ? double(it) / fixed : double(it) / p.max_iterations;
+                    if (fixed == 0 && std::isfinite(rel) && rel > 0.0) {
+                        if (first_rel == 0.0)
+                            first_rel = rel;
+                        if (first_rel > p.tolerance && rel < first_rel)
+                            f = std::max(f, std::log(first_rel / rel) /
+                                                std::log(first_rel / p.tolerance));
+                    }
+                    level_done = std::max(level_done, std::min(f, 0.99));
                     if (progress)
-                        progress(done + weight * it / (it + 8.0));
+                        progress(done + weight * level_done);
                 },
                 // Every level to the same tolerance: measured on a 1024^2 wall,
                 // coarse levels 3x looser cost the finest level 1.5x the

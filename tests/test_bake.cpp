@@ -637,3 +637,19 @@ TEST_CASE("cli: correct and bake refuse bad input and leave nothing behind", "[c
     CHECK(r.rc == 2);
     CHECK(fs::is_empty(dir));
 }
+
+TEST_CASE("bake: a 3-channel map is offsets only when relief says so", "[bake][errors]")
+{
+    // A normal map passed as the offset map by mistake must be refused, not
+    // read as (du, dv).
+    OIIO::ImageBuf tex(OIIO::ImageSpec(8, 8, 3, OIIO::TypeDesc::FLOAT));
+    OIIO::ImageBufAlgo::fill(tex, {0.2f, 0.4f, 0.6f});
+    OIIO::ImageBuf normals(OIIO::ImageSpec(8, 8, 3, OIIO::TypeDesc::FLOAT));
+    OIIO::ImageBufAlgo::fill(normals, {0.0f, 0.0f, 1.0f});
+    OIIO::ImageBuf out;
+    CHECK_FALSE(relief::bake(out, tex, normals));
+    CHECK(relief::geterror().find("the offset map has 3 channel(s); it needs 2") != std::string::npos);
+    // The same pixels marked as relief's correction output are accepted.
+    normals.specmod().attribute("relief:method", "correct");
+    CHECK(relief::bake(out, tex, normals));
+}

@@ -4,6 +4,7 @@
 
 #include <OpenImageIO/imagebuf.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -403,4 +404,34 @@ TEST_CASE("cli: a mask file weights the least-squares solve", "[cli][mask]")
     const auto api = relief::test::pixels(relief::height(read(kNormal), o));
     CHECK(max_abs_diff(relief::test::pixels(h), api) == 0.0);
     CHECK(relief::test::max_abs_diff(api, relief::test::pixels(relief::height(read(kNormal)))) > 1e-2);
+}
+
+TEST_CASE("cli: a damaged file gives one line of relief's own, library noise only under -v",
+          "[cli][errors]")
+{
+    auto dir = scratch("damaged");
+    const std::string png = slurp(kNormal);
+    std::ofstream(dir / "truncated.png", std::ios::binary) << png.substr(0, png.size() / 3);
+    {
+        OIIO::ImageBuf img(OIIO::ImageSpec(64, 64, 3, OIIO::TypeDesc::UINT8));
+        REQUIRE(img.write((dir / "whole.ppm").string()));
+    }
+    const std::string ppm = slurp(dir / "whole.ppm");
+    std::ofstream(dir / "truncated.ppm", std::ios::binary) << ppm.substr(0, ppm.size() / 2);
+    const std::string out = "'" + (dir / "out.exr").string() + "'";
+    for (const char* name : {"truncated.png", "truncated.ppm"}) {
+        INFO(name);
+        auto r = run_cli("'" + (dir / name).string() + "' --height -o " + out);
+        INFO("stderr: " << r.err);
+        CHECK(r.rc == 1);
+        CHECK(r.err.rfind("relief: error: cannot read", 0) == 0);
+        CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);  // one line, nothing else
+        CHECK(r.err.find("unknown error") == std::string::npos);
+    }
+    // -v passes the image library's own diagnostics through.
+    auto r = run_cli("-v '" + (dir / "truncated.png").string() + "' --height -o " + out);
+    INFO("stderr: " << r.err);
+    CHECK(r.rc == 1);
+    CHECK(r.err.find("libpng") != std::string::npos);
+    CHECK_FALSE(fs::exists(dir / "out.exr"));
 }

@@ -589,3 +589,33 @@ TEST_CASE("correct: theta = 20 lowers the energy of 60- and 200-texel steps", "[
             CHECK(rep.energy_after < rep.energy_before);
         }
 }
+
+TEST_CASE("correct: progress moves steadily and ends at 1", "[correct]")
+{
+    const int w = 40, h = 36;
+    const auto hts = waves(w, h, 1.0, 4);
+    auto ctx = host::ComputeContext::acquire("auto");
+    std::vector<float> out(2 * std::size_t(w) * h);
+    // A fixed count at one level: iteration i of 20 reports i / 20.
+    auto p = params(0.4, true);
+    p.levels = 1;
+    p.iterations = 20;
+    p.threshold = 0.0;
+    std::vector<double> seen;
+    host::correct_distortion(*ctx, hts.data(), w, h, p, out.data(), nullptr,
+                             [&](double f) { seen.push_back(f); });
+    REQUIRE(seen.size() >= 20);
+    CHECK(seen[9] == Approx(0.5));
+    CHECK(seen.back() == 1.0);
+    // Until the tolerance, over a pyramid: never backwards, never 100% early.
+    p.iterations = 0;
+    p.levels = 0;
+    seen.clear();
+    host::correct_distortion(*ctx, hts.data(), w, h, p, out.data(), nullptr,
+                             [&](double f) { seen.push_back(f); });
+    REQUIRE(seen.size() >= 2);
+    for (std::size_t i = 1; i < seen.size(); ++i)
+        CHECK(seen[i] >= seen[i - 1]);
+    CHECK(seen.back() == 1.0);
+    CHECK(seen[seen.size() - 2] < 1.0);
+}

@@ -100,7 +100,10 @@ bool bake(ImageBuf& dst, const ImageBuf& texture, const ImageBuf& offsets, const
     try {
         roi = detail::resolve_roi(texture, roi);
         const int w = roi.width(), h = roi.height(), nch = texture.nchannels();
-        if (offsets.nchannels() < 2)
+        // Exactly 2 channels, or more only when relief's metadata says they
+        // are offsets: a normal map given by mistake must not be used as one.
+        const bool ours = offsets.spec().get_string_attribute("relief:method") == "correct";
+        if (offsets.nchannels() < 2 || (offsets.nchannels() > 2 && !ours))
             throw std::runtime_error("the offset map has " + std::to_string(offsets.nchannels()) +
                                      " channel(s); it needs 2 (du, dv in texture units, as "
                                      "--correct writes them)");

@@ -87,7 +87,9 @@ std::vector<float> mask_weights(const HeightOptions& o, const ImageBuf& normals,
         ROI a = roi;
         a.chbegin = 3;
         a.chend = 4;
-        normals.get_pixels(a, TypeDesc::FLOAT, w.data());
+        if (!normals.get_pixels(a, TypeDesc::FLOAT, w.data()))
+            throw std::runtime_error("cannot read the normal map's alpha as a mask: " +
+                                     normals.geterror());
     } else {
         const ImageBuf& m = *o.mask;
         if (m.spec().width != roi.width() || m.spec().height != roi.height())
@@ -98,7 +100,8 @@ std::vector<float> mask_weights(const HeightOptions& o, const ImageBuf& normals,
         ROI a = m.roi();
         a.chbegin = 0;
         a.chend = 1;
-        m.get_pixels(a, TypeDesc::FLOAT, w.data());
+        if (!m.get_pixels(a, TypeDesc::FLOAT, w.data()))
+            throw std::runtime_error("cannot read the mask: " + m.geterror());
     }
     bool ones = true;
     for (std::size_t i = 0; i < w.size(); ++i) {

@@ -47,7 +47,14 @@ bool read_image(ImageBuf& dst, const std::string& path)
         std::string why = dst.geterror();
         if (why.empty())
             why = OIIO::geterror();
-        detail::set_error("cannot read '" + path + "': " + (why.empty() ? "unknown error" : why));
+        // OIIO's PNM reader, for one, fails a truncated file without a word.
+        if (why.empty() || why == "unknown error")
+            why = "the file is damaged or truncated (the image library gave no reason)";
+        while (!why.empty() && why.back() == '\n')
+            why.pop_back();
+        for (std::size_t at; (at = why.find('\n')) != std::string::npos;)
+            why.replace(at, 1, "; ");  // one message, one line
+        detail::set_error("cannot read '" + path + "': " + why);
         dst.clear();
         return false;
     }
@@ -205,7 +212,11 @@ bool write_image(const ImageBuf& image, const std::string& path, const WriteOpti
     if (integer && !image.spec().get_string_attribute("relief:method").empty()) {
         const ImageSpec& spec = image.spec();
         std::vector<float> px(spec.image_pixels() * spec.nchannels);
-        image.get_pixels(image.roi(), TypeDesc::FLOAT, px.data());
+        if (!image.get_pixels(image.roi(), TypeDesc::FLOAT, px.data())) {
+            detail::set_error("cannot write '" + path + "': its pixels cannot be read: " +
+                              image.geterror());
+            return false;
+        }
         double m = 0.0;
         for (float v : px)
             m = std::max(m, double(std::abs(v)));
