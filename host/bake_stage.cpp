@@ -15,11 +15,9 @@ void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch,
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
         cl::Program& prog = c.program("bake.cl");
-        cl::Buffer in(c.context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n * nch,
-                      const_cast<float*>(src));
-        cl::Buffer off(c.context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(cl_float2) * n,
-                       const_cast<float*>(offsets));
-        cl::Buffer out(c.context, CL_MEM_WRITE_ONLY, sizeof(float) * n * nch);
+        cl::Buffer in = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n * nch, "baking", src);
+        cl::Buffer off = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(cl_float2) * n, "baking", offsets);
+        cl::Buffer out = c.buffer(CL_MEM_WRITE_ONLY, sizeof(float) * n * nch, "baking");
         cl::Kernel k(prog, "bake_gather");
         int a = 0;
         k.setArg(a++, in);

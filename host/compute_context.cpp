@@ -1,5 +1,7 @@
 #include "compute_context.h"
 
+#include <cerrno>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -141,6 +143,7 @@ ComputeContext::ComputeContext(const DeviceInfo& device) : device_(device), impl
         impl_->device = device_at(device.platform_index, device.device_index);
         impl_->context = cl::Context(impl_->device);
         impl_->queue = cl::CommandQueue(impl_->context, impl_->device);
+        impl_->max_alloc = std::size_t(impl_->device.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>());
     } catch (const cl::Error& e) {
         throw Error("cannot open OpenCL device " + device.describe() + ": " + e.what() +
                     " (error " + std::to_string(e.err()) + ")");
@@ -148,6 +151,50 @@ ComputeContext::ComputeContext(const DeviceInfo& device) : device_(device), impl
 }
 
 ComputeContext::~ComputeContext() = default;
+
+namespace {
+
+std::string mebibytes(std::size_t bytes)
+{
+    char text[64];
+    std::snprintf(text, sizeof text, "%.1f MiB", double(bytes) / (1024.0 * 1024.0));
+    return text;
+}
+
+// $RELIEF_DEVICE_MAX_ALLOC: a whole number of bytes, or unset.
+std::size_t max_alloc_override()
+{
+    const char* text = std::getenv("RELIEF_DEVICE_MAX_ALLOC");
+    if (!text || !*text)
+        return 0;
+    char* end = nullptr;
+    errno = 0;
+    const unsigned long long v = std::strtoull(text, &end, 10);
+    if (*end || errno || v == 0 || text[0] == '-')
+        throw Error(std::string("RELIEF_DEVICE_MAX_ALLOC must be a number of bytes > 0, not '") +
+                    text + "'");
+    return std::size_t(v);
+}
+
+} // namespace
+
+cl::Buffer ComputeContext::Impl::buffer(cl_mem_flags flags, std::size_t bytes,
+                                        const std::string& what, const void* host)
+{
+    const std::size_t limit = buffer_limit();
+    if (bytes > limit)
+        throw Error(what + " needs a device buffer of " + mebibytes(bytes) +
+                    ", more than the device allows in one buffer (" + mebibytes(limit) +
+                    (limit < max_alloc ? ", RELIEF_DEVICE_MAX_ALLOC" : ", CL_DEVICE_MAX_MEM_ALLOC_SIZE") +
+                    ")");
+    return cl::Buffer(context, flags, bytes == 0 ? 1 : bytes, const_cast<void*>(host));
+}
+
+std::size_t ComputeContext::Impl::buffer_limit() const
+{
+    const std::size_t cap = max_alloc_override();
+    return cap && cap < max_alloc ? cap : max_alloc;
+}
 
 void ComputeContext::build_program(const std::string& file)
 {

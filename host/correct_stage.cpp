@@ -81,21 +81,20 @@ public:
         active_k_ = cl::Kernel(prog, "correct_active");
         const std::size_t esize = fp64_ ? sizeof(double) : sizeof(float);
         groups_ = padded(nodes_) / kGroupSize;
-        c_buf_ = cl::Buffer(c_.context, CL_MEM_READ_WRITE, sizeof(cl_float2) * nodes_);
-        z_buf_ = cl::Buffer(c_.context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                            sizeof(float) * nodes_, const_cast<float*>(z.data()));
-        fix_buf_ = use_fix_ ? cl::Buffer(c_.context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                                         sizeof(float) * nodes_, const_cast<float*>(fix.data()))
-                            : cl::Buffer(c_.context, CL_MEM_READ_ONLY, sizeof(float));
-        partial_ = cl::Buffer(c_.context, CL_MEM_READ_WRITE, esize * groups_);
+        c_buf_ = c_.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * nodes_, "distortion correction");
+        z_buf_ = c_.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * nodes_, "distortion correction", z.data());
+        fix_buf_ = use_fix_ ? c_.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                                        sizeof(float) * nodes_, "distortion correction", fix.data())
+                            : c_.buffer(CL_MEM_READ_ONLY, sizeof(float), "distortion correction");
+        partial_ = c_.buffer(CL_MEM_READ_WRITE, esize * groups_, "distortion correction");
         tiles_x_ = (g.nx + kTile - 1) / kTile;
         tiles_y_ = (g.ny + kTile - 1) / kTile;
         for (int cy = 0; cy < (g.periodic && (g.ny & 1) && g.ny > 1 ? 3 : 2); ++cy)
             for (int cx = 0; cx < (g.periodic && (g.nx & 1) && g.nx > 1 ? 3 : 2); ++cx)
                 phases_.push_back({cx, cy});
         const std::size_t tiles = std::size_t(tiles_x_) * tiles_y_;
-        moved_ = cl::Buffer(c_.context, CL_MEM_READ_WRITE, tiles * phases_.size());
-        active_ = cl::Buffer(c_.context, CL_MEM_READ_WRITE, tiles);
+        moved_ = c_.buffer(CL_MEM_READ_WRITE, tiles * phases_.size(), "distortion correction");
+        active_ = c_.buffer(CL_MEM_READ_WRITE, tiles, "distortion correction");
         itheta_ = p.theta == std::floor(p.theta) ? int(p.theta) : -1;
     }
 
@@ -111,50 +110,65 @@ public:
     }
 
     // Total energy; with `stats`, per owned triangle (anisotropy, area ratio).
+    // The statistics (16 bytes per node) come in chunks of at most one
+    // device buffer; the partial sums are added in the same order whatever
+    // the chunking.
     double energy(std::vector<float>* aniso = nullptr, std::vector<float>* area = nullptr)
     {
         const bool want = aniso != nullptr;
-        cl::Buffer stats(c_.context, CL_MEM_WRITE_ONLY, want ? sizeof(cl_float4) * nodes_ : 16);
         const std::size_t esize = fp64_ ? sizeof(double) : sizeof(float);
-        int a = 0;
-        energy_k_.setArg(a++, c_buf_);
-        energy_k_.setArg(a++, z_buf_);
-        energy_k_.setArg(a++, fix_buf_);
-        energy_k_.setArg(a++, cl_int(use_fix_));
-        energy_k_.setArg(a++, cl_int(g_.nx));
-        energy_k_.setArg(a++, cl_int(g_.ny));
-        energy_k_.setArg(a++, cl_int(g_.periodic));
-        energy_k_.setArg(a++, float(p_.theta));
-        energy_k_.setArg(a++, cl_int(itheta_));
-        energy_k_.setArg(a++, partial_);
-        energy_k_.setArg(a++, cl::Local(esize * kGroupSize));
-        energy_k_.setArg(a++, stats);
-        energy_k_.setArg(a++, cl_int(want));
-        c_.queue.enqueueNDRangeKernel(energy_k_, cl::NullRange, cl::NDRange(padded(nodes_)),
-                                      cl::NDRange(kGroupSize));
-        double sum = 0.0;
-        if (fp64_) {
-            std::vector<double> part(groups_);
-            c_.queue.enqueueReadBuffer(partial_, CL_TRUE, 0, esize * groups_, part.data());
-            for (double v : part)
-                sum += v;
-        } else {
-            std::vector<float> part(groups_);
-            c_.queue.enqueueReadBuffer(partial_, CL_TRUE, 0, esize * groups_, part.data());
-            for (float v : part)
-                sum += v;
-        }
+        std::size_t chunk = padded(nodes_);
         if (want) {
-            std::vector<float> st(4 * nodes_);
-            c_.queue.enqueueReadBuffer(stats, CL_TRUE, 0, sizeof(cl_float4) * nodes_, st.data());
             aniso->clear();
             area->clear();
-            for (std::size_t i = 0; i < nodes_; ++i)
-                for (int t = 0; t < 2; ++t)
-                    if (!std::isnan(st[4 * i + 2 * t])) {
-                        aniso->push_back(st[4 * i + 2 * t]);
-                        area->push_back(st[4 * i + 2 * t + 1]);
-                    }
+            const std::size_t fit = c_.buffer_limit() / sizeof(cl_float4) / kGroupSize * kGroupSize;
+            chunk = std::min(chunk, std::max(fit, kGroupSize));
+        }
+        cl::Buffer stats = c_.buffer(CL_MEM_WRITE_ONLY, want ? sizeof(cl_float4) * chunk : 16,
+                                     "distortion correction's statistics");
+        std::vector<float> st(want ? 4 * chunk : 0);
+        std::vector<double> part_d(fp64_ ? chunk / kGroupSize : 0);
+        std::vector<float> part_f(fp64_ ? 0 : chunk / kGroupSize);
+        double sum = 0.0;
+        for (std::size_t first = 0; first < nodes_; first += chunk) {
+            const std::size_t count = std::min(chunk, padded(nodes_ - first));
+            int a = 0;
+            energy_k_.setArg(a++, c_buf_);
+            energy_k_.setArg(a++, z_buf_);
+            energy_k_.setArg(a++, fix_buf_);
+            energy_k_.setArg(a++, cl_int(use_fix_));
+            energy_k_.setArg(a++, cl_int(g_.nx));
+            energy_k_.setArg(a++, cl_int(g_.ny));
+            energy_k_.setArg(a++, cl_int(g_.periodic));
+            energy_k_.setArg(a++, float(p_.theta));
+            energy_k_.setArg(a++, cl_int(itheta_));
+            energy_k_.setArg(a++, partial_);
+            energy_k_.setArg(a++, cl::Local(esize * kGroupSize));
+            energy_k_.setArg(a++, stats);
+            energy_k_.setArg(a++, cl_int(want));
+            energy_k_.setArg(a++, cl_int(first));
+            c_.queue.enqueueNDRangeKernel(energy_k_, cl::NullRange, cl::NDRange(count),
+                                          cl::NDRange(kGroupSize));
+            const std::size_t groups = count / kGroupSize;
+            if (fp64_) {
+                c_.queue.enqueueReadBuffer(partial_, CL_TRUE, 0, esize * groups, part_d.data());
+                for (std::size_t g = 0; g < groups; ++g)
+                    sum += part_d[g];
+            } else {
+                c_.queue.enqueueReadBuffer(partial_, CL_TRUE, 0, esize * groups, part_f.data());
+                for (std::size_t g = 0; g < groups; ++g)
+                    sum += part_f[g];
+            }
+            if (want) {
+                const std::size_t real = std::min(count, nodes_ - first);
+                c_.queue.enqueueReadBuffer(stats, CL_TRUE, 0, sizeof(cl_float4) * real, st.data());
+                for (std::size_t i = 0; i < real; ++i)
+                    for (int t = 0; t < 2; ++t)
+                        if (!std::isnan(st[4 * i + 2 * t])) {
+                            aniso->push_back(st[4 * i + 2 * t]);
+                            area->push_back(st[4 * i + 2 * t + 1]);
+                        }
+            }
         }
         return sum;
     }

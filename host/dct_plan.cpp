@@ -6,8 +6,7 @@ DctPlan::DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1)
     : c_(c),
       n0_(n0),
       n1_(n1),
-      work_(c.context, CL_MEM_READ_WRITE,
-            sizeof(float) * FftPlan::row_stride(n0) * n1),
+      work_(c.buffer(CL_MEM_READ_WRITE, sizeof(float) * FftPlan::row_stride(n0) * n1, "the DCT")),
       fft_(c, n0, n1)
 {
     cl::Program& prog = c.program("dct.cl");

@@ -97,7 +97,7 @@ FftPlan::FftPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1) : impl
     p.columns = n0 / 2 + 1;
     const std::size_t bytes = sizeof(float) * row_stride(n0) * n1;
     // VkFFT builds its kernels against a buffer; launches name their own.
-    p.work = cl::Buffer(c.context, CL_MEM_READ_WRITE, bytes);
+    p.work = c.buffer(CL_MEM_READ_WRITE, bytes, "the FFT");
     p.rows.reset(new Transform1d(c, n0, n1, true, p.work, bytes));
     if (n1 > 1) {
         p.columns_fft.reset(new Transform1d(c, n1, p.columns, false, p.work, bytes));

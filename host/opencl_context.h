@@ -18,6 +18,15 @@ struct ComputeContext::Impl {
     cl::CommandQueue queue;
     std::mutex mutex;  // guards programs; also serialises stage launches
     std::map<std::string, cl::Program> programs;
+    // The largest buffer to allocate: CL_DEVICE_MAX_MEM_ALLOC_SIZE, or less
+    // when $RELIEF_DEVICE_MAX_ALLOC (bytes) says so (a shared device; tests).
+    std::size_t max_alloc = 0;
+
+    // A buffer of `bytes` (copied from `host` when given), or Error with the
+    // numbers when it is larger than max_alloc; `what` names it for users.
+    cl::Buffer buffer(cl_mem_flags flags, std::size_t bytes, const std::string& what,
+                      const void* host = nullptr);
+    std::size_t buffer_limit() const;  // max_alloc, or the override
 
     // The built program for kernels/<file> (common.h prepended), compiled
     // with extra `options` (e.g. "-DRELIEF_FP64"); cached per file + options.

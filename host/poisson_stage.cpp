@@ -51,8 +51,8 @@ void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes, const Po
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
         cl::Program& prog = c.program("poisson.cl");
-        cl::Buffer gx(c.context, CL_MEM_READ_WRITE, bytes);
-        cl::Buffer gy(c.context, CL_MEM_READ_WRITE, bytes);
+        cl::Buffer gx = c.buffer(CL_MEM_READ_WRITE, bytes, "the Poisson stage");
+        cl::Buffer gy = c.buffer(CL_MEM_READ_WRITE, bytes, "the Poisson stage");
         std::optional<FftPlan> fft;
         std::optional<DctPlan> dct;
         if (periodic)

@@ -42,9 +42,10 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
         cl::Program& prog = c.program("poisson_weighted.cl");
-        auto buffer = [&](std::size_t bytes) { return cl::Buffer(c.context, CL_MEM_READ_WRITE, bytes); };
-        cl::Buffer weight(c.context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n,
-                          const_cast<float*>(p.weights));
+        auto buffer = [&](std::size_t bytes) {
+            return c.buffer(CL_MEM_READ_WRITE, bytes, "the weighted Poisson stage");
+        };
+        cl::Buffer weight = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n, "the weighted Poisson stage", p.weights);
         cl::Buffer cw = buffer(sizeof(float) * n), target = buffer(sizeof(cl_float2) * n);
         cl::Buffer x = buffer(sizeof(float) * n), r = buffer(sizeof(float) * n);
         cl::Buffer d = buffer(sizeof(float) * n), q = buffer(sizeof(float) * n);

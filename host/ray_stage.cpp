@@ -49,10 +49,10 @@ PackedTables pack_tables(const RayParams& p)
 }
 
 template <class T>
-cl::Buffer constant_buffer(cl::Context& ctx, std::vector<T>& v)
+cl::Buffer constant_buffer(ComputeContext::Impl& c, std::vector<T>& v)
 {
-    return cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(T) * v.size(),
-                      v.data());
+    return c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(T) * v.size(),
+                    "ray integration's walk tables", v.data());
 }
 
 // One period of a rational direction, as the fast kernels read it.
@@ -147,7 +147,7 @@ cl::Buffer active_tiles(ComputeContext::Impl& c, const DeviceSlopes& slopes, dou
     const std::size_t n = std::size_t(tiles_x) * tiles_y;
     std::vector<cl_uchar> flags(n, 1);
     if (skip) {
-        cl::Buffer nonflat(c.context, CL_MEM_WRITE_ONLY, n);
+        cl::Buffer nonflat = c.buffer(CL_MEM_WRITE_ONLY, n, "ray integration");
         cl::Kernel k(c.program("tiles.cl"), "nonflat_tiles");
         k.setArg(0, slopes.impl().buffer);
         k.setArg(1, cl_int(w));
@@ -188,7 +188,7 @@ cl::Buffer active_tiles(ComputeContext::Impl& c, const DeviceSlopes& slopes, dou
     }
     report.tiles = n;
     report.skipped = std::size_t(std::count(flags.begin(), flags.end(), cl_uchar(0)));
-    return cl::Buffer(c.context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, n, flags.data());
+    return c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, n, "ray integration", flags.data());
 }
 
 } // namespace
@@ -244,9 +244,10 @@ void integrate_rays_by_fft(ComputeContext& ctx, const DeviceSlopes& slopes, cons
         cl::Program& spectral = c.program("poisson.cl");  // split and gather
         cl::Program& prog = c.program("rays_fft.cl");
         const std::size_t bytes = sizeof(float) * grid;
-        cl::Buffer gx(c.context, CL_MEM_READ_WRITE, bytes), gy(c.context, CL_MEM_READ_WRITE, bytes);
-        cl::Buffer bx(c.context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, kxf.data());
-        cl::Buffer by(c.context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, kyf.data());
+        cl::Buffer gx = c.buffer(CL_MEM_READ_WRITE, bytes, "ray integration");
+        cl::Buffer gy = c.buffer(CL_MEM_READ_WRITE, bytes, "ray integration");
+        cl::Buffer bx = c.buffer(CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, "ray integration", kxf.data());
+        cl::Buffer by = c.buffer(CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, "ray integration", kyf.data());
         FftPlan plan(c, n0, n1);
         const cl::NDRange local(kGroupSize);
 
@@ -280,7 +281,7 @@ void integrate_rays_by_fft(ComputeContext& ctx, const DeviceSlopes& slopes, cons
         c.queue.enqueueNDRangeKernel(combine, cl::NullRange, cl::NDRange(padded(count)), local);
         plan.inverse(gx);
 
-        cl::Buffer out(c.context, CL_MEM_WRITE_ONLY, sizeof(float) * n);
+        cl::Buffer out = c.buffer(CL_MEM_WRITE_ONLY, sizeof(float) * n, "ray integration");
         cl::Kernel gather(spectral, "poisson_gather");
         a = 0;
         gather.setArg(a++, gx);
@@ -326,10 +327,10 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
         cl::Program& prog =
             c.program("rays_fast.cl", std::string(fp64 ? "-DRELIEF_FP64 " : "") +
                                           "-DRELIEF_LANES=" + std::to_string(lanes));
-        cl::Buffer sums(c.context, CL_MEM_READ_WRITE, sizeof(cl_float4) * n);
-        cl::Buffer tail(c.context, CL_MEM_READ_WRITE, sizeof(cl_float2) * n);
-        cl::Buffer accum(c.context, CL_MEM_READ_WRITE, sizeof(cl_float2) * n);
-        cl::Buffer out(c.context, CL_MEM_WRITE_ONLY, sizeof(float) * n);
+        cl::Buffer sums = c.buffer(CL_MEM_READ_WRITE, sizeof(cl_float4) * n, "ray integration");
+        cl::Buffer tail = c.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * n, "ray integration");
+        cl::Buffer accum = c.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * n, "ray integration");
+        cl::Buffer out = c.buffer(CL_MEM_WRITE_ONLY, sizeof(float) * n, "ray integration");
         c.queue.enqueueFillBuffer(accum, cl_float2{{0.0f, 0.0f}}, 0, sizeof(cl_float2) * n);
         RayReport skipped;
         int tiles_x = 0;
@@ -349,11 +350,11 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
             PeriodTable t = period_table(d, p.radius, w);
             int cycle = 0;
             std::vector<cl_int2> starts = chain_starts(d, w, h, periodic, cycle);
-            cl::Buffer offsets = constant_buffer(c.context, t.offsets);
-            cl::Buffer data = constant_buffer(c.context, t.data);
-            cl::Buffer cut = constant_buffer(c.context, t.cut);
-            cl::Buffer linear = constant_buffer(c.context, t.linear);
-            cl::Buffer start_buf = constant_buffer(c.context, starts);
+            cl::Buffer offsets = constant_buffer(c, t.offsets);
+            cl::Buffer data = constant_buffer(c, t.data);
+            cl::Buffer cut = constant_buffer(c, t.cut);
+            cl::Buffer linear = constant_buffer(c, t.linear);
+            cl::Buffer start_buf = constant_buffer(c, starts);
             const cl_int segs = cl_int(t.offsets.size());
 
             int a = 0;
@@ -469,10 +470,10 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
         PackedTables t = pack_tables(p);
-        cl::Buffer dir_start = constant_buffer(c.context, t.dir_start);
-        cl::Buffer offsets = constant_buffer(c.context, t.offsets);
-        cl::Buffer data = constant_buffer(c.context, t.data);
-        cl::Buffer out(c.context, CL_MEM_WRITE_ONLY, sizeof(float) * n);
+        cl::Buffer dir_start = constant_buffer(c, t.dir_start);
+        cl::Buffer offsets = constant_buffer(c, t.offsets);
+        cl::Buffer data = constant_buffer(c, t.data);
+        cl::Buffer out = c.buffer(CL_MEM_WRITE_ONLY, sizeof(float) * n, "ray integration");
 
         RayReport skipped;
         int tiles_x = 0;

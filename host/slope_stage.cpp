@@ -57,13 +57,11 @@ DeviceSlopes derive_slopes(ComputeContext& ctx, const float* normals, const Slop
         const int texels = int(n);
         if (n > std::size_t(INT32_MAX))
             throw Error("normal map too large");
-        cl::Buffer in(c.context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                      sizeof(float) * n * p.channels, const_cast<float*>(normals));
+        cl::Buffer in = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n * p.channels, "the DDM stage", normals);
         auto impl = std::make_shared<DeviceSlopes::Impl>();
-        impl->buffer = cl::Buffer(c.context, CL_MEM_READ_WRITE, sizeof(cl_float2) * n);
+        impl->buffer = c.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * n, "the DDM stage");
         cl_int zero[2] = {0, 0};
-        cl::Buffer counters(c.context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(zero),
-                            zero);
+        cl::Buffer counters = c.buffer(CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(zero), "the DDM stage", zero);
 
         // Derive with OpenGL first; DirectX is the same field with gy negated.
         const double a = p.max_angle_deg * M_PI / 180.0;
@@ -117,9 +115,7 @@ DeviceSlopes upload_slopes(ComputeContext& ctx, const float* slopes, int width, 
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
         auto impl = std::make_shared<DeviceSlopes::Impl>();
-        impl->buffer = cl::Buffer(c.context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR,
-                                  sizeof(cl_float2) * texel_count(width, height),
-                                  const_cast<float*>(slopes));
+        impl->buffer = c.buffer(CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(cl_float2) * texel_count(width, height), "the DDM stage", slopes);
         return DeviceSlopes(width, height, impl);
     } catch (const cl::Error& e) {
         throw Error(std::string("OpenCL error uploading slopes: ") + e.what());

@@ -96,13 +96,17 @@ inline int correct_node(int i, int j, int nx, int ny)
 // per work-group in a fixed order (deterministic), one partial per group.
 // With `stats`, also writes per owned triangle the anisotropy s1/s2 and the
 // area ratio s1 s2 (float4 per node: T1 then T2; NaN where a triangle does
-// not exist at a fixed boundary).
+// not exist at a fixed boundary). Launched over the nodes [first, first +
+// count) (count a multiple of the group size): the statistics of a large
+// map come in chunks that fit one device buffer; stats[0] is node `first`,
+// partial[0] its group.
 kernel void correct_energy(global const float2* c, global const float* z,
                            global const float* fix_w, int use_fix, int nx, int ny, int periodic,
                            float theta, int itheta, global energy_t* partial,
-                           local energy_t* scratch, global float4* stats, int want_stats)
+                           local energy_t* scratch, global float4* stats, int want_stats,
+                           int first)
 {
-    const int gid = get_global_id(0), lid = get_local_id(0);
+    const int gid = first + get_global_id(0), lid = get_local_id(0);
     energy_t sum = 0;
     if (gid < nx * ny) {
         const int i = gid % nx, j = gid / nx;
@@ -143,7 +147,7 @@ kernel void correct_energy(global const float2* c, global const float* z,
         if (use_fix)
             sum += (energy_t)correct_fix_energy(c[gid], fix_w[gid]);
         if (want_stats)
-            stats[gid] = st;
+            stats[gid - first] = st;
     }
     scratch[lid] = sum;
     barrier(CLK_LOCAL_MEM_FENCE);

@@ -435,3 +435,22 @@ TEST_CASE("cli: a damaged file gives one line of relief's own, library noise onl
     CHECK(r.err.find("libpng") != std::string::npos);
     CHECK_FALSE(fs::exists(dir / "out.exr"));
 }
+
+TEST_CASE("cli: a buffer larger than the device allows is refused with the numbers", "[cli][errors]")
+{
+    auto dir = scratch("max_alloc");
+    const std::string out = "'" + (dir / "out.exr").string() + "'";
+    for (const char* op : {"--height", "--height:rays=8:radius=8", "--height:boundary=free"}) {
+        INFO(op);
+        auto r = run_cli("'" + kNormal + "' " + op + " -o " + out, "RELIEF_DEVICE_MAX_ALLOC=100000");
+        INFO("stderr: " << r.err);
+        CHECK(r.rc == 1);
+        CHECK(r.err.find("relief: error:") != std::string::npos);
+        CHECK(r.err.find("more than the device allows in one buffer (0.1 MiB, RELIEF_DEVICE_MAX_ALLOC)") !=
+              std::string::npos);
+        CHECK_FALSE(fs::exists(dir / "out.exr"));
+    }
+    auto r = run_cli("'" + kNormal + "' --height -o " + out, "RELIEF_DEVICE_MAX_ALLOC=lots");
+    CHECK(r.rc == 1);
+    CHECK(r.err.find("RELIEF_DEVICE_MAX_ALLOC must be a number of bytes") != std::string::npos);
+}

@@ -619,3 +619,33 @@ TEST_CASE("correct: progress moves steadily and ends at 1", "[correct]")
     CHECK(seen.back() == 1.0);
     CHECK(seen[seen.size() - 2] < 1.0);
 }
+
+TEST_CASE("correct: statistics larger than one device buffer come in chunks, same bits",
+          "[correct]")
+{
+    // 16 bytes of statistics per node passed the 4 GiB allocation limit of
+    // PoCL at 16384^2. A cap between the offsets' 8 and the statistics' 16
+    // bytes per node makes them come in chunks here.
+    const int w = 48, h = 48;
+    const auto hts = waves(w, h, 1.0, 4);
+    auto p = params(0.4, true, false);
+    p.levels = 1;
+    p.iterations = 3;
+    host::CorrectReport whole, chunked;
+    const auto a = run(hts, w, h, p, &whole);
+    ::setenv("RELIEF_DEVICE_MAX_ALLOC", "20000", 1);
+    std::vector<float> b;
+    try {
+        b = run(hts, w, h, p, &chunked);
+    } catch (...) {
+        ::unsetenv("RELIEF_DEVICE_MAX_ALLOC");
+        throw;
+    }
+    ::unsetenv("RELIEF_DEVICE_MAX_ALLOC");
+    CHECK(a == b);
+    CHECK(whole.energy_before == chunked.energy_before);
+    CHECK(whole.energy_after == chunked.energy_after);
+    CHECK(whole.anisotropy_after.p95 == chunked.anisotropy_after.p95);
+    CHECK(whole.area_after.max == chunked.area_after.max);
+    CHECK(whole.area_before.mean == chunked.area_before.mean);
+}
