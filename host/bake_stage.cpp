@@ -10,6 +10,7 @@ void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch,
 {
     if (w < 1 || h < 1 || nch < 1)
         throw Error("baking needs a non-empty texture");
+    check_index_range(w, h, "bake");
     const std::size_t n = std::size_t(w) * h;
     auto& c = ctx.impl();
     std::lock_guard<std::mutex> lock(c.mutex);

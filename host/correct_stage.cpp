@@ -34,6 +34,7 @@ void validate(const CorrectParams& p, int w, int h)
 {
     if (w < 1 || h < 1)
         throw Error("distortion correction needs a non-empty height map");
+    check_index_range(w, h, "correct");
     if (!(p.scale > 0.0) || !std::isfinite(p.scale))
         throw Error("the displacement scale must be > 0");
     if (!(p.theta >= 0.0 && p.theta <= 20.0))

@@ -1,5 +1,7 @@
 #pragma once
 // Exceptions thrown by the host layer; the plugin turns them into geterror().
+#include <climits>
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 
@@ -23,5 +25,16 @@ struct KernelBuildError : Error {
 private:
     std::string log_;
 };
+
+// The kernels index texels (and padded transform grids, nodes at texel
+// corners) with 32-bit ints: a map whose (w + 2) x (h + 2) passes 2^31 - 1
+// (46338^2 fits) is refused with the numbers rather than overflowing.
+inline void check_index_range(long long w, long long h, const std::string& what)
+{
+    if ((w + 2) * (h + 2) > (long long)INT_MAX)
+        throw Error(what + ": a " + std::to_string(w) + "x" + std::to_string(h) +
+                    " map is larger than this version handles ((width + 2) x (height + 2) must "
+                    "stay below 2^31, e.g. 46338x46338)");
+}
 
 } // namespace relief::host

@@ -54,9 +54,8 @@ DeviceSlopes derive_slopes(ComputeContext& ctx, const float* normals, const Slop
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
         const std::size_t n = texel_count(p.width, p.height);
+        check_index_range(p.width, p.height, "slopes");
         const int texels = int(n);
-        if (n > std::size_t(INT32_MAX))
-            throw Error("normal map too large");
         cl::Buffer in = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n * p.channels, "the DDM stage", normals);
         auto impl = std::make_shared<DeviceSlopes::Impl>();
         impl->buffer = c.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * n, "the DDM stage");
@@ -111,11 +110,14 @@ DeviceSlopes derive_slopes(ComputeContext& ctx, const float* normals, const Slop
 
 DeviceSlopes upload_slopes(ComputeContext& ctx, const float* slopes, int width, int height)
 {
+    check_index_range(width, height, "slopes");
     auto& c = ctx.impl();
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
         auto impl = std::make_shared<DeviceSlopes::Impl>();
-        impl->buffer = c.buffer(CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(cl_float2) * texel_count(width, height), "the DDM stage", slopes);
+        impl->buffer = c.buffer(CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR,
+                                sizeof(cl_float2) * texel_count(width, height), "the DDM stage",
+                                slopes);
         return DeviceSlopes(width, height, impl);
     } catch (const cl::Error& e) {
         throw Error(std::string("OpenCL error uploading slopes: ") + e.what());

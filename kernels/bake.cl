@@ -36,12 +36,15 @@ kernel void bake_gather(global const float* src, int w, int h, int nch,
         const int xa = bake_index(x0, w, periodic), xb = bake_index(x0 + 1, w, periodic);
         const int ya = bake_index(y0, h, periodic), yb = bake_index(y0 + 1, h, periodic);
         for (int ch = 0; ch < nch; ++ch) {
-            const float v00 = src[(ya * w + xa) * nch + ch], v10 = src[(ya * w + xb) * nch + ch];
-            const float v01 = src[(yb * w + xa) * nch + ch], v11 = src[(yb * w + xb) * nch + ch];
+            // size_t: texels x channels may pass 2^31 (a 32768^2 RGB map).
+            const float v00 = src[((size_t)ya * w + xa) * nch + ch];
+            const float v10 = src[((size_t)ya * w + xb) * nch + ch];
+            const float v01 = src[((size_t)yb * w + xa) * nch + ch];
+            const float v11 = src[((size_t)yb * w + xb) * nch + ch];
             // Lerp form: exact at fx = 0 or fy = 0.
             const float top = fx == 0.0f ? v00 : v00 + fx * (v10 - v00);
             const float bottom = fx == 0.0f ? v01 : v01 + fx * (v11 - v01);
-            dst[gid * nch + ch] = fy == 0.0f ? top : top + fy * (bottom - top);
+            dst[(size_t)gid * nch + ch] = fy == 0.0f ? top : top + fy * (bottom - top);
         }
         return;
     }
@@ -54,16 +57,16 @@ kernel void bake_gather(global const float* src, int w, int h, int nch,
     }
     for (int ch = 0; ch < nch; ++ch) {
         if (fx == 0.0f && fy == 0.0f) {
-            dst[gid * nch + ch] = src[(ys[1] * w + xs[1]) * nch + ch];
+            dst[(size_t)gid * nch + ch] = src[((size_t)ys[1] * w + xs[1]) * nch + ch];
             continue;
         }
         float v = 0.0f;
         for (int b = 0; b < 4; ++b) {
             float row = 0.0f;
             for (int a = 0; a < 4; ++a)
-                row += wxs[a] * src[(ys[b] * w + xs[a]) * nch + ch];
+                row += wxs[a] * src[((size_t)ys[b] * w + xs[a]) * nch + ch];
             v += wys[b] * row;
         }
-        dst[gid * nch + ch] = v;
+        dst[(size_t)gid * nch + ch] = v;
     }
 }

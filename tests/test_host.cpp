@@ -6,7 +6,10 @@
 #include <fstream>
 
 #include "compute_context.h"
+#include "bake_stage.h"
+#include "correct_stage.h"
 #include "errors.h"
+#include "slope_stage.h"
 
 using namespace relief::host;
 
@@ -57,4 +60,23 @@ TEST_CASE("a kernel that does not compile raises KernelBuildError with the compi
         CHECK(e.log().find("undeclared_name") != std::string::npos);
     }
     ::unsetenv("RELIEF_KERNEL_DIR");
+}
+
+TEST_CASE("maps past the kernels' 32-bit indices are refused before any work", "[host]")
+{
+    // (w + 2) x (h + 2) must stay below 2^31: 46338^2 is the largest square.
+    CHECK_NOTHROW(check_index_range(46338, 46338, "test"));
+    CHECK_THROWS_WITH(check_index_range(46339, 46339, "test"),
+                      Catch::Contains("a 46339x46339 map is larger than this version handles"));
+    CHECK_THROWS_AS(check_index_range(1 << 30, 1, "test"), Error);
+    // Each stage checks before it reads a pixel (null pointers: nothing is read).
+    auto ctx = ComputeContext::acquire("auto");
+    CHECK_THROWS_WITH(bake_gather(*ctx, nullptr, 46340, 46340, 3, nullptr, true,
+                                  BakeFilter::Bilinear, nullptr),
+                      Catch::Contains("bake: a 46340x46340 map"));
+    CHECK_THROWS_WITH(upload_slopes(*ctx, nullptr, 50000, 50000),
+                      Catch::Contains("slopes: a 50000x50000 map"));
+    CorrectParams p;
+    CHECK_THROWS_WITH(correct_distortion(*ctx, nullptr, 46340, 46340, p, nullptr),
+                      Catch::Contains("correct: a 46340x46340 map"));
 }
