@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <sstream>
 #include <vector>
 
 #include "errors.h"
@@ -20,30 +21,68 @@ struct PackedTables {
     std::vector<cl_float4> data;      // (ext x, ext y, weight, cumulative weight)
 };
 
-PackedTables pack_tables(const RayParams& p)
+// Calls fn(j, offsets, data) with direction j's packed walk, one direction
+// at a time: all directions' walks at once reached ~25 GB at rays=4096,
+// radius=65536.
+template <class Fn>
+void for_each_packed_direction(const RayParams& p, Fn fn)
 {
-    PackedTables t;
-    std::vector<std::vector<RaySegment>> walks;
-    if (p.directions == DirectionSet::Rational) {
-        for (const RationalDirection& d : rational_directions(p.rays, p.phase))
-            walks.push_back(walk_rational_ray(d, p.radius));
-    } else {
-        for (double angle : ray_angles(p.rays, p.phase, p.directions))
-            walks.push_back(walk_ray(angle, p.radius));
-    }
     const std::vector<double> dir_weight =
         angular_weights(ray_angles(p.rays, p.phase, p.directions));
-    for (std::size_t j = 0; j < walks.size(); ++j) {
-        t.dir_start.push_back(cl_int(t.offsets.size()));
+    const std::vector<RationalDirection> rational =
+        p.directions == DirectionSet::Rational ? rational_directions(p.rays, p.phase)
+                                               : std::vector<RationalDirection>();
+    const std::vector<double> angles = p.directions == DirectionSet::Rational
+                                           ? std::vector<double>()
+                                           : ray_angles(p.rays, p.phase, p.directions);
+    std::vector<cl_int2> offsets;
+    std::vector<cl_float4> data;
+    for (int j = 0; j < p.rays; ++j) {
+        const std::vector<RaySegment> walk = p.directions == DirectionSet::Rational
+                                                 ? walk_rational_ray(rational[j], p.radius)
+                                                 : walk_ray(angles[j], p.radius);
+        offsets.clear();
+        data.clear();
         double cumulative = 0.0;
-        for (const RaySegment& s : walks[j]) {
+        for (const RaySegment& s : walk) {
             const double weight = s.weight * dir_weight[j];
             cumulative += weight;
-            t.offsets.push_back(cl_int2{{s.ox, s.oy}});
-            t.data.push_back(cl_float4{{float(s.ext_x), float(s.ext_y), float(weight),
-                                        float(cumulative)}});
+            offsets.push_back(cl_int2{{s.ox, s.oy}});
+            data.push_back(cl_float4{{float(s.ext_x), float(s.ext_y), float(weight),
+                                      float(cumulative)}});
         }
+        fn(j, offsets, data);
     }
+}
+
+// An upper bound on the segments of all walks: a ray crosses at most
+// |cos| + |sin| <= sqrt(2) texel edges per texel of length, plus its ends
+// (and a rational walk splits one segment per period).
+double walk_segments_bound(const RayParams& p)
+{
+    return double(p.rays) * (2.0 * std::sqrt(2.0) * p.radius + 4.0);
+}
+
+PackedTables pack_tables(ComputeContext::Impl& c, const RayParams& p)
+{
+    // The reference kernel reads every walk from one device table: refuse
+    // what cannot be allocated before building it on the host.
+    const double bytes = walk_segments_bound(p) * sizeof(cl_float4);
+    if (bytes > double(c.buffer_limit()) || walk_segments_bound(p) > double(INT32_MAX))
+        throw Error("rays=" + std::to_string(p.rays) + " and radius=" +
+                    [&] { std::ostringstream r; r << p.radius; return r.str(); }() +
+                    " need walk tables of up to " +
+                    std::to_string(int(std::ceil(bytes / (1024.0 * 1024.0)))) +
+                    " MiB, more than the device allows in one buffer (" +
+                    std::to_string(c.buffer_limit() / (1024 * 1024)) +
+                    " MiB); use impl=fast, or fewer rays or a shorter radius");
+    PackedTables t;
+    for_each_packed_direction(p, [&](int, const std::vector<cl_int2>& offsets,
+                                     const std::vector<cl_float4>& data) {
+        t.dir_start.push_back(cl_int(t.offsets.size()));
+        t.offsets.insert(t.offsets.end(), offsets.begin(), offsets.end());
+        t.data.insert(t.data.end(), data.begin(), data.end());
+    });
     t.dir_start.push_back(cl_int(t.offsets.size()));
     return t;
 }
@@ -214,24 +253,24 @@ void integrate_rays_by_fft(ComputeContext& ctx, const DeviceSlopes& slopes, cons
     const std::size_t grid = stride * n1;
 
     // The kernels, mirrored (K'(o) = K(-o)) so that A = K' * g, wrapped.
-    PackedTables t = pack_tables(p);
     std::vector<double> kx(grid, 0.0), ky(grid, 0.0);
     double total = 0.0;
-    for (int j = 0; j < p.rays; ++j) {
-        const int first = t.dir_start[j], end = t.dir_start[j + 1];
-        const double dir_total = end > first ? t.data[end - 1].s[3] : 0.0;  // cumulative
-        for (int s = first; s < end; ++s) {
-            const double weight = t.data[s].s[2];
-            const double after = dir_total - t.data[s].s[3];  // later segments' weights
+    for_each_packed_direction(p, [&](int, const std::vector<cl_int2>& offsets,
+                                     const std::vector<cl_float4>& data) {
+        const std::size_t segs = data.size();
+        const double dir_total = segs ? data[segs - 1].s[3] : 0.0;  // cumulative
+        for (std::size_t s = 0; s < segs; ++s) {
+            const double weight = data[s].s[2];
+            const double after = dir_total - data[s].s[3];  // later segments' weights
             const double factor = 0.5 * weight + after;
-            const int ox = ((-t.offsets[s].s[0]) % w + w) % w;
-            const int oy = ((-t.offsets[s].s[1]) % h + h) % h;
+            const int ox = ((-offsets[s].s[0]) % w + w) % w;
+            const int oy = ((-offsets[s].s[1]) % h + h) % h;
             const std::size_t at = transposed ? std::size_t(oy) : std::size_t(oy) * stride + ox;
-            kx[at] += t.data[s].s[0] * factor;
-            ky[at] += t.data[s].s[1] * factor;
+            kx[at] += data[s].s[0] * factor;
+            ky[at] += data[s].s[1] * factor;
         }
         total += dir_total;
-    }
+    });
     if (!(total > 0.0)) {
         std::fill(height_out, height_out + n, 0.0f);
         return;
@@ -469,7 +508,7 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
     auto& c = ctx.impl();
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
-        PackedTables t = pack_tables(p);
+        PackedTables t = pack_tables(c, p);
         cl::Buffer dir_start = constant_buffer(c, t.dir_start);
         cl::Buffer offsets = constant_buffer(c, t.offsets);
         cl::Buffer data = constant_buffer(c, t.data);

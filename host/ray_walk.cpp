@@ -85,7 +85,101 @@ int rational_step_limit(int rays)
     return std::max(2, (rays + 3) / 4);
 }
 
+namespace {
+
+// Whether candidate c fits `target` better than `best`: a smaller angular
+// error, then (within 1e-12) a shorter vector, then the smaller (b, a).
+bool better_direction(const RationalDirection& c, double err, const RationalDirection& best,
+                      double best_err)
+{
+    if (err < best_err - 1e-12)
+        return true;
+    if (err > best_err + 1e-12)
+        return false;
+    if (c.length() != best.length())
+        return c.length() < best.length();
+    return c.b != best.b ? c.b < best.b : c.a < best.a;
+}
+
+double angle_error(const RationalDirection& c, double target)
+{
+    return std::abs(std::remainder(c.angle() - target, 2.0 * M_PI));
+}
+
+// The primitive directions with max(|a|, |b|) <= limit nearest in angle to
+// `target`: within its octant the angle grows with the slope t = minor/major
+// in [0, 1], so they are the two neighbours of t among the fractions with
+// denominators <= limit (a Farey sequence), found from t's continued
+// fraction in O(log limit) (as Python's Fraction.limit_denominator).
+RationalDirection nearest_direction(double target, int limit)
+{
+    const double cx = std::cos(target), cy = std::sin(target);
+    const bool steep = std::abs(cy) > std::abs(cx);
+    const double major = steep ? std::abs(cy) : std::abs(cx);
+    const double t = steep ? std::abs(cx) / major : std::abs(cy) / major;
+    // Convergents p0/q0, p1/q1 of t with denominators <= limit.
+    long long p0 = 0, q0 = 1, p1 = 1, q1 = 0;
+    double x = t;
+    for (int guard = 0; guard < 64; ++guard) {
+        const double whole = std::floor(x);
+        const long long a = (long long)whole;
+        const long long q2 = q0 + a * q1;
+        if (q2 > limit)
+            break;
+        const long long p2 = p0 + a * p1;
+        p0 = p1;
+        q0 = q1;
+        p1 = p2;
+        q1 = q2;
+        const double rest = x - whole;
+        if (rest <= 0.0)
+            break;
+        x = 1.0 / rest;
+    }
+    // The semiconvergent below the limit and the last convergent bracket t.
+    const long long k = q1 > 0 ? (limit - q0) / q1 : 0;
+    const long long fractions[2][2] = {{p0 + k * p1, q0 + k * q1}, {p1, q1}};
+    RationalDirection best;
+    double best_err = std::numeric_limits<double>::infinity();
+    for (const auto& f : fractions) {
+        const long long num = f[0], den = f[1];
+        if (den < 1 || den > limit || num > den || std::gcd(num, den) != 1)
+            continue;
+        // Back from the first octant: minor/major to (a, b) with signs.
+        const int minor = int(num), maj = int(den);
+        RationalDirection c;
+        c.a = (steep ? minor : maj) * (cx < 0 ? -1 : 1);
+        c.b = (steep ? maj : minor) * (cy < 0 ? -1 : 1);
+        if (c.a == 0 && c.b == 0)
+            continue;
+        // On an axis or a diagonal, the mirror image is equally near.
+        RationalDirection mirrors[3] = {c, c, c};
+        mirrors[1].a = c.a == 0 ? 0 : -c.a;
+        mirrors[2].b = c.b == 0 ? 0 : -c.b;
+        for (const RationalDirection& m : mirrors) {
+            const double err = angle_error(m, target);
+            if (better_direction(m, err, best, best_err)) {
+                best = m;
+                best_err = err;
+            }
+        }
+    }
+    return best;
+}
+
+} // namespace
+
 std::vector<RationalDirection> rational_directions(int rays, double phase)
+{
+    const int limit = rational_step_limit(rays);
+    std::vector<RationalDirection> out;
+    out.reserve(rays);
+    for (int j = 0; j < rays; ++j)
+        out.push_back(nearest_direction(2.0 * M_PI * (j + phase) / rays, limit));
+    return out;
+}
+
+std::vector<RationalDirection> rational_directions_by_search(int rays, double phase)
 {
     const int limit = rational_step_limit(rays);
     std::vector<RationalDirection> candidates;
@@ -99,9 +193,8 @@ std::vector<RationalDirection> rational_directions(int rays, double phase)
         RationalDirection best;
         double best_err = std::numeric_limits<double>::infinity();
         for (const auto& c : candidates) {
-            double err = std::abs(std::remainder(c.angle() - target, 2.0 * M_PI));
-            if (err < best_err - 1e-12 ||
-                (err < best_err + 1e-12 && c.length() < best.length())) {
+            const double err = angle_error(c, target);
+            if (better_direction(c, err, best, best_err)) {
                 best = c;
                 best_err = err;
             }

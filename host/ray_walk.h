@@ -45,8 +45,12 @@ struct RationalDirection {
 int rational_step_limit(int rays);
 
 // For each j, the primitive (a, b) with max(|a|, |b|) <= the step limit
-// closest in angle to 2*pi*(j + phase)/rays (ties: the shorter vector).
+// closest in angle to 2*pi*(j + phase)/rays (ties: the shorter vector, then
+// the smaller (b, a)). O(rays log rays), by continued fractions.
 std::vector<RationalDirection> rational_directions(int rays, double phase);
+
+// The same by searching every candidate (O(rays^3)): the definition, for tests.
+std::vector<RationalDirection> rational_directions_by_search(int rays, double phase);
 
 // Quadrature weights of a direction set on the circle: each direction counts
 // by half the angle to its two neighbours, normalised to a mean of 1

@@ -450,6 +450,16 @@ TEST_CASE("cli: a buffer larger than the device allows is refused with the numbe
               std::string::npos);
         CHECK_FALSE(fs::exists(dir / "out.exr"));
     }
+    // The reference kernel's walk tables are refused before they are built.
+    {
+        auto r = run_cli("'" + kNormal + "' --height:impl=reference:rays=64:radius=4000 -o " + out,
+                         "RELIEF_DEVICE_MAX_ALLOC=4000000");
+        INFO("stderr: " << r.err);
+        CHECK(r.rc == 1);
+        CHECK(r.err.find("rays=64 and radius=4000 need walk tables of up to") != std::string::npos);
+        CHECK(r.err.find("MiB, more than the device allows in one buffer (3 MiB); use impl=fast") !=
+              std::string::npos);
+    }
     auto r = run_cli("'" + kNormal + "' --height -o " + out, "RELIEF_DEVICE_MAX_ALLOC=lots");
     CHECK(r.rc == 1);
     CHECK(r.err.find("RELIEF_DEVICE_MAX_ALLOC must be a number of bytes") != std::string::npos);
