@@ -521,7 +521,8 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
                                          skipped);
         if (report)
             *report = skipped;
-        cl::Kernel k(c.program("rays_reference.cl"), "rays_reference");
+        const bool fp64 = ctx.device().has_fp64 && !p.force_float;
+        cl::Kernel k(c.program("rays_reference.cl", fp64 ? "-DRELIEF_FP64" : ""), "rays_reference");
         k.setArg(0, slopes.impl().buffer);
         k.setArg(1, w);
         k.setArg(2, h);

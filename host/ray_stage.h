@@ -16,8 +16,9 @@ struct RayParams {
     double phase = 0.5;       // phi: angles 2*pi*(j + phi)/J
     DirectionSet directions = DirectionSet::Exact;
     RayBoundary boundary = RayBoundary::Periodic;
-    // Fast kernel only: keep the chain sums in float with re-anchoring even
-    // where the device has fp64 (the path for devices without it; tests).
+    // Keep sums in float even where the device has fp64 (the path for
+    // devices without it; tests): the fast kernel's chains with re-anchoring,
+    // the reference kernel's ray sums with Kahan compensation.
     bool force_float = false;
     int float_reanchor = 32;  // chain steps between re-anchors in float
     // Skip tiles whose slopes, and all slopes within the ray radius, are
