@@ -6,6 +6,8 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <functional>
 #include <random>
 
@@ -742,4 +744,33 @@ TEST_CASE("options: a failed call's returned image carries the error", "[options
     const ImageBuf b = relief::bake(gray, gray);
     CHECK(b.has_error());
     CHECK(b.geterror().find("bake: the offset map has 1 channel(s)") != std::string::npos);
+}
+
+TEST_CASE("options: a mask whose pixels cannot be read is an error, not an empty mask",
+          "[options][mask][errors]")
+{
+    // An unread ImageBuf over a damaged file: its header reads, its pixels
+    // do not. Ignoring the failed read excluded every texel silently.
+    const int w = 48, h = 40;
+    const auto g = tiling_slopes(w, h, 8);
+    const ImageBuf normals = test::normal_image(g, w, h, test::Green::OpenGL, TypeDesc::FLOAT);
+    const std::string dir = test::scratch("options-damaged-mask");
+    const std::string whole = dir + "/whole.png", damaged = dir + "/damaged.png";
+    {
+        std::vector<float> noise(std::size_t(w) * h);
+        for (std::size_t i = 0; i < noise.size(); ++i)
+            noise[i] = float((i * 7919) % 251) / 250.0f;  // incompressible enough
+        REQUIRE(test::image(w, h, 1, noise, TypeDesc::UINT8).write(whole));
+        std::ifstream in(whole, std::ios::binary);
+        std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        std::ofstream(damaged, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+    }
+    const ImageBuf mask(damaged);
+    REQUIRE(mask.spec().width == w);  // the header is intact
+    HeightOptions o;
+    o.normals.convention = NormalConvention::OpenGL;
+    o.mask = &mask;
+    ImageBuf out;
+    CHECK_FALSE(relief::height(out, normals, o));
+    CHECK(relief::geterror().find("height: cannot read the mask") != std::string::npos);
 }
