@@ -95,8 +95,13 @@ Options:
   --device DEV          auto (default: a GPU if any, else the CPU), gpu, cpu,
                         or PLATFORM:DEVICE as --list-devices numbers them
   --list-devices        list the OpenCL devices and exit
-  -v                    say what was chosen (device, convention), progress, times
+  -v                    say what was chosen (device, convention), progress,
+                        times, and the image libraries' own diagnostics
   --help, --version
+Environment:
+  RELIEF_DEVICE_MAX_ALLOC=BYTES  the largest device buffer to allocate (default
+                        and upper bound: the device's own limit); larger
+                        needs are refused with the numbers
 Example:
   relief normal.png --height -o height.exr
   relief height.png --correct:scale=0.05:nodes=center -o offsets.exr

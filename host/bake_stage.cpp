@@ -1,5 +1,7 @@
 #include "bake_stage.h"
 
+#include <vector>
+
 #include "errors.h"
 #include "opencl_context.h"
 
@@ -16,21 +18,41 @@ void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch,
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
         cl::Program& prog = c.program("bake.cl");
-        cl::Buffer in = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n * nch, "baking", src);
-        cl::Buffer off = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(cl_float2) * n, "baking", offsets);
-        cl::Buffer out = c.buffer(CL_MEM_WRITE_ONLY, sizeof(float) * n * nch, "baking");
+        cl::Buffer off = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(cl_float2) * n,
+                                  "baking", offsets);
+        // All channels in one pass when they fit one device buffer; else one
+        // channel plane at a time (the same arithmetic, the same bits): a
+        // 16384^2 RGBA float texture passes many devices' limit.
+        const bool planar = sizeof(float) * n * nch > c.buffer_limit();
+        const int pass_channels = planar ? 1 : nch;
+        const std::size_t values = n * pass_channels;
+        cl::Buffer in = c.buffer(CL_MEM_READ_ONLY, sizeof(float) * values, "baking");
+        cl::Buffer out = c.buffer(CL_MEM_WRITE_ONLY, sizeof(float) * values, "baking");
         cl::Kernel k(prog, "bake_gather");
         int a = 0;
         k.setArg(a++, in);
         k.setArg(a++, cl_int(w));
         k.setArg(a++, cl_int(h));
-        k.setArg(a++, cl_int(nch));
+        k.setArg(a++, cl_int(pass_channels));
         k.setArg(a++, off);
         k.setArg(a++, cl_int(periodic));
         k.setArg(a++, cl_int(filter == BakeFilter::Bicubic));
         k.setArg(a++, out);
-        c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(n)), cl::NDRange(kGroupSize));
-        c.queue.enqueueReadBuffer(out, CL_TRUE, 0, sizeof(float) * n * nch, dst);
+        std::vector<float> plane(planar ? n : 0);
+        for (int ch = 0; ch < (planar ? nch : 1); ++ch) {
+            if (planar)
+                for (std::size_t i = 0; i < n; ++i)
+                    plane[i] = src[i * nch + ch];
+            c.queue.enqueueWriteBuffer(in, CL_TRUE, 0, sizeof(float) * values,
+                                       planar ? plane.data() : src);
+            c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(n)),
+                                         cl::NDRange(kGroupSize));
+            c.queue.enqueueReadBuffer(out, CL_TRUE, 0, sizeof(float) * values,
+                                      planar ? plane.data() : dst);
+            if (planar)
+                for (std::size_t i = 0; i < n; ++i)
+                    dst[i * nch + ch] = plane[i];
+        }
     } catch (const cl::Error& e) {
         throw Error(std::string("OpenCL error in the bake stage: ") + e.what() + " (" +
                     std::to_string(e.err()) + ")");

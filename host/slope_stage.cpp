@@ -56,7 +56,12 @@ DeviceSlopes derive_slopes(ComputeContext& ctx, const float* normals, const Slop
         const std::size_t n = texel_count(p.width, p.height);
         check_index_range(p.width, p.height, "slopes");
         const int texels = int(n);
-        cl::Buffer in = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n * p.channels, "the DDM stage", normals);
+        // The decoded map goes up in chunks of at most 64 MiB (and one device
+        // buffer): a whole 16384^2 RGB float map passes many devices' limit.
+        const std::size_t per_texel = sizeof(float) * std::size_t(p.channels);
+        const std::size_t chunk_bytes = std::min<std::size_t>(c.buffer_limit(), std::size_t(64) << 20);
+        const std::size_t chunk = std::min(n, std::max<std::size_t>(chunk_bytes / per_texel / kGroupSize, 1) * kGroupSize);
+        cl::Buffer in = c.buffer(CL_MEM_READ_ONLY, per_texel * chunk, "the DDM stage");
         auto impl = std::make_shared<DeviceSlopes::Impl>();
         impl->buffer = c.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * n, "the DDM stage");
         cl_int zero[2] = {0, 0};
@@ -67,17 +72,24 @@ DeviceSlopes derive_slopes(ComputeContext& ctx, const float* normals, const Slop
         cl::Kernel k(c.program("ddm.cl"), "ddm_slopes");
         k.setArg(0, in);
         k.setArg(1, p.channels);
-        k.setArg(2, texels);
-        k.setArg(3, p.scale);
-        k.setArg(4, p.bias);
-        k.setArg(5, p.zero_band);
-        k.setArg(6, -1.0f);
-        k.setArg(7, float(std::cos(a)));
-        k.setArg(8, float(std::sin(a)));
-        k.setArg(9, impl->buffer);
-        k.setArg(10, counters);
-        c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(n)),
-                                     cl::NDRange(kGroupSize));
+        k.setArg(4, p.scale);
+        k.setArg(5, p.bias);
+        k.setArg(6, p.zero_band);
+        k.setArg(7, -1.0f);
+        k.setArg(8, float(std::cos(a)));
+        k.setArg(9, float(std::sin(a)));
+        k.setArg(10, impl->buffer);
+        k.setArg(11, counters);
+        for (std::size_t first = 0; first < n; first += chunk) {
+            const std::size_t count = std::min(chunk, n - first);
+            // Blocking: the next chunk reuses the buffer.
+            c.queue.enqueueWriteBuffer(in, CL_TRUE, 0, per_texel * count,
+                                       normals + first * std::size_t(p.channels));
+            k.setArg(2, cl_int(first));
+            k.setArg(3, cl_int(count));
+            c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(count)),
+                                         cl::NDRange(kGroupSize));
+        }
         c.queue.enqueueReadBuffer(counters, CL_TRUE, 0, sizeof(zero), zero);
         stats.invalid = zero[0];
         stats.clamped = zero[1];

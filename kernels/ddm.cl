@@ -1,23 +1,25 @@
 // DDM derivation (DESIGN.md §4.1): decoded normal map -> per-texel slopes.
 // common.h is prepended by the host.
 
-// One work-item per texel. `normals` holds `channels` (2 or 3) floats per
-// texel; each stored value v decodes to v * scale + bias (UNORM: 2v - 1);
+// One work-item per texel, over the texels [first, first + count): `normals`
+// holds their `channels` (2 or 3) floats per texel (the host streams the
+// map in chunks); each stored value v decodes to v * scale + bias (UNORM: 2v - 1);
 // decoded x and y within zero_band of 0 are exactly 0.
 // green_to_row maps the decoded green component to the row component of the
 // normal: -1 for OpenGL (green points up the image), +1 for DirectX.
 // Grazing normals are clamped to max_angle from +z keeping their azimuth, so
 // the slope stays finite and points the same way. Unusable normals (NaN, Inf,
 // zero length, or pointing straight down) become flat and are counted.
-__kernel void ddm_slopes(__global const float* normals, int channels, int texels,
+__kernel void ddm_slopes(__global const float* normals, int channels, int first, int count,
                          float scale, float bias, float zero_band, float green_to_row,
                          float cos_max_angle, float sin_max_angle,
                          __global float2* slopes, __global int* counters)
 {
-    int i = get_global_id(0);
-    if (i >= texels)
+    int k = get_global_id(0);
+    if (k >= count)
         return;
-    __global const float* v = normals + (size_t)i * channels;
+    int i = first + k;
+    __global const float* v = normals + (size_t)k * channels;
     float nx = v[0] * scale + bias;
     float ny = (v[1] * scale + bias) * green_to_row;
     // Integer maps have no code for 0: the two codes around the midpoint

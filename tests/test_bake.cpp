@@ -653,3 +653,29 @@ TEST_CASE("bake: a 3-channel map is offsets only when relief says so", "[bake][e
     normals.specmod().attribute("relief:method", "correct");
     CHECK(relief::bake(out, tex, normals));
 }
+
+TEST_CASE("bake: a texture larger than one device buffer goes one channel at a time, same bits",
+          "[bake]")
+{
+    // 37 x 29 x 4 floats = 17168 bytes; the offsets take 8584. A cap between
+    // them makes the gather run per channel plane.
+    const int w = 37, h = 29, nch = 4;
+    const auto src = random_field(std::size_t(w) * h * nch, 3, 0.0f, 1.0f);
+    const auto off = random_field(2 * std::size_t(w) * h, 4, -0.1f, 0.1f);
+    auto ctx = host::ComputeContext::acquire("auto");
+    for (bool bicubic : {false, true}) {
+        INFO("bicubic " << bicubic);
+        const auto filter = bicubic ? host::BakeFilter::Bicubic : host::BakeFilter::Bilinear;
+        std::vector<float> whole(src.size()), planes(src.size());
+        host::bake_gather(*ctx, src.data(), w, h, nch, off.data(), true, filter, whole.data());
+        ::setenv("RELIEF_DEVICE_MAX_ALLOC", "10000", 1);
+        try {
+            host::bake_gather(*ctx, src.data(), w, h, nch, off.data(), true, filter, planes.data());
+        } catch (...) {
+            ::unsetenv("RELIEF_DEVICE_MAX_ALLOC");
+            throw;
+        }
+        ::unsetenv("RELIEF_DEVICE_MAX_ALLOC");
+        CHECK(whole == planes);
+    }
+}

@@ -7,6 +7,7 @@
 #include "reference/ddm_reference.h"
 #include "relief/relief.h"
 #include "support/fields.h"
+#include "support/images.h"
 
 using namespace relief;
 using relief::test::Green;
@@ -293,4 +294,28 @@ TEST_CASE("a float map stored in [0, 1] read as signed warns to use range=unsign
     REQUIRE_FALSE(out.has_error());
     CHECK(warned.empty());
     CHECK(max_diff(pixels(out), g) < 2e-5);
+}
+
+TEST_CASE("the normal map goes to the device in chunks: same slopes, same counts", "[ddm]")
+{
+    // A cap between the slopes' 8 bytes and the RGB input's 12 per texel
+    // makes the upload come in chunks; bad and grazing texels land in both.
+    const int w = kField.width, h = kField.height;  // 6144 texels
+    auto normals = test::normal_image(kField.slopes(), w, h, Green::OpenGL, TypeDesc::FLOAT);
+    std::vector<float> px = pixels(normals);
+    px[3 * 10] = std::numeric_limits<float>::quiet_NaN();  // chunk 1
+    px[3 * 6000 + 2] = 0.01f;                               // chunk 2: grazing
+    const OIIO::ImageBuf damaged = test::image(w, h, 3, px);
+    const SlopeOptions o = with(NormalConvention::OpenGL);
+    const OIIO::ImageBuf a = slopes(damaged, o);
+    ::setenv("RELIEF_DEVICE_MAX_ALLOC", "60000", 1);  // 6144 * 8 < 60000 < 6144 * 12
+    const OIIO::ImageBuf b = slopes(damaged, o);
+    ::unsetenv("RELIEF_DEVICE_MAX_ALLOC");
+    REQUIRE_FALSE(b.has_error());
+    CHECK(pixels(a) == pixels(b));
+    CHECK(a.spec().get_int_attribute("relief:invalid_normals") == 1);
+    CHECK(b.spec().get_int_attribute("relief:invalid_normals") == 1);
+    CHECK(b.spec().get_int_attribute("relief:clamped_normals") >= 1);
+    CHECK(a.spec().get_int_attribute("relief:clamped_normals") ==
+          b.spec().get_int_attribute("relief:clamped_normals"));
 }
