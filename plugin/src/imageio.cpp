@@ -48,7 +48,7 @@ bool read_image(ImageBuf& dst, const std::string& path)
         if (why.empty())
             why = OIIO::geterror();
         // OIIO's PNM reader, for one, fails a truncated file without a word.
-        if (why.empty() || why == "unknown error")
+        if (why.empty())
             why = "the file is damaged or truncated (the image library gave no reason)";
         while (!why.empty() && why.back() == '\n')
             why.pop_back();
