@@ -150,18 +150,10 @@ RationalDirection nearest_direction(double target, int limit)
         RationalDirection c;
         c.a = (steep ? minor : maj) * (cx < 0 ? -1 : 1);
         c.b = (steep ? maj : minor) * (cy < 0 ? -1 : 1);
-        if (c.a == 0 && c.b == 0)
-            continue;
-        // On an axis or a diagonal, the mirror image is equally near.
-        RationalDirection mirrors[3] = {c, c, c};
-        mirrors[1].a = c.a == 0 ? 0 : -c.a;
-        mirrors[2].b = c.b == 0 ? 0 : -c.b;
-        for (const RationalDirection& m : mirrors) {
-            const double err = angle_error(m, target);
-            if (better_direction(m, err, best, best_err)) {
-                best = m;
-                best_err = err;
-            }
+        const double err = angle_error(c, target);
+        if (better_direction(c, err, best, best_err)) {
+            best = c;
+            best_err = err;
         }
     }
     return best;
