@@ -1,6 +1,9 @@
-// Weighted least-squares integration: conjugate gradients on the device
-// (kernels/poisson_weighted.cl) in the Riesz form of the spectral problem,
-// so that weights of all ones give the unmasked Frankot–Chellappa answer.
+// Weighted least-squares integration: preconditioned conjugate gradients on
+// the device (kernels/poisson_weighted.cl), the unweighted Laplacian as the
+// preconditioner. The targets carry the difference between the spectral
+// (unmasked) and the discrete solution of the same slopes, so that all-ones
+// weights give the unmasked answer and the answer moves continuously with
+// the weights.
 #include <cmath>
 #include <optional>
 #include <vector>
@@ -16,8 +19,8 @@ namespace relief::host {
 
 namespace {
 
-// Weight an excluded texel keeps (with target 0): holes fill smoothly.
-constexpr float kExcludedWeight = 1e-3f;
+// Weight of the edges an excluded texel keeps: holes fill smoothly.
+constexpr float kExcludedEdgeWeight = 1e-3f;
 
 } // namespace
 
@@ -30,114 +33,94 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
         if (!(p.weights[i] >= 0.0f && p.weights[i] <= 1.0f))
             throw Error("mask weights must be in [0, 1] (texel " + std::to_string(i) + ")");
     const bool periodic = p.boundary == PoissonBoundary::Periodic;
-    // A one-texel-wide texture is solved transposed, as in poisson_stage.
-    const bool transposed = w == 1;
-    const int n0 = transposed ? h : w, n1 = transposed ? 1 : h;
-    const std::size_t stride =
-        periodic ? FftPlan::row_stride(n0) : std::size_t(n0);
-    const std::size_t bins = periodic ? std::size_t(n0 / 2 + 1) * n1 : n;
+    // The Laplacian of a one-texel-wide texture is the same path graph
+    // whichever way round; the transforms want it along axis 0.
+    const int n0 = w == 1 ? h : w, n1 = w == 1 ? 1 : h;
+    const std::size_t stride = periodic ? FftPlan::row_stride(n0) : std::size_t(n0);
     const std::size_t groups = padded(n) / kGroupSize;
-
     auto& c = ctx.impl();
+
+    // The masked slopes s g, and their spectral (unmasked-path) solution.
+    std::shared_ptr<DeviceSlopes::Impl> masked = std::make_shared<DeviceSlopes::Impl>();
+    cl::Buffer weight;
+    try {
+        std::lock_guard<std::mutex> lock(c.mutex);
+        weight = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n,
+                          "the weighted Poisson stage", p.weights);
+        masked->buffer = c.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * n,
+                                  "the weighted Poisson stage");
+        cl::Kernel k(c.program("poisson_weighted.cl"), "weighted_mask_slopes");
+        k.setArg(0, slopes.impl().buffer);
+        k.setArg(1, weight);
+        k.setArg(2, cl_int(n));
+        k.setArg(3, kExcludedEdgeWeight);
+        k.setArg(4, masked->buffer);
+        c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(n)),
+                                     cl::NDRange(kGroupSize));
+    } catch (const cl::Error& e) {
+        throw Error(std::string("OpenCL error in the weighted Poisson stage: ") + e.what() + " (" +
+                    std::to_string(e.err()) + ")");
+    }
+    const DeviceSlopes sg(w, h, masked);
+    std::vector<float> spectral(n);
+    {
+        PoissonParams plain = p;
+        plain.weights = nullptr;
+        integrate_poisson(ctx, sg, plain, spectral.data());
+    }
+
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
         cl::Program& prog = c.program("poisson_weighted.cl");
         auto buffer = [&](std::size_t bytes) {
             return c.buffer(CL_MEM_READ_WRITE, bytes, "the weighted Poisson stage");
         };
-        cl::Buffer weight = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n, "the weighted Poisson stage", p.weights);
-        cl::Buffer cw = buffer(sizeof(float) * n), target = buffer(sizeof(cl_float2) * n);
-        cl::Buffer x = buffer(sizeof(float) * n), r = buffer(sizeof(float) * n);
+        cl::Buffer edge_c = buffer(sizeof(cl_float2) * n), edge_t = buffer(sizeof(cl_float2) * n);
+        cl::Buffer x = c.buffer(CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(float) * n,
+                                "the weighted Poisson stage", spectral.data());
+        cl::Buffer r = buffer(sizeof(float) * n), z = buffer(sizeof(float) * n);
         cl::Buffer d = buffer(sizeof(float) * n), q = buffer(sizeof(float) * n);
         cl::Buffer partial = buffer(sizeof(float) * groups);
-        cl::Buffer gu = buffer(sizeof(float) * stride * n1), gx = buffer(sizeof(float) * stride * n1),
-                   gy = buffer(sizeof(float) * stride * n1);
+        cl::Buffer grid = buffer(sizeof(float) * stride * n1);
         std::optional<FftPlan> fft;
         std::optional<DctPlan> dct;
         if (periodic)
             fft.emplace(c, n0, n1);
         else
             dct.emplace(c, n0, n1);
-        auto forward = [&](cl::Buffer& b) { periodic ? fft->forward(b) : dct->forward(b); };
-        auto inverse = [&](cl::Buffer& b) { periodic ? fft->inverse(b) : dct->inverse(b); };
-        auto run = [&](cl::Kernel& k, std::size_t items) {
-            c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(items)),
-                                         cl::NDRange(kGroupSize));
+        const cl::NDRange global(padded(n)), local(kGroupSize);
+        auto run = [&](cl::Kernel& k, std::size_t items = 0) {
+            c.queue.enqueueNDRangeKernel(k, cl::NullRange, items ? cl::NDRange(padded(items)) : global,
+                                         local);
         };
 
-        cl::Kernel targets(prog, "weighted_targets");
-        targets.setArg(0, slopes.impl().buffer);
-        targets.setArg(1, weight);
-        targets.setArg(2, cl_int(n));
-        targets.setArg(3, cl_int(transposed));
-        targets.setArg(4, kExcludedWeight);
-        targets.setArg(5, cw);
-        targets.setArg(6, target);
-        run(targets, n);
-
-        cl::Kernel to_grid(prog, "weighted_to_grid"), from_grid(prog, "weighted_from_grid");
-        for (cl::Kernel* k : {&to_grid, &from_grid}) {
-            k->setArg(1, cl_int(n0));
-            k->setArg(2, cl_int(n1));
-            k->setArg(3, cl_int(stride));
-        }
-        cl::Kernel riesz(prog, "weighted_riesz"), adjoint(prog, "weighted_riesz_adjoint");
-        riesz.setArg(0, gu);  // (u, n0, n1, periodic, gx, gy)
-        riesz.setArg(1, cl_int(n0));
-        riesz.setArg(2, cl_int(n1));
-        riesz.setArg(3, cl_int(periodic));
-        riesz.setArg(4, gx);
-        riesz.setArg(5, gy);
-        adjoint.setArg(0, gx);  // (gx, gy, n0, n1, periodic, u)
-        adjoint.setArg(1, gy);
-        adjoint.setArg(2, cl_int(n0));
-        adjoint.setArg(3, cl_int(n1));
-        adjoint.setArg(4, cl_int(periodic));
-        adjoint.setArg(5, gu);
-        cl::Kernel scale(prog, "weighted_scale");
-        scale.setArg(0, gx);
-        scale.setArg(1, gy);
-        scale.setArg(2, cw);
-        scale.setArg(3, cl_int(n0));
-        scale.setArg(4, cl_int(n1));
-        scale.setArg(5, cl_int(stride));
-
-        // out = R* (gx, gy) for real-space fields in gx, gy.
-        auto apply_adjoint = [&](cl::Buffer& out) {
-            forward(gx);
-            forward(gy);
-            run(adjoint, bins);
-            inverse(gu);
-            from_grid.setArg(0, gu);
-            from_grid.setArg(4, out);
-            run(from_grid, n);
+        cl::Kernel edges(prog, "weighted_edges");
+        auto set_edges = [&](int unit) {
+            int a = 0;
+            edges.setArg(a++, masked->buffer);
+            edges.setArg(a++, weight);
+            edges.setArg(a++, z);  // delta, once computed
+            edges.setArg(a++, cl_int(w));
+            edges.setArg(a++, cl_int(h));
+            edges.setArg(a++, cl_int(periodic));
+            edges.setArg(a++, kExcludedEdgeWeight);
+            edges.setArg(a++, cl_int(unit));
+            edges.setArg(a++, edge_c);
+            edges.setArg(a++, edge_t);
+            run(edges);
         };
-        // out = R* C R v
-        auto apply = [&](cl::Buffer& v, cl::Buffer& out) {
-            to_grid.setArg(0, v);
-            to_grid.setArg(4, gu);
-            run(to_grid, n);
-            forward(gu);
-            run(riesz, bins);
-            inverse(gx);
-            inverse(gy);
-            run(scale, n);
-            apply_adjoint(out);
-        };
-
-        cl::Kernel load(prog, "weighted_load_targets");
-        load.setArg(0, cw);
-        load.setArg(1, target);
-        load.setArg(2, cl_int(n0));
-        load.setArg(3, cl_int(n1));
-        load.setArg(4, cl_int(stride));
-        load.setArg(5, cl_int(!periodic));
-        load.setArg(6, gx);
-        load.setArg(7, gy);
-        run(load, n);
-        apply_adjoint(r);  // x = 0, so r = b = R* C t
-        c.queue.enqueueFillBuffer(x, 0.0f, 0, sizeof(float) * n);
-
+        cl::Kernel rhs(prog, "weighted_rhs");
+        rhs.setArg(0, edge_c);
+        rhs.setArg(1, edge_t);
+        rhs.setArg(2, cl_int(w));
+        rhs.setArg(3, cl_int(h));
+        rhs.setArg(4, cl_int(periodic));
+        rhs.setArg(5, r);  // b
+        cl::Kernel apply(prog, "weighted_apply");
+        apply.setArg(1, edge_c);
+        apply.setArg(2, cl_int(w));
+        apply.setArg(3, cl_int(h));
+        apply.setArg(4, cl_int(periodic));
         cl::Kernel dot_k(prog, "weighted_dot");
         std::vector<float> partial_host(groups);
         auto dot = [&](cl::Buffer& a, cl::Buffer& b) {
@@ -145,7 +128,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
             dot_k.setArg(1, b);
             dot_k.setArg(2, cl_int(n));
             dot_k.setArg(3, partial);
-            run(dot_k, n);
+            run(dot_k);
             c.queue.enqueueReadBuffer(partial, CL_TRUE, 0, sizeof(float) * groups,
                                       partial_host.data());
             double s = 0.0;
@@ -159,53 +142,82 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
             axpy.setArg(1, v);
             axpy.setArg(2, float(alpha));
             axpy.setArg(3, cl_int(n));
-            run(axpy, n);
+            run(axpy);
+        };
+        cl::Kernel to_grid(prog, "weighted_to_grid"), from_grid(prog, "weighted_from_grid");
+        cl::Kernel divide(prog, "weighted_laplace_divide");
+        auto precondition = [&]() {  // z = L^-1 r
+            to_grid.setArg(0, r);
+            to_grid.setArg(1, cl_int(n0));
+            to_grid.setArg(2, cl_int(n1));
+            to_grid.setArg(3, cl_int(stride));
+            to_grid.setArg(4, grid);
+            run(to_grid);
+            periodic ? fft->forward(grid) : dct->forward(grid);
+            divide.setArg(0, grid);
+            divide.setArg(1, cl_int(n0));
+            divide.setArg(2, cl_int(n1));
+            divide.setArg(3, cl_int(periodic));
+            run(divide, std::size_t(periodic ? n0 / 2 + 1 : n0) * n1);
+            periodic ? fft->inverse(grid) : dct->inverse(grid);
+            from_grid.setArg(0, grid);
+            from_grid.setArg(1, cl_int(n0));
+            from_grid.setArg(2, cl_int(n1));
+            from_grid.setArg(3, cl_int(stride));
+            from_grid.setArg(4, z);
+            run(from_grid);
         };
 
+        // delta = FC(s g) - (the discrete solution of mean(s g)), into z.
+        set_edges(1);
+        run(rhs);
+        precondition();           // z = L^-1 D^T mean(s g)
+        cl::Kernel negate(prog, "weighted_xpby");  // z = x + (-1) z
+        negate.setArg(0, z);
+        negate.setArg(1, x);
+        negate.setArg(2, -1.0f);
+        negate.setArg(3, cl_int(n));
+        run(negate);
+        set_edges(0);
+        run(rhs);  // r = b
+        // Start from the spectral solution: exact when all weights are 1.
+        apply.setArg(0, x);
+        apply.setArg(5, q);
+        run(apply);
+        const double norm_b = std::sqrt(dot(r, r));
+        add(r, q, -1.0);  // r = b - A x
+        apply.setArg(0, d);
+
         PoissonReport rep;
-        double rr = dot(r, r);
-        const double norm_b = std::sqrt(rr);
-        if (norm_b > 0.0) {
-            c.queue.enqueueCopyBuffer(r, d, 0, 0, sizeof(float) * n);
+        rep.residual = norm_b > 0.0 ? std::sqrt(dot(r, r)) / norm_b : 0.0;
+        if (norm_b > 0.0 && rep.residual > p.tolerance) {
+            precondition();
+            c.queue.enqueueCopyBuffer(z, d, 0, 0, sizeof(float) * n);
+            double rz = dot(r, z);
             for (rep.iterations = 1; rep.iterations <= p.max_iterations; ++rep.iterations) {
-                apply(d, q);
+                run(apply);  // q = A d
                 const double dq = dot(d, q);
                 if (!(dq > 0.0))
                     break;  // converged to rounding (d in the null space)
-                const double alpha = rr / dq;
+                const double alpha = rz / dq;
                 add(x, d, alpha);
                 add(r, q, -alpha);
-                const double rr_next = dot(r, r);
-                rep.residual = std::sqrt(rr_next) / norm_b;
+                rep.residual = std::sqrt(dot(r, r)) / norm_b;
                 if (rep.residual <= p.tolerance)
                     break;
+                precondition();
+                const double rz_next = dot(r, z);
                 xpby.setArg(0, d);
-                xpby.setArg(1, r);
-                xpby.setArg(2, float(rr_next / rr));
+                xpby.setArg(1, z);
+                xpby.setArg(2, float(rz_next / rz));
                 xpby.setArg(3, cl_int(n));
-                run(xpby, n);
-                rr = rr_next;
+                run(xpby);
+                rz = rz_next;
             }
             rep.iterations = std::min(rep.iterations, p.max_iterations);
         }
         if (report)
             *report = rep;
-
-        // h = L^{-1/2} x
-        to_grid.setArg(0, x);
-        to_grid.setArg(4, gu);
-        run(to_grid, n);
-        forward(gu);
-        cl::Kernel unriesz(prog, "weighted_unriesz");
-        unriesz.setArg(0, gu);
-        unriesz.setArg(1, cl_int(n0));
-        unriesz.setArg(2, cl_int(n1));
-        unriesz.setArg(3, cl_int(periodic));
-        run(unriesz, bins);
-        inverse(gu);
-        from_grid.setArg(0, gu);
-        from_grid.setArg(4, x);
-        run(from_grid, n);
         c.queue.enqueueReadBuffer(x, CL_TRUE, 0, sizeof(float) * n, height_out);
     } catch (const cl::Error& e) {
         throw Error(std::string("OpenCL error in the weighted Poisson stage: ") + e.what() + " (" +

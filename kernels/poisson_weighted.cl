@@ -1,188 +1,113 @@
 // Weighted least-squares integration (DESIGN.md §4.4, masks and confidence
-// weights), solved by conjugate gradients. common.h is prepended by the
-// host; the transforms between these kernels are VkFFT's (R2C, periodic) or
-// host/dct_plan's (DCT-II, free).
+// weights), solved by preconditioned conjugate gradients. common.h is
+// prepended by the host; the preconditioner's transforms are host/fft_plan's
+// (periodic) and host/dct_plan's (free).
 //
-// One problem with the unmasked solve: the same spectral gradient, the
-// gradient of the Frankot–Chellappa basis (kernels/poisson.cl), with a
-// weight per texel. Minimise
-//   sum_p c_p |grad h(p) - t_p|^2,  c_p = max(w_p, eps),  t_p = (w_p / c_p) g_p
-// so an excluded texel (weight 0) is filled smoothly (target 0 at weight
-// eps) and all weights 1 give exactly the unmasked answer. Substituting
-// h = L^{-1/2} u (L the Laplacian, diagonal in the basis) turns the normal
-// equations into R* C R u = R* C t with R = grad L^{-1/2}, the Riesz
-// transform: its preconditioned form, solved by plain CG in u.
-//
-// Grids: the transform layout, n0 (fast) x n1, rows of `stride` floats.
-// periodic: R2C spectra, n0/2 + 1 complex values per row; R multiplies by
-//           i w / |w|, R* by -i w / |w|; the mean and Nyquist terms are 0.
-// free:     DCT-II coefficients U[k,l] of u; gx is a sine series in x, held
-//           as the DCT of (-1)^x gx read at k' = n0 - k (kernels/poisson.cl).
-//           (-1)^x C (-1)^x = C, so the weights apply without the signs.
-//           R:  Yx[n0-k, l] = -(wk/|w|) U[k,l],  Yy[k, n1-l] = -(wl/|w|) U[k,l]
-//           R*: U[k,l] = -(wk/|w|) Yx[n0-k, l] - (wl/|w|) Yy[k, n1-l]
-//           (the DCT's row scaling cancels: k and n0 - k are both >= 1).
+// Unknowns: the height h per texel. Edges join each texel to its right and
+// lower neighbour (wrapping under periodic boundaries; none across the edge
+// under free ones). Edge e = (p -> q) wants h(q) - h(p) = t_e with weight
+//   c_e = max(min(w_p, w_q), eps).
+// One problem with the unmasked (spectral, Frankot–Chellappa) solve: the
+// targets are
+//   t_e = mean of (s g) over p, q  +  delta(q) - delta(p),
+//   s = w / max(w, eps) per texel (0 for an excluded texel, 1 from eps up),
+//   delta = FC(s g) - L^-1 D^T mean(s g)
+// (the spectral solution minus the discrete one of the same slopes). With
+// all weights 1 the discrete solution is then FC(g) exactly, and it moves
+// continuously with the weights; an excluded texel's slopes are not used
+// and its hole is filled smoothly (weight eps). The normal equations A h = b:
+//   (A h)_p = sum over p's edges of c_e (h_p - h_other)
+//   b_p     = sum over edges into p of c_e t_e - sum over edges out of p.
+// The preconditioner is the unweighted Laplacian (all c_e = 1), inverted
+// exactly by a DCT (free) or FFT (periodic).
 
-// Per texel: the weight and the (weighted) target slope along the grid's
-// axes (swapped when the texture is solved transposed).
-__kernel void weighted_targets(__global const float2* slopes, __global const float* weight,
-                               int n, int transposed, float eps, __global float* c,
-                               __global float2* t)
+// s g per texel: the slopes an excluded texel contributes are 0.
+__kernel void weighted_mask_slopes(__global const float2* slopes, __global const float* weight,
+                                   int n, float eps, __global float2* out)
 {
     int p = get_global_id(0);
     if (p >= n)
         return;
-    float w = weight[p], cp = fmax(w, eps);
-    float2 g = slopes[p];
-    c[p] = cp;
-    t[p] = (w / cp) * (transposed ? (float2)(g.y, g.x) : g);
+    float w = weight[p];
+    out[p] = (w / fmax(w, eps)) * slopes[p];
 }
 
-// gx, gy grids of c * t, with the free boundary's (-1)^x and (-1)^y.
-__kernel void weighted_load_targets(__global const float* c, __global const float2* t, int n0,
-                                    int n1, int stride, int alternate, __global float* gx,
-                                    __global float* gy)
+inline int right_of(int x, int width, int periodic)
+{
+    return x + 1 < width ? x + 1 : (periodic ? 0 : -1);
+}
+
+// Per texel: the weights and targets of its edge to the right (x) and
+// below (y), from the masked slopes sg. unit: all weights 1 and no delta
+// (the discrete solve of mean(s g) that delta needs).
+__kernel void weighted_edges(__global const float2* sg, __global const float* weight,
+                             __global const float* delta, int width, int height, int periodic,
+                             float eps, int unit, __global float2* c, __global float2* t)
 {
     int p = get_global_id(0);
-    if (p >= n0 * n1)
+    if (p >= width * height)
         return;
-    int i = p % n0, j = p / n0;
-    float2 v = c[p] * t[p];
-    if (alternate) {
-        v.x = (i & 1) ? -v.x : v.x;
-        v.y = (j & 1) ? -v.y : v.y;
+    int x = p % width, y = p / width;
+    float2 cc = (float2)(0.0f), tt = (float2)(0.0f);
+    int xr = right_of(x, width, periodic), yd = right_of(y, height, periodic);
+    if (xr >= 0 && xr != x) {
+        int q = y * width + xr;
+        cc.x = unit ? 1.0f : fmax(fmin(weight[p], weight[q]), eps);
+        tt.x = 0.5f * (sg[p].x + sg[q].x) + (unit ? 0.0f : delta[q] - delta[p]);
     }
-    gx[j * stride + i] = v.x;
-    gy[j * stride + i] = v.y;
+    if (yd >= 0 && yd != y) {
+        int q = yd * width + x;
+        cc.y = unit ? 1.0f : fmax(fmin(weight[p], weight[q]), eps);
+        tt.y = 0.5f * (sg[p].y + sg[q].y) + (unit ? 0.0f : delta[q] - delta[p]);
+    }
+    c[p] = cc;
+    t[p] = tt;
 }
 
-// In place on the gx and gy grids (real space): times c.
-__kernel void weighted_scale(__global float* gx, __global float* gy, __global const float* c,
-                             int n0, int n1, int stride)
+inline int left_of(int x, int width, int periodic)
+{
+    return x > 0 ? x - 1 : (periodic ? width - 1 : -1);
+}
+
+__kernel void weighted_rhs(__global const float2* c, __global const float2* t, int width,
+                           int height, int periodic, __global float* b)
 {
     int p = get_global_id(0);
-    if (p >= n0 * n1)
+    if (p >= width * height)
         return;
-    int g = (p / n0) * stride + p % n0;
-    gx[g] *= c[p];
-    gy[g] *= c[p];
+    int x = p % width, y = p / width;
+    float v = -(c[p].x * t[p].x + c[p].y * t[p].y);
+    int xl = left_of(x, width, periodic), yu = left_of(y, height, periodic);
+    if (xl >= 0 && xl != x) {
+        int q = y * width + xl;
+        v += c[q].x * t[q].x;
+    }
+    if (yu >= 0 && yu != y) {
+        int q = yu * width + x;
+        v += c[q].y * t[q].y;
+    }
+    b[p] = v;
 }
 
-// Angular frequencies of bin (k, l); periodic bins are R2C (k <= n0/2).
-inline float2 bin_omega(int k, int l, int n0, int n1, int periodic)
+__kernel void weighted_apply(__global const float* h, __global const float2* c, int width,
+                             int height, int periodic, __global float* out)
 {
-    if (!periodic)
-        return (float2)(M_PI_F * k / n0, M_PI_F * l / n1);
-    int sl = l < (n1 + 1) / 2 ? l : l - n1;
-    return (float2)(2.0f * M_PI_F * k / n0, 2.0f * M_PI_F * sl / n1);
-}
-
-inline int periodic_dropped(int k, int l, int n0, int n1)
-{
-    return (k == 0 && l == 0) || 2 * k == n0 || (n1 > 1 && 2 * l == n1);
-}
-
-// R: the spectrum of u to the spectra of gx and gy.
-__kernel void weighted_riesz(__global const float* u, int n0, int n1, int periodic,
-                             __global float* gx, __global float* gy)
-{
-    int gid = get_global_id(0);
-    if (periodic) {
-        int columns = n0 / 2 + 1;
-        if (gid >= columns * n1)
-            return;
-        int k = gid % columns, l = gid / columns;
-        __global const float2* U = (__global const float2*)u;
-        __global float2* X = (__global float2*)gx;
-        __global float2* Y = (__global float2*)gy;
-        if (periodic_dropped(k, l, n0, n1)) {
-            X[gid] = Y[gid] = (float2)(0.0f);
-            return;
-        }
-        float2 w = bin_omega(k, l, n0, n1, 1);
-        w /= length(w);
-        float2 z = U[gid];
-        float2 iz = (float2)(-z.y, z.x);
-        X[gid] = w.x * iz;
-        Y[gid] = w.y * iz;
+    int p = get_global_id(0);
+    if (p >= width * height)
         return;
-    }
-    if (gid >= n0 * n1)
-        return;
-    int k = gid % n0, l = gid / n0;
-    // Written at the mirrored positions the coefficients are read from.
-    float vx = 0.0f, vy = 0.0f;
-    if (k > 0) {  // Yx[k, l] = -(w_k'/|w|) U[k', l], k' = n0 - k
-        int kk = n0 - k;
-        float2 w = bin_omega(kk, l, n0, n1, 0);
-        vx = -w.x / length(w) * u[l * n0 + kk];
-    }
-    if (l > 0) {
-        int ll = n1 - l;
-        float2 w = bin_omega(k, ll, n0, n1, 0);
-        vy = -w.y / length(w) * u[ll * n0 + k];
-    }
-    gx[gid] = vx;
-    gy[gid] = vy;
-}
-
-// R*: the spectra of gx and gy to that of u (out of place).
-__kernel void weighted_riesz_adjoint(__global const float* gx, __global const float* gy, int n0,
-                                     int n1, int periodic, __global float* u)
-{
-    int gid = get_global_id(0);
-    if (periodic) {
-        int columns = n0 / 2 + 1;
-        if (gid >= columns * n1)
-            return;
-        int k = gid % columns, l = gid / columns;
-        __global const float2* X = (__global const float2*)gx;
-        __global const float2* Y = (__global const float2*)gy;
-        __global float2* U = (__global float2*)u;
-        if (periodic_dropped(k, l, n0, n1)) {
-            U[gid] = (float2)(0.0f);
-            return;
-        }
-        float2 w = bin_omega(k, l, n0, n1, 1);
-        w /= length(w);
-        float2 s = w.x * X[gid] + w.y * Y[gid];
-        U[gid] = (float2)(s.y, -s.x);  // -i s
-        return;
-    }
-    if (gid >= n0 * n1)
-        return;
-    int k = gid % n0, l = gid / n0;
-    float2 w = bin_omega(k, l, n0, n1, 0);
-    float norm = length(w);
-    float v = 0.0f;
-    if (norm > 0.0f) {
-        if (k > 0)
-            v -= w.x / norm * gx[l * n0 + (n0 - k)];
-        if (l > 0)
-            v -= w.y / norm * gy[(n1 - l) * n0 + k];
-    }
-    u[gid] = v;
-}
-
-// h = L^{-1/2} u in the spectrum, in place: divided by |w|.
-__kernel void weighted_unriesz(__global float* u, int n0, int n1, int periodic)
-{
-    int gid = get_global_id(0);
-    if (periodic) {
-        int columns = n0 / 2 + 1;
-        if (gid >= columns * n1)
-            return;
-        int k = gid % columns, l = gid / columns;
-        __global float2* U = (__global float2*)u;
-        U[gid] = periodic_dropped(k, l, n0, n1)
-                     ? (float2)(0.0f)
-                     : U[gid] / length(bin_omega(k, l, n0, n1, 1));
-        return;
-    }
-    if (gid >= n0 * n1)
-        return;
-    int k = gid % n0, l = gid / n0;
-    u[gid] = gid == 0 ? 0.0f : u[gid] / length(bin_omega(k, l, n0, n1, 0));
+    int x = p % width, y = p / width;
+    float hp = h[p], v = 0.0f;
+    int xr = right_of(x, width, periodic), yd = right_of(y, height, periodic);
+    int xl = left_of(x, width, periodic), yu = left_of(y, height, periodic);
+    if (xr >= 0 && xr != x)
+        v += c[p].x * (hp - h[y * width + xr]);
+    if (yd >= 0 && yd != y)
+        v += c[p].y * (hp - h[yd * width + x]);
+    if (xl >= 0 && xl != x)
+        v += c[y * width + xl].x * (hp - h[y * width + xl]);
+    if (yu >= 0 && yu != y)
+        v += c[yu * width + x].y * (hp - h[yu * width + x]);
+    out[p] = v;
 }
 
 // Partial sums of a.b per work-group of 64 (the host adds them in a fixed
@@ -234,4 +159,29 @@ __kernel void weighted_from_grid(__global const float* grid, int n0, int n1, int
     int i = get_global_id(0);
     if (i < n0 * n1)
         v[i] = grid[(i / n0) * stride + i % n0];
+}
+
+// Divides a spectrum by the unweighted Laplacian's eigenvalues
+// 4 sin^2(w/2) per axis (not 2 - 2 cos w: in float that is 0 for the lowest
+// mode of a 16384-texel axis); the mean (eigenvalue 0) is dropped.
+// Periodic: R2C layout, complex; free: DCT-II.
+__kernel void weighted_laplace_divide(__global float* grid, int n0, int n1, int periodic)
+{
+    int columns = periodic ? n0 / 2 + 1 : n0;
+    int gid = get_global_id(0);
+    if (gid >= columns * n1)
+        return;
+    int k = gid % columns, l = gid / columns;
+    // Half angles in units of pi: w/2 = pi k / n0 (periodic), pi k / 2n0 (free).
+    float hk = periodic ? (float)k / n0 : (float)k / (2.0f * n0);
+    float hl = periodic ? (float)l / n1 : (float)l / (2.0f * n1);
+    float sk = sinpi(hk), sl = n1 > 1 ? sinpi(hl) : 0.0f;
+    float lambda = 4.0f * (sk * sk + sl * sl);
+    float scale = lambda > 0.0f ? 1.0f / lambda : 0.0f;
+    if (periodic) {
+        __global float2* g = (__global float2*)grid;
+        g[gid] *= scale;
+    } else {
+        grid[gid] *= scale;
+    }
 }

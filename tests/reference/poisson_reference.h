@@ -18,11 +18,12 @@ struct PoissonSettings {
 std::vector<double> poisson(const std::vector<double>& slopes, int width, int height,
                             const PoissonSettings& settings);
 
-// Weighted least squares with the spectral gradient of poisson() (the
-// derivative of the Frankot–Chellappa basis, as dense separable matrices):
-// minimise sum_p c_p |grad h(p) - t_p|^2, c_p = max(w_p, eps), t_p =
-// (w_p / c_p) g_p; plain conjugate gradients in double to a relative
-// residual of 1e-12. Zero mean. Weights of all ones give poisson().
+// Weighted least squares (kernels/poisson_weighted.cl): the discrete
+// least squares over edges to the right and lower neighbours, weights
+// c_e = max(min(w_p, w_q), eps), targets mean(s g) + delta(q) - delta(p),
+// s = w / max(w, eps), delta = poisson(s g) minus the unweighted discrete
+// solution of mean(s g); plain conjugate gradients in double to a relative
+// residual of 1e-12. Zero mean. Weights of all ones give poisson(g).
 std::vector<double> poisson_weighted(const std::vector<double>& slopes, int width, int height,
                                      const std::vector<double>& weights, bool periodic,
                                      double eps);
