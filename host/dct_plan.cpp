@@ -7,7 +7,7 @@ DctPlan::DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1)
       n0_(n0),
       n1_(n1),
       work_(c.buffer(CL_MEM_READ_WRITE, sizeof(float) * FftPlan::row_stride(n0) * n1, "the DCT")),
-      fft_(c, n0, n1)
+      fft_(c, n0, n1, work_)
 {
     cl::Program& prog = c.program("dct.cl");
     reorder_ = cl::Kernel(prog, "dct_reorder");

@@ -13,17 +13,29 @@ namespace relief::host {
 
 namespace {
 
-// One VkFFT application: a batched 1-D transform along the contiguous axis.
+// Whether VkFFT decomposes n into radix kernels (primes <= 13) rather than
+// Bluestein's algorithm.
+bool smooth(std::size_t n)
+{
+    for (std::size_t p : {2, 3, 5, 7, 11, 13})
+        while (n % p == 0)
+            n /= p;
+    return n == 1;
+}
+
+// One VkFFT application: a batched 1-D transform along the contiguous axis,
+// or (rows > 1) the whole 2-D R2C transform.
 class Transform1d {
 public:
     Transform1d(ComputeContext::Impl& c, std::size_t n, std::size_t batches, bool real,
-                cl::Buffer& buffer, std::size_t bytes)
+                cl::Buffer& buffer, std::size_t bytes, std::size_t rows = 1)
         : device_(c.device()), context_(c.context()), buffer_(buffer()), size_(bytes)
     {
         platform_ = c.device.getInfo<CL_DEVICE_PLATFORM>();
         VkFFTConfiguration config = {};
-        config.FFTdim = 1;
+        config.FFTdim = rows > 1 ? 2 : 1;
         config.size[0] = n;
+        config.size[1] = rows;
         config.numberBatches = batches;
         config.performR2C = real ? 1 : 0;
         config.normalize = 1;
@@ -67,7 +79,8 @@ private:
 struct FftPlan::Impl {
     ComputeContext::Impl& c;
     std::size_t n0, n1, columns;
-    std::unique_ptr<Transform1d> rows;     // R2C along axis 0, n1 batches
+    std::unique_ptr<Transform1d> rows;     // R2C along axis 0, n1 batches (or 2-D)
+    bool whole = false;                    // `rows` is the 2-D transform
     cl::Buffer work;                       // the transposed half spectrum
     std::unique_ptr<Transform1d> columns_fft;  // C2C along axis 1, `columns` batches
     cl::Kernel transpose;
@@ -86,7 +99,8 @@ struct FftPlan::Impl {
     }
 };
 
-FftPlan::FftPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1) : impl_(new Impl(c))
+FftPlan::FftPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, cl::Buffer& buffer)
+    : impl_(new Impl(c))
 {
     if (n0 < 2 || n1 < 1)
         throw Error("internal error: FFT plan of size " + std::to_string(n0) + "x" +
@@ -97,9 +111,16 @@ FftPlan::FftPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1) : impl
     p.columns = n0 / 2 + 1;
     const std::size_t bytes = sizeof(float) * row_stride(n0) * n1;
     // VkFFT builds its kernels against a buffer; launches name their own.
-    p.work = c.buffer(CL_MEM_READ_WRITE, bytes, "the FFT");
-    p.rows.reset(new Transform1d(c, n0, n1, true, p.work, bytes));
+    // A strided axis of radix sizes is VkFFT's common 2-D path, and faster
+    // (no transposes); only Bluestein along the strided axis crashed.
+    p.whole = n1 > 1 && smooth(n1);
+    if (p.whole) {
+        p.rows.reset(new Transform1d(c, n0, 1, true, buffer, bytes, n1));
+        return;
+    }
+    p.rows.reset(new Transform1d(c, n0, n1, true, buffer, bytes));
     if (n1 > 1) {
+        p.work = c.buffer(CL_MEM_READ_WRITE, bytes, "the FFT");
         p.columns_fft.reset(new Transform1d(c, n1, p.columns, false, p.work, bytes));
         p.transpose = cl::Kernel(c.program("fft.cl"), "fft_transpose");
     }
@@ -111,7 +132,7 @@ void FftPlan::forward(cl::Buffer& buffer)
 {
     auto& p = *impl_;
     p.rows->run(p.c.queue, buffer, -1);
-    if (p.n1 == 1)
+    if (p.n1 == 1 || p.whole)
         return;
     p.transpose_to(buffer, int(p.n1), int(p.columns), p.work);
     p.columns_fft->run(p.c.queue, p.work, -1);
@@ -121,7 +142,7 @@ void FftPlan::forward(cl::Buffer& buffer)
 void FftPlan::inverse(cl::Buffer& buffer)
 {
     auto& p = *impl_;
-    if (p.n1 > 1) {
+    if (p.n1 > 1 && !p.whole) {
         p.transpose_to(buffer, int(p.n1), int(p.columns), p.work);
         p.columns_fft->run(p.c.queue, p.work, 1);
         p.transpose_to(p.work, int(p.columns), int(p.n1), buffer);

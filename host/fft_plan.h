@@ -3,11 +3,12 @@
 // (Debian's libvkfft-dev). Used by the Poisson and ray stages, and by
 // DctPlan. Included only by host/*.cpp.
 //
-// VkFFT 1.2.26 is asked for batched 1-D transforms along the contiguous
-// axis only; a 2-D transform transposes the half spectrum between the two
-// passes (kernels/fft.cl). Its strided-axis kernels segfaulted on PoCL at
-// sizes such as 64x3001 (Bluestein along the strided axis), and its DCT at
-// more; the contiguous 1-D transforms are its most common path.
+// VkFFT 1.2.26's strided-axis Bluestein kernels (a strided length with a
+// prime factor > 13) segfaulted on PoCL at sizes such as 64x3001, and its
+// DCT at more. So a 2-D transform is VkFFT's own only when the strided
+// length factors into 2..13; otherwise it is a batched 1-D R2C along the
+// contiguous axis, a transpose of the half spectrum (kernels/fft.cl), a
+// batched 1-D C2C along the former columns and a transpose back.
 #include <CL/opencl.hpp>
 
 #include <cstddef>
@@ -24,8 +25,9 @@ public:
     static std::size_t row_stride(std::size_t n0) { return 2 * (n0 / 2 + 1); }
 
     // A 2-D plan over n0 (fast axis) x n1; a 1-D plan when n1 == 1. n0 >= 2.
-    // Launches may name any buffer of row_stride * n1 floats.
-    FftPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1);
+    // Launches may name any buffer of row_stride * n1 floats; VkFFT builds
+    // its kernels against `buffer`, which must outlive the plan.
+    FftPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, cl::Buffer& buffer);
     ~FftPlan();
     FftPlan(const FftPlan&) = delete;
     FftPlan& operator=(const FftPlan&) = delete;

@@ -56,7 +56,7 @@ void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes, const Po
         std::optional<FftPlan> fft;
         std::optional<DctPlan> dct;
         if (periodic)
-            fft.emplace(c, n0, n1);
+            fft.emplace(c, n0, n1, gx);
         else
             dct.emplace(c, n0, n1);
         auto forward = [&](cl::Buffer& b) { periodic ? fft->forward(b) : dct->forward(b); };

@@ -85,7 +85,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
         std::optional<FftPlan> fft;
         std::optional<DctPlan> dct;
         if (periodic)
-            fft.emplace(c, n0, n1);
+            fft.emplace(c, n0, n1, grid);
         else
             dct.emplace(c, n0, n1);
         const cl::NDRange global(padded(n)), local(kGroupSize);

@@ -287,7 +287,7 @@ void integrate_rays_by_fft(ComputeContext& ctx, const DeviceSlopes& slopes, cons
         cl::Buffer gy = c.buffer(CL_MEM_READ_WRITE, bytes, "ray integration");
         cl::Buffer bx = c.buffer(CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, "ray integration", kxf.data());
         cl::Buffer by = c.buffer(CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, "ray integration", kyf.data());
-        FftPlan plan(c, n0, n1);
+        FftPlan plan(c, n0, n1, gx);
         const cl::NDRange local(kGroupSize);
 
         cl::Kernel split(spectral, "poisson_split");
