@@ -1,8 +1,8 @@
 #pragma once
-// 2-D (or 1-D) DCT-II and its inverse on the device, by one VkFFT real
-// transform of the same size and the reordering kernels of kernels/dct.cl.
-// VkFFT 1.2.26's own DCT segfaults at sizes such as 64x3001 and refuses
-// shapes that need more than one pass on GPUs; its R2C has neither problem.
+// 2-D (or 1-D) DCT-II and its inverse on the device, by one real FFT of the
+// same size (FftPlan) and the reordering kernels of kernels/dct.cl. VkFFT
+// 1.2.26's own DCT segfaulted at sizes such as 64x3001 and refuses shapes
+// that need more than one pass on GPUs (error 3004); FftPlan avoids both.
 // Included only by host/*.cpp.
 #include <CL/opencl.hpp>
 
