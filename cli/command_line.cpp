@@ -1,33 +1,107 @@
 #include "command_line.h"
 
-#include <charconv>
-#include <cmath>
+#include <cstdio>
 #include <filesystem>
-#include <map>
-#include <set>
 
 namespace relief::cli {
 
 namespace fs = std::filesystem;
 
-const char* usage_text()
+namespace {
+
+constexpr std::size_t kColumn = 24, kWidth = 79;
+
+// "  left      text..." with text wrapped at kWidth and continued at kColumn.
+std::string help_line(const std::string& left, const std::string& text)
 {
-    return R"(relief — normal maps to displacement maps (OpenCL)
+    std::string out = left;
+    std::size_t col = left.size();
+    if (col + 1 >= kColumn) {
+        out += "\n";
+        col = 0;
+    }
+    out += std::string(kColumn - col, ' ');
+    col = kColumn;
+    std::size_t pos = 0;
+    bool first = true;
+    while (pos < text.size()) {
+        std::size_t end = text.find(' ', pos);
+        if (end == std::string::npos)
+            end = text.size();
+        const std::string word = text.substr(pos, end - pos);
+        if (!first && col + 1 + word.size() > kWidth) {
+            out += "\n" + std::string(kColumn, ' ');
+            col = kColumn;
+        } else if (!first) {
+            out += ' ';
+            ++col;
+        }
+        out += word;
+        col += word.size();
+        first = false;
+        pos = end + 1;
+    }
+    return out + "\n";
+}
+
+std::string values_text(const ModifierInfo& m)
+{
+    std::string words;
+    for (const auto& c : m.choices)
+        words += (words.empty() ? "" : "|") + c;
+    if (m.type == ModifierType::Choice)
+        return words;
+    return words.empty() ? m.placeholder : m.placeholder + "|" + words;
+}
+
+std::string range_help(const ModifierInfo& m)
+{
+    if (m.type != ModifierType::Integer && m.type != ModifierType::Number)
+        return "";
+    char lo[32], hi[32];
+    std::snprintf(lo, sizeof lo, "%g", m.min);
+    std::snprintf(hi, sizeof hi, "%g", m.max);
+    return std::string(m.type == ModifierType::Integer ? "; an integer in " : "; in ") +
+           (m.min_open ? "(" : "[") + lo + ", " + hi + (m.max_open ? ")" : "]") +
+           (m.unit.empty() ? "" : " " + m.unit);
+}
+
+std::string operations_help()
+{
+    std::string out = "Operations (from the stack's top; each pops its inputs and pushes its result):\n";
+    for (const OperationInfo& op : operations()) {
+        std::string inputs;
+        for (const ImageSlot& in : op.inputs)
+            inputs += (inputs.empty() ? "" : ", ") + in.name;
+        out += help_line("  --" + op.name + "[:MODS]", op.summary + ". Pops " + inputs + ".");
+    }
+    for (const OperationInfo& op : operations()) {
+        out += "Modifiers (:key=value) of --" + op.name + ":\n";
+        std::string group;
+        for (const ModifierInfo& m : op.modifiers) {
+            if (m.applies_to != group) {
+                group = m.applies_to;
+                if (!group.empty())
+                    out += "  with " + group + ":\n";
+            }
+            const std::string indent = group.empty() ? "  " : "    ";
+            out += help_line(indent + m.name + "=" + values_text(m),
+                             m.meaning + range_help(m) + " (default " + m.default_value + ")");
+        }
+    }
+    return out;
+}
+
+} // namespace
+
+const std::string& usage_text()
+{
+    static const std::string text = std::string(R"(relief — normal maps to displacement maps (OpenCL)
 
 Usage: relief [options] ARG...
 Arguments are read left to right over a stack of images, like oiiotool:
   FILE                  push an image (read as raw data, no colour conversion)
-  --slopes[:MODS]       pop a normal map, push its slopes (2 channels gx, gy:
-                        height change per texel step along x and y, texels)
-  --height[:MODS]       pop a normal map, push its displacement (1 channel,
-                        texel units: 1.0 = one texel's width; bumps positive,
-                        zero mean)
-  --correct[:MODS]      pop a height map, push its distortion-correcting
-                        offset map (2 channels du, dv in texture units:
-                        1 = the width, height; the surface point at u
-                        shows the texture at u + offset)
-  --bake[:MODS]         pop an offset map and the texture below it, push the
-                        texture resampled at u + offset(u)
+  --OPERATION[:MODS]    pop the operation's inputs, push its result
   -o FILE               write the top of the stack (atomically)
   -d TYPE               pixel type for the following -o: float (default),
                         half, uint16, uint8; integer files store
@@ -36,60 +110,7 @@ Arguments are read left to right over a stack of images, like oiiotool:
                         names (zip, piz, none...); default none for float
                         EXR (float heights barely compress), else the
                         format's own
-Modifiers (:key=value) of --slopes and --height:
-  normal=auto|opengl|directx   green convention (auto: the one with less curl)
-  max_angle=DEG         clamp grazing normals to DEG from +z (default 85)
-  range=signed|unsigned float/half normals in [-1,1] (default) or [0,1]
-Modifiers of --height:
-  method=auto|poisson|rays  auto (default): poisson, or rays when a ray
-                        modifier below is given
-  boundary=auto|periodic|free|clip  periodic: the texture tiles; free (clip
-                        for rays): it does not; auto (default): periodic when
-                        the slopes are continuous across the wrap seams
-  method=poisson: least squares (Frankot-Chellappa: the height whose
-                        gradient is closest to the slopes)
-    highpass=R          relief balance: remove structure larger than R
-                        texels (default 0 = off)
-    mask=FILE|alpha     per-texel weights in [0,1] (channel 0 of FILE, or
-                        the normal map's alpha); 0 excludes a texel's slopes
-  method=rays: radial ray integration (height minus its mean over the disk
-                        of radius R, from J rays per texel)
-    impl=fast|reference fast (default): cost independent of the radius
-    rays=J              ray directions (default 32)
-    radius=R            ray length in texels (default 64)
-    phase=PHI           angles 2*pi*(j+PHI)/J, PHI in [0,1) (default 0.5)
-    directions=rational|exact  integer steps nearest the angles (default),
-                        or the angles themselves (impl=reference only)
-    skip=on|off         skip tiles whose rays meet only zero slopes (default
-                        on; the result is identical)
-Modifiers of --correct:
-  scale=S               world height = S x stored height, the texture's width
-                        = 1 world unit (required unless the height map is
-                        relief's own, in texels: then 1/width)
-  theta=5               area exponent, 0..20 (higher: keep areas)
-  nodes=corner|center   mesh nodes at texel corners (default) or centres
-  boundary=auto|periodic|fixed  periodic: the texture tiles; fixed: the
-                        border stays; auto: periodic when the height is
-                        continuous across the wrap seams
-  fix=FILE|height:H0:DH keep texels with weight w within 1/w texels: w from
-                        channel 0 of FILE, or max(0, 1-|h-H0|/DH)
-  iterations=auto|N     per coarse-to-fine level (auto: until tolerance)
-  tolerance=1e-5        relative energy change at which auto stops
-  levels=auto|N         coarse-to-fine levels (1 = single resolution)
-  threshold=1e-3        correct nothing when no triangle's anisotropy or
-                        area change exceeds this (zero offsets)
-  skip=on|off           skip tiles whose nodes cannot move (same result)
-Modifiers of --bake:
-  filter=bilinear|bicubic  (default bilinear; bicubic = Catmull-Rom)
-  colorspace=auto|sRGB|linear|raw  colour is decoded to linear light with
-                        OpenColorIO ($OCIO, else the sRGB curve), filtered,
-                        encoded back; auto: the file's declared space, 8-bit
-                        PNG/JPEG as sRGB; raw: no conversion
-  kind=auto|color|normal|data|height  normal maps bake as data and are
-                        renormalised; height maps are refused
-  wrap=auto|periodic|clamp  auto: periodic when the offsets were computed
-                        with boundary=periodic
-Options:
+)") + operations_help() + R"(Options:
   --report FILE.json    write the --correct step's report: energy, iterations,
                         anisotropy and area ratio before/after, time
   --device DEV          auto (default: a GPU if any, else the CPU), gpu, cpu,
@@ -102,119 +123,16 @@ Environment:
   RELIEF_DEVICE_MAX_ALLOC=BYTES  the largest device buffer to allocate (default
                         and upper bound: the device's own limit); larger
                         needs are refused with the numbers
-Example:
+Examples:
   relief normal.png --height -o height.exr
   relief height.png --correct:scale=0.05:nodes=center -o offsets.exr
   relief albedo.png height.png --correct:scale=0.05 -o offsets.exr --bake -o albedo_fixed.png
   relief normal.png --height:normal=directx:rays=16:radius=32:boundary=clip -o height.exr
 )";
+    return text;
 }
 
 namespace {
-
-struct Modifiers {
-    std::string command;
-    std::map<std::string, std::string> values;
-};
-
-Modifiers split_modifiers(const std::string& arg)
-{
-    Modifiers m;
-    std::string last_key;
-    std::size_t pos = arg.find(':');
-    m.command = arg.substr(0, pos);
-    while (pos != std::string::npos) {
-        std::size_t next = arg.find(':', pos + 1);
-        std::string kv = arg.substr(pos + 1, next == std::string::npos ? next : next - pos - 1);
-        std::size_t eq = kv.find('=');
-        // fix=height:H0:DH carries its own colons.
-        if (eq == std::string::npos && !kv.empty() && m.values.count("fix") &&
-            m.values["fix"].rfind("height", 0) == 0 && last_key == "fix") {
-            m.values["fix"] += ":" + kv;
-            pos = next;
-            continue;
-        }
-        if (kv.empty() || eq == std::string::npos || eq == 0)
-            throw UsageError(arg + ": modifier '" + kv + "' is not key=value");
-        std::string key = kv.substr(0, eq);
-        if (m.values.count(key))
-            throw UsageError(arg + ": modifier '" + key + "' given twice");
-        m.values[key] = kv.substr(eq + 1);
-        last_key = key;
-        pos = next;
-    }
-    return m;
-}
-
-double parse_number(const std::string& arg, const std::string& key, const std::string& text)
-{
-    double v = 0.0;
-    const char* end = text.data() + text.size();
-    auto r = std::from_chars(text.data(), end, v);
-    if (text.empty() || r.ec != std::errc() || r.ptr != end || !std::isfinite(v))
-        throw UsageError(arg + ": " + key + "=" + text + " is not a number");
-    return v;
-}
-
-double parse_in_range(const std::string& arg, const std::string& key, const std::string& text,
-                      double lo, bool lo_open, double hi, bool hi_open, const char* what)
-{
-    double v = parse_number(arg, key, text);
-    if ((lo_open ? v <= lo : v < lo) || (hi_open ? v >= hi : v > hi))
-        throw UsageError(arg + ": " + key + "=" + text + " is out of range; " + what);
-    return v;
-}
-
-int parse_int(const std::string& arg, const std::string& key, const std::string& text, int lo,
-              int hi)
-{
-    int v = 0;
-    const char* end = text.data() + text.size();
-    auto r = std::from_chars(text.data(), end, v);
-    if (text.empty() || r.ec != std::errc() || r.ptr != end || v < lo || v > hi)
-        throw UsageError(arg + ": " + key + "=" + text + " must be an integer in [" +
-                         std::to_string(lo) + ", " + std::to_string(hi) + "]");
-    return v;
-}
-
-std::string choice(const std::string& arg, const std::string& key, const std::string& text,
-                   std::initializer_list<const char*> allowed)
-{
-    std::string list;
-    for (const char* a : allowed) {
-        if (text == a)
-            return text;
-        list += list.empty() ? a : std::string("|") + a;
-    }
-    throw UsageError(arg + ": " + key + "=" + text + " is not one of " + list);
-}
-
-// Applies the normal-decoding modifiers; returns false if `key` is not one.
-bool apply_decoding(NormalDecoding& d, const std::string& arg, const std::string& key,
-                    const std::string& v)
-{
-    if (key == "normal") {
-        std::string c = choice(arg, key, v, {"auto", "opengl", "directx"});
-        d.convention = c == "opengl"    ? NormalConvention::OpenGL
-                       : c == "directx" ? NormalConvention::DirectX
-                                        : NormalConvention::Auto;
-    } else if (key == "max_angle") {
-        d.max_angle = float(parse_in_range(arg, key, v, 0, true, 90, true, "degrees in (0, 90)"));
-    } else if (key == "range") {
-        d.float_encoding = choice(arg, key, v, {"signed", "unsigned"}) == "unsigned"
-                               ? FloatEncoding::Unsigned
-                               : FloatEncoding::Signed;
-    } else {
-        return false;
-    }
-    return true;
-}
-
-[[noreturn]] void unknown_modifier(const std::string& arg, const std::string& key,
-                                   const char* known)
-{
-    throw UsageError(arg + ": unknown modifier '" + key + "' (known: " + known + ")");
-}
 
 Step make_step(Step::Kind kind, const std::string& text, const std::string& path = "")
 {
@@ -225,165 +143,14 @@ Step make_step(Step::Kind kind, const std::string& text, const std::string& path
     return s;
 }
 
-Step parse_slopes(const std::string& arg)
+// --NAME[:MODS] of an operation in the table.
+Step parse_operation(const std::string& arg, const std::string& name)
 {
-    Step s = make_step(Step::Kind::Slopes, arg);
-    for (const auto& [key, v] : split_modifiers(arg).values)
-        if (!apply_decoding(s.slopes.normals, arg, key, v))
-            unknown_modifier(arg, key, "normal, max_angle, range");
-    return s;
-}
-
-Step parse_height(const std::string& arg)
-{
-    Step s = make_step(Step::Kind::Height, arg);
-    HeightOptions& h = s.height;
-    bool ray_option = false, poisson_option = false;
-    std::string method = "auto", boundary;
-    for (const auto& [key, v] : split_modifiers(arg).values) {
-        if (apply_decoding(h.normals, arg, key, v))
-            continue;
-        const bool ray_key = key == "impl" || key == "directions" || key == "rays" ||
-                             key == "radius" || key == "phase" || key == "skip";
-        ray_option |= ray_key;
-        if (key == "method")
-            method = choice(arg, key, v, {"auto", "rays", "poisson"});
-        else if (key == "impl")
-            h.impl = choice(arg, key, v, {"fast", "reference"}) == "fast" ? RayImpl::Fast
-                                                                          : RayImpl::Reference;
-        else if (key == "directions")
-            h.directions = choice(arg, key, v, {"rational", "exact"}) == "rational"
-                               ? RayDirections::Rational
-                               : RayDirections::Exact;
-        else if (key == "rays")
-            h.rays = parse_int(arg, key, v, 1, 4096);
-        else if (key == "radius")
-            h.radius = float(parse_in_range(arg, key, v, 0, true, 65536, false,
-                                            "texels in (0, 65536]"));
-        else if (key == "phase")
-            h.phase = float(parse_in_range(arg, key, v, 0, false, 1, true, "in [0, 1)"));
-        else if (key == "boundary")
-            boundary = choice(arg, key, v, {"auto", "periodic", "free", "clip"});
-        else if (key == "skip")
-            h.skip_flat = choice(arg, key, v, {"on", "off"}) == "on";
-        else if (key == "mask") {
-            poisson_option = true;
-            if (v == "alpha")
-                h.mask_alpha = true;
-            else {
-                std::error_code ec;
-                if (v.empty() || !fs::exists(v, ec))
-                    throw UsageError(arg + ": mask=" + v + ": no such file");
-                s.mask = v;
-            }
-        } else if (key == "highpass") {
-            poisson_option = true;
-            h.highpass = float(parse_in_range(arg, key, v, 0, false, 1e9, false,
-                                              "a radius in texels >= 0 (0 = off)"));
-        } else
-            unknown_modifier(arg, key,
-                             "method, boundary, normal, max_angle, range, impl, rays, radius, "
-                             "phase, directions, skip, highpass, mask");
-    }
-    if (method == "auto")
-        method = ray_option ? "rays" : "auto";
-    if (method == "rays" && poisson_option)
-        throw UsageError(arg + ": highpass and mask apply to method=poisson, not to rays");
-    if (h.highpass > 0.0f && (h.mask_alpha || !s.mask.empty()))
-        throw UsageError(arg + ": highpass cannot be combined with a mask yet");
-    if (method == "poisson" && ray_option)
-        throw UsageError(arg + ": impl, directions, rays, radius, phase and skip apply to method=rays");
-    if (method == "rays" && boundary == "free")
-        throw UsageError(arg + ": rays take boundary=periodic, clip or auto");
-    if (method != "rays" && boundary == "clip")
-        throw UsageError(arg + ": method=poisson takes boundary=periodic, free or auto");
-    if (method == "rays" && h.impl == RayImpl::Fast && h.directions == RayDirections::Exact)
-        throw UsageError(arg + ": impl=fast needs directions=rational (or use impl=reference)");
-    h.method = method == "rays" ? HeightMethod::Rays
-             : method == "poisson" ? HeightMethod::Poisson
-                                   : HeightMethod::Auto;
-    h.boundary = boundary == "periodic" ? Boundary::Periodic
-               : boundary == "free" || boundary == "clip" ? Boundary::Free
-                                                          : Boundary::Auto;
-    return s;
-}
-
-Step parse_correct(const std::string& arg)
-{
-    Step s = make_step(Step::Kind::Correct, arg);
-    CorrectOptions& c = s.correct;
-    for (const auto& [key, v] : split_modifiers(arg).values) {
-        if (key == "scale")
-            c.scale = float(parse_in_range(arg, key, v, 0, true, 1e9, false, "a scale > 0"));
-        else if (key == "theta")
-            c.theta = float(parse_in_range(arg, key, v, 0, false, 20, false, "in [0, 20]"));
-        else if (key == "nodes")
-            c.nodes = choice(arg, key, v, {"corner", "center"}) == "corner" ? CorrectNodes::Corner
-                                                                           : CorrectNodes::Center;
-        else if (key == "boundary") {
-            const std::string b = choice(arg, key, v, {"auto", "periodic", "fixed"});
-            c.boundary = b == "periodic" ? CorrectBoundary::Periodic
-                       : b == "fixed"    ? CorrectBoundary::Fixed
-                                         : CorrectBoundary::Auto;
-        } else if (key == "fix") {
-            if (v.rfind("height", 0) == 0) {
-                const std::size_t a1 = v.find(':'), a2 = a1 == std::string::npos ? a1 : v.find(':', a1 + 1);
-                if (v.compare(0, 7, "height:") != 0 || a2 == std::string::npos)
-                    throw UsageError(arg + ": fix=" + v + ": write fix=height:H0:DH (stored height H0, tent half-width DH > 0)");
-                c.fix_height = float(parse_number(arg, "fix height", v.substr(a1 + 1, a2 - a1 - 1)));
-                c.fix_width = float(parse_in_range(arg, "fix width", v.substr(a2 + 1), 0, true, 1e30,
-                                                   false, "DH must be > 0"));
-                continue;
-            }
-            std::error_code ec;
-            if (v.empty() || !fs::exists(v, ec))
-                throw UsageError(arg + ": fix=" + v + ": no such file");
-            s.fix_mask = v;
-        } else if (key == "iterations")
-            c.iterations = v == "auto" ? 0 : parse_int(arg, key, v, 1, 1000000);
-        else if (key == "tolerance")
-            c.tolerance = float(parse_in_range(arg, key, v, 0, true, 1, true, "in (0, 1)"));
-        else if (key == "levels")
-            c.levels = v == "auto" ? 0 : parse_int(arg, key, v, 1, 30);
-        else if (key == "threshold")
-            c.threshold = float(parse_in_range(arg, key, v, 0, false, 1e9, false, ">= 0"));
-        else if (key == "skip")
-            c.skip_tiles = choice(arg, key, v, {"on", "off"}) == "on";
-        else
-            unknown_modifier(arg, key,
-                             "scale, theta, nodes, boundary, fix, iterations, tolerance, levels, "
-                             "threshold, skip");
-    }
-    return s;
-}
-
-Step parse_bake(const std::string& arg)
-{
-    Step s = make_step(Step::Kind::Bake, arg);
-    BakeOptions& b = s.bake;
-    for (const auto& [key, v] : split_modifiers(arg).values) {
-        if (key == "filter")
-            b.filter = choice(arg, key, v, {"bilinear", "bicubic"}) == "bicubic" ? BakeFilter::Bicubic
-                                                                             : BakeFilter::Bilinear;
-        else if (key == "colorspace") {
-            const std::string c = choice(arg, key, v, {"auto", "sRGB", "srgb", "linear", "raw"});
-            b.colorspace = c == "sRGB" || c == "srgb" ? BakeColorspace::SRGB
-                         : c == "linear"              ? BakeColorspace::Linear
-                         : c == "raw"                 ? BakeColorspace::Raw
-                                                      : BakeColorspace::Auto;
-        } else if (key == "kind") {
-            const std::string k = choice(arg, key, v, {"auto", "color", "normal", "data", "height"});
-            b.kind = k == "color"    ? BakeKind::Color
-                   : k == "normal"   ? BakeKind::Normal
-                   : k == "data"     ? BakeKind::Data
-                   : k == "height"   ? BakeKind::Height
-                                     : BakeKind::Auto;
-        } else if (key == "wrap") {
-            const std::string w = choice(arg, key, v, {"auto", "periodic", "clamp"});
-            b.wrap = w == "periodic" ? BakeWrap::Periodic : w == "clamp" ? BakeWrap::Clamp : BakeWrap::Auto;
-        } else
-            unknown_modifier(arg, key, "filter, colorspace, kind, wrap");
-    }
+    Step s = make_step(Step::Kind::Operation, arg);
+    const std::size_t colon = arg.find(':');
+    const std::string mods = colon == std::string::npos ? std::string() : arg.substr(colon + 1);
+    if (!parse_modifiers(s, name, mods))
+        throw UsageError(arg + ": " + geterror());
     return s;
 }
 
@@ -457,19 +224,11 @@ Program parse_command_line(const std::vector<std::string>& args)
             w.format_given = format_given;
             w.compression = compression;
             prog.steps.push_back(w);
-        } else if (cmd == "--slopes") {
-            need(cmd, 1);
-            prog.steps.push_back(parse_slopes(a));
-        } else if (cmd == "--height") {
-            need(cmd, 1);
-            prog.steps.push_back(parse_height(a));
-        } else if (cmd == "--correct") {
-            need(cmd, 1);
-            prog.steps.push_back(parse_correct(a));
-        } else if (cmd == "--bake") {
-            need(cmd, 2);
-            prog.steps.push_back(parse_bake(a));
-            --depth;
+        } else if (cmd.rfind("--", 0) == 0 && find_operation(cmd.substr(2))) {
+            const OperationInfo& op = *find_operation(cmd.substr(2));
+            need(cmd, int(op.inputs.size()));
+            prog.steps.push_back(parse_operation(a, op.name));
+            depth += int(op.outputs.size()) - int(op.inputs.size());
         } else if (!a.empty() && a[0] == '-' && a != "-") {
             throw UsageError("unknown option '" + a + "' (see relief --help)");
         } else {
@@ -482,7 +241,7 @@ Program parse_command_line(const std::vector<std::string>& args)
     }
     int corrections = 0;
     for (const Step& s : prog.steps)
-        corrections += s.kind == Step::Kind::Correct;
+        corrections += s.kind == Step::Kind::Operation && s.operation == "correct";
     if (!prog.report.empty() && corrections != 1)
         throw UsageError("--report needs exactly one --correct, there are " + std::to_string(corrections));
     for (Step& s : prog.steps) {

@@ -8,12 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "relief/bake.h"
-#include "relief/correct.h"
 #include "relief/errors.h"
-#include "relief/height.h"
 #include "relief/imageio.h"
-#include "relief/slopes.h"
+#include "relief/operations.h"
 
 namespace relief::cli {
 
@@ -21,19 +18,16 @@ struct UsageError : std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-struct Step {
-    enum class Kind { Read, Slopes, Height, Correct, Bake, Write } kind;
+// One argument's work. Operations (--slopes, --height, ...) are the
+// operation table's: `operation` names one, and its options are parsed into
+// the OperationCall this derives from.
+struct Step : OperationCall {
+    enum class Kind { Read, Operation, Write } kind;
     std::string text;             // the argument as typed, for messages
     std::string path;             // Read, Write
     OIIO::TypeDesc format;        // Write
     bool format_given = false;    // Write: -d was given (else baked textures keep their type)
     std::string compression;      // Write; empty = relief's default
-    SlopeOptions slopes;          // Slopes
-    HeightOptions height;         // Height
-    std::string mask;             // Height: mask=FILE (read when the step runs)
-    CorrectOptions correct;       // Correct
-    std::string fix_mask;         // Correct: fix=FILE (read when the step runs)
-    BakeOptions bake;             // Bake
 };
 
 struct Program {
@@ -49,6 +43,7 @@ struct Program {
 // Throws UsageError with a one-line explanation.
 Program parse_command_line(const std::vector<std::string>& args);
 
-const char* usage_text();
+// --help: the fixed options, then every operation and modifier of the table.
+const std::string& usage_text();
 
 } // namespace relief::cli

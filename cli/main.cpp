@@ -130,57 +130,37 @@ private:
             stack_.push_back(std::move(img));
             break;
         }
-        case Step::Kind::Slopes: {
-            relief::SlopeOptions o = s.slopes;
-            o.exec = execution(s);
-            OIIO::ImageBuf in = pop(), out;
-            if (!relief::slopes(out, in, o))
-                throw RuntimeError(relief::geterror());
-            stack_.push_back(std::move(out));
-            break;
-        }
-        case Step::Kind::Height: {
-            relief::HeightOptions o = s.height;
-            o.exec = execution(s);
-            OIIO::ImageBuf mask;
-            if (!s.mask.empty()) {
-                if (!read(mask, s.mask))
+        case Step::Kind::Operation: {
+            const relief::OperationInfo& op = *relief::find_operation(s.operation);
+            relief::OperationCall call = s;
+            // Mask and fixation files are read here, quietly like every read.
+            OIIO::ImageBuf mask, fix;
+            if (!s.mask_file.empty()) {
+                if (!read(mask, s.mask_file))
                     throw RuntimeError("mask: " + relief::geterror());
-                o.mask = &mask;
+                call.height.mask = &mask;
             }
-            if (prog_.verbose)
-                message(Severity::Info, "height: " + relief::describe(o));
-            OIIO::ImageBuf in = pop(), out;
-            if (!relief::height(out, in, o))
-                throw RuntimeError(relief::geterror());
-            stack_.push_back(std::move(out));
-            break;
-        }
-        case Step::Kind::Correct: {
-            relief::CorrectOptions o = s.correct;
-            o.exec = execution(s);
-            OIIO::ImageBuf fix;
-            if (!s.fix_mask.empty()) {
-                if (!read(fix, s.fix_mask))
+            if (!s.fix_file.empty()) {
+                if (!read(fix, s.fix_file))
                     throw RuntimeError("fix: " + relief::geterror());
-                o.fix_mask = &fix;
+                call.correct.fix_mask = &fix;
             }
             relief::CorrectReport report;
-            o.report = &report;
-            OIIO::ImageBuf in = pop(), out;
-            if (!relief::correct(out, in, o))
+            call.correct.report = &report;
+            if (prog_.verbose && s.operation == "height")
+                message(Severity::Info, "height: " + relief::describe(call.height));
+            // The inputs are the top of the stack, the first input deepest.
+            std::vector<OIIO::ImageBuf> in(op.inputs.size());
+            for (std::size_t i = in.size(); i-- > 0;)
+                in[i] = pop();
+            std::vector<const OIIO::ImageBuf*> inputs;
+            for (const OIIO::ImageBuf& b : in)
+                inputs.push_back(&b);
+            OIIO::ImageBuf out;
+            if (!relief::run_operation(out, call, inputs, execution(s)))
                 throw RuntimeError(relief::geterror());
-            if (!prog_.report.empty())
+            if (s.operation == "correct" && !prog_.report.empty())
                 relief::cli::write_text_atomically(prog_.report, report.to_json(), "the report");
-            stack_.push_back(std::move(out));
-            break;
-        }
-        case Step::Kind::Bake: {
-            relief::BakeOptions o = s.bake;
-            o.exec = execution(s);
-            OIIO::ImageBuf offsets = pop(), texture = pop(), out;
-            if (!relief::bake(out, texture, offsets, o))
-                throw RuntimeError(relief::geterror());
             stack_.push_back(std::move(out));
             break;
         }
@@ -238,7 +218,7 @@ int main(int argc, char** argv)
         return 2;
     }
     if (prog.help) {
-        std::fputs(relief::cli::usage_text(), stdout);
+        std::fputs(relief::cli::usage_text().c_str(), stdout);
         return 0;
     }
     if (prog.version) {
@@ -249,7 +229,7 @@ int main(int argc, char** argv)
         if (prog.list_devices)
             return list_devices();
         if (prog.steps.empty()) {
-            std::fputs(relief::cli::usage_text(), stderr);
+            std::fputs(relief::cli::usage_text().c_str(), stderr);
             return 2;
         }
         Runner(prog).run();

@@ -71,7 +71,7 @@ TEST_CASE("parse: a command without modifiers gets the API's defaults", "[cli][p
 {
     const HeightOptions h0;
     const Step h = step_of("--height");
-    CHECK(h.kind == Step::Kind::Height);
+    CHECK(h.operation == "height");
     CHECK(h.height.normals.convention == h0.normals.convention);
     CHECK(h.height.normals.max_angle == h0.normals.max_angle);
     CHECK(h.height.normals.float_encoding == h0.normals.float_encoding);
@@ -85,18 +85,18 @@ TEST_CASE("parse: a command without modifiers gets the API's defaults", "[cli][p
     CHECK(h.height.skip_flat == h0.skip_flat);
     CHECK(h.height.highpass == h0.highpass);
     CHECK_FALSE(h.height.mask_alpha);
-    CHECK(h.mask.empty());
+    CHECK(h.mask_file.empty());
 
     const SlopeOptions s0;
     const Step s = step_of("--slopes");
-    CHECK(s.kind == Step::Kind::Slopes);
+    CHECK(s.operation == "slopes");
     CHECK(s.slopes.normals.convention == s0.normals.convention);
     CHECK(s.slopes.normals.max_angle == s0.normals.max_angle);
     CHECK(s.slopes.normals.float_encoding == s0.normals.float_encoding);
 
     const CorrectOptions c0;
     const Step c = step_of("--correct");
-    CHECK(c.kind == Step::Kind::Correct);
+    CHECK(c.operation == "correct");
     CHECK(c.correct.scale == c0.scale);
     CHECK(c.correct.theta == c0.theta);
     CHECK(c.correct.nodes == c0.nodes);
@@ -107,11 +107,11 @@ TEST_CASE("parse: a command without modifiers gets the API's defaults", "[cli][p
     CHECK(c.correct.threshold == c0.threshold);
     CHECK(c.correct.skip_tiles == c0.skip_tiles);
     CHECK(c.correct.fix_width == c0.fix_width);
-    CHECK(c.fix_mask.empty());
+    CHECK(c.fix_file.empty());
 
     const BakeOptions b0;
     const Step b = step_of("--bake");
-    CHECK(b.kind == Step::Kind::Bake);
+    CHECK(b.operation == "bake");
     CHECK(b.bake.filter == b0.filter);
     CHECK(b.bake.colorspace == b0.colorspace);
     CHECK(b.bake.kind == b0.kind);
@@ -171,7 +171,7 @@ TEST_CASE("parse: every --height modifier lands in its field", "[cli][parse]")
     CHECK(h("highpass=16").method == HeightMethod::Auto);
     CHECK(h("mask=alpha").mask_alpha);
     const Step file_mask = step_of("--height:mask=" + kHeight);
-    CHECK(file_mask.mask == kHeight);
+    CHECK(file_mask.mask_file == kHeight);
     CHECK_FALSE(file_mask.height.mask_alpha);
     const HeightOptions many = h("rays=5:radius=7:phase=0.75:boundary=clip:impl=reference:directions=exact:skip=off");
     CHECK(many.method == HeightMethod::Rays);
@@ -213,7 +213,7 @@ TEST_CASE("parse: every --correct modifier lands in its field", "[cli][parse]")
     CHECK(tent2.scale == 2.0f);
     CHECK(tent2.theta == 1.0f);
     const Step file_fix = step_of("--correct:fix=" + kHeight);
-    CHECK(file_fix.fix_mask == kHeight);
+    CHECK(file_fix.fix_file == kHeight);
     CHECK(file_fix.correct.fix_width == 0.0f);
 }
 
@@ -265,7 +265,7 @@ TEST_CASE("parse: options apply to the steps that follow, the stack is tracked",
     CHECK(c.format == OIIO::TypeDesc::HALF);
     CHECK(c.compression == "zip");
     CHECK(p.steps[5].kind == Step::Kind::Read);
-    CHECK(p.steps[6].kind == Step::Kind::Correct);
+    CHECK(p.steps[6].operation == "correct");
     CHECK(p.steps[6].correct.exec.device == "cpu");
     CHECK(p.steps[7].format == OIIO::TypeDesc::HALF);
     CHECK(parse_command_line({kIn, "-d", "uint8", "-o", "x.png"}).steps[1].format == OIIO::TypeDesc::UINT8);

@@ -674,11 +674,11 @@ TEST_CASE("options: inconsistent or out-of-range options are refused by the API"
         {"mask and highpass", [&](HeightOptions& o) { o.mask = &half_mask; o.highpass = 8; }, "highpass cannot be combined with a mask"},
         {"alpha mask and highpass", [&](HeightOptions& o) { o.mask_alpha = true; o.highpass = 8; }, "highpass cannot be combined with a mask"},
         {"highpass and rays", [&](HeightOptions& o) { o.highpass = 8; o.method = HeightMethod::Rays; }, "highpass applies to method=poisson"},
-        {"phase 1", [](HeightOptions& o) { o.phase = 1.0f; }, "phase must be in [0, 1)"},
-        {"phase negative", [](HeightOptions& o) { o.phase = -0.25f; }, "phase must be in [0, 1)"},
+        {"phase 1", [](HeightOptions& o) { o.phase = 1.0f; }, "phase=1 is out of range; it must be in [0, 1)"},
+        {"phase negative", [](HeightOptions& o) { o.phase = -0.25f; }, "phase=-0.25 is out of range; it must be in [0, 1)"},
         {"radius too large", [](HeightOptions& o) { o.radius = 70000.0f; }, "radius"},
-        {"max_angle 90", [](HeightOptions& o) { o.normals.max_angle = 90.0f; }, "max_angle must be in (0, 90)"},
-        {"max_angle 0", [](HeightOptions& o) { o.normals.max_angle = 0.0f; }, "max_angle must be in (0, 90)"},
+        {"max_angle 90", [](HeightOptions& o) { o.normals.max_angle = 90.0f; }, "max_angle=90 is out of range; it must be in (0, 90) degrees"},
+        {"max_angle 0", [](HeightOptions& o) { o.normals.max_angle = 0.0f; }, "max_angle=0 is out of range"},
         {"fast with exact directions", [](HeightOptions& o) { o.method = HeightMethod::Rays; o.directions = RayDirections::Exact; }, "impl=fast needs directions=rational"},
     };
     for (const HCase& c : hcases) {
@@ -687,6 +687,7 @@ TEST_CASE("options: inconsistent or out-of-range options are refused by the API"
         o.normals.convention = NormalConvention::OpenGL;
         c.set(o);
         const std::string e = height_error(o);
+        INFO(e);
         CHECK(e.find(c.message) != std::string::npos);
         CHECK(e.rfind("height: ", 0) == 0);
     }
@@ -708,11 +709,11 @@ TEST_CASE("options: inconsistent or out-of-range options are refused by the API"
         {"fixation mask one column wide", [&](CorrectOptions& o) { o.fix_mask = &wide_fix; }, "the fixation mask is 41x36"},
         {"negative fixation weight", [&](CorrectOptions& o) { o.fix_mask = &negative_fix; }, "fixation weights must be finite and >= 0"},
         {"mask and tent", [&](CorrectOptions& o) { o.fix_mask = &wide_fix; o.fix_width = 1; }, "not both"},
-        {"theta above 20", [](CorrectOptions& o) { o.theta = 20.5f; }, "theta must be in [0, 20]"},
-        {"tolerance 0", [](CorrectOptions& o) { o.tolerance = 0.0f; }, "tolerance must be in (0, 1)"},
-        {"negative threshold", [](CorrectOptions& o) { o.threshold = -1.0f; }, "threshold must be >= 0"},
-        {"negative levels", [](CorrectOptions& o) { o.levels = -1; }, "iterations and levels must be >= 0"},
-        {"NaN scale", [](CorrectOptions& o) { o.scale = std::nanf(""); }, "scale must be > 0"},
+        {"theta above 20", [](CorrectOptions& o) { o.theta = 20.5f; }, "theta=20.5 is out of range; it must be in [0, 20]"},
+        {"tolerance 0", [](CorrectOptions& o) { o.tolerance = 0.0f; }, "tolerance=0 is out of range; it must be in (0, 1)"},
+        {"negative threshold", [](CorrectOptions& o) { o.threshold = -1.0f; }, "threshold=-1 is out of range; it must be in [0, 1e+09]"},
+        {"negative levels", [](CorrectOptions& o) { o.levels = -1; }, "levels=-1 must be an integer in [1, 30] or auto"},
+        {"NaN scale", [](CorrectOptions& o) { o.scale = std::nanf(""); }, "scale=nan is not a number"},
     };
     for (const CCase& c : ccases) {
         INFO(c.what);
@@ -722,6 +723,7 @@ TEST_CASE("options: inconsistent or out-of-range options are refused by the API"
         ImageBuf out;
         CHECK_FALSE(relief::correct(out, height, o));
         const std::string e = relief::geterror();
+        INFO(e);
         CHECK(e.find(c.message) != std::string::npos);
         CHECK(e.rfind("correct: ", 0) == 0);
     }
@@ -740,7 +742,7 @@ TEST_CASE("options: a failed call's returned image carries the error", "[options
     co.scale = -1.0f;
     const ImageBuf c = relief::correct(gray, co);
     CHECK(c.has_error());
-    CHECK(c.geterror().find("correct: scale must be > 0") != std::string::npos);
+    CHECK(c.geterror().find("correct: scale=-1 is out of range; it must be in (0, 1e+09] or auto") != std::string::npos);
     const ImageBuf b = relief::bake(gray, gray);
     CHECK(b.has_error());
     CHECK(b.geterror().find("bake: the offset map has 1 channel(s)") != std::string::npos);

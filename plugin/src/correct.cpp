@@ -10,6 +10,7 @@
 #include "compute_context.h"
 #include "correct_stage.h"
 #include "normal_stage.h"
+#include "operation_table.h"
 
 namespace relief {
 
@@ -23,16 +24,11 @@ DistortionSummary summary(const host::DistortionStats& s) { return {s.mean, s.p9
 
 void validate(const CorrectOptions& o)
 {
-    if (!(o.scale >= 0.0f) || !std::isfinite(o.scale))
-        throw std::invalid_argument("scale must be > 0 (world height per stored unit; the width = 1)");
-    if (!(o.theta >= 0.0f && o.theta <= 20.0f))
-        throw std::invalid_argument("theta must be in [0, 20]");
-    if (!(o.tolerance > 0.0f && o.tolerance < 1.0f))
-        throw std::invalid_argument("tolerance must be in (0, 1)");
-    if (o.iterations < 0 || o.max_iterations < 1 || o.levels < 0)
-        throw std::invalid_argument("iterations and levels must be >= 0");
-    if (!(o.threshold >= 0.0f))
-        throw std::invalid_argument("threshold must be >= 0");
+    OperationCall call;
+    call.correct = o;
+    detail::check_modifier_values("correct", call);
+    if (o.max_iterations < 1)
+        throw std::invalid_argument("max_iterations must be >= 1");
     if (!(o.fix_width >= 0.0f) || !std::isfinite(o.fix_height))
         throw std::invalid_argument("fix=height needs a finite height and a width > 0");
     if (o.fix_mask && o.fix_width > 0.0f)

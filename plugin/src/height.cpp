@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "normal_stage.h"
+#include "operation_table.h"
 #include "poisson_stage.h"
 #include "ray_stage.h"
 #include "tiling.h"
@@ -32,15 +33,9 @@ const char* name(Boundary b, bool rays)
 
 void validate(const HeightOptions& o)
 {
-    if (o.rays < 1 || o.rays > 4096)
-        throw std::invalid_argument("rays must be an integer in [1, 4096], got " +
-                                    std::to_string(o.rays));
-    if (!(o.radius > 0.0f) || !std::isfinite(o.radius) || o.radius > 65536.0f)
-        throw std::invalid_argument("radius must be in (0, 65536] texels");
-    if (!(o.phase >= 0.0f && o.phase < 1.0f))
-        throw std::invalid_argument("phase must be in [0, 1)");
-    if (!(o.highpass >= 0.0f) || !std::isfinite(o.highpass))
-        throw std::invalid_argument("highpass must be a radius >= 0 texels (0 = off)");
+    OperationCall call;
+    call.height = o;
+    detail::check_modifier_values("height", call);
     if (o.method == HeightMethod::Rays && o.impl == RayImpl::Fast &&
         o.directions == RayDirections::Exact)
         throw std::invalid_argument(

@@ -82,8 +82,6 @@ DerivedSlopes derive_slopes(const ImageBuf& normals, ROI roi, const NormalDecodi
                                  ": a normal map needs 2 (XY), 3 (RGB) or 4 (RGBA) channels");
     if (normals.spec().depth > 1)
         throw std::runtime_error("volume images are not supported");
-    if (!(decoding.max_angle > 0.0f && decoding.max_angle < 90.0f))
-        throw std::runtime_error("max_angle must be in (0, 90) degrees");
 
     host::SlopeParams p;
     p.width = roi.width();

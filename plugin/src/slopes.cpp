@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "normal_stage.h"
+#include "operation_table.h"
 
 namespace relief {
 
@@ -16,6 +17,9 @@ bool slopes(ImageBuf& dst, const ImageBuf& normals, const SlopeOptions& options,
             int /*nthreads*/)
 {
     try {
+        OperationCall call;
+        call.slopes = options;
+        detail::check_modifier_values("slopes", call);
         roi = detail::resolve_roi(normals, roi);
         auto derived = detail::derive_slopes(normals, roi, options.normals, options.exec);
         std::vector<float> g(std::size_t(roi.width()) * roi.height() * 2);

@@ -7,6 +7,8 @@
 
 #include "options.h"
 
+#include "relief/export.h"
+
 namespace relief {
 
 enum class BakeFilter { Bilinear, Bicubic };  // bicubic: Catmull-Rom
@@ -38,9 +40,9 @@ struct BakeOptions {
 // has the texture's channels and metadata, and records the texture's file
 // pixel type as relief:native_format (front ends write it back in that
 // type unless told otherwise). roi/nthreads/errors as in relief::slopes().
-OIIO::ImageBuf bake(const OIIO::ImageBuf& texture, const OIIO::ImageBuf& offsets,
+RELIEF_API OIIO::ImageBuf bake(const OIIO::ImageBuf& texture, const OIIO::ImageBuf& offsets,
                     const BakeOptions& options = {}, OIIO::ROI roi = {}, int nthreads = 0);
-bool bake(OIIO::ImageBuf& dst, const OIIO::ImageBuf& texture, const OIIO::ImageBuf& offsets,
+RELIEF_API bool bake(OIIO::ImageBuf& dst, const OIIO::ImageBuf& texture, const OIIO::ImageBuf& offsets,
           const BakeOptions& options = {}, OIIO::ROI roi = {}, int nthreads = 0);
 
 } // namespace relief

@@ -9,6 +9,8 @@
 
 #include "options.h"
 
+#include "relief/export.h"
+
 namespace relief {
 
 // Corner: nodes at texel corners with bilinear heights; the offset of a
@@ -48,7 +50,7 @@ struct CorrectReport {
     double seconds = 0.0;
     int width = 0, height = 0;
 
-    std::string to_json() const;  // the --report file
+    RELIEF_API std::string to_json() const;  // the --report file
 };
 
 struct CorrectOptions {
@@ -82,9 +84,9 @@ struct CorrectOptions {
 // surface point at texture coordinate u shows the texture at u + c(u).
 // Metadata: relief:method "correct", relief:boundary, relief:nodes,
 // relief:scale, relief:parameters. roi/nthreads/errors as in relief::slopes().
-OIIO::ImageBuf correct(const OIIO::ImageBuf& height, const CorrectOptions& options = {},
+RELIEF_API OIIO::ImageBuf correct(const OIIO::ImageBuf& height, const CorrectOptions& options = {},
                        OIIO::ROI roi = {}, int nthreads = 0);
-bool correct(OIIO::ImageBuf& dst, const OIIO::ImageBuf& height,
+RELIEF_API bool correct(OIIO::ImageBuf& dst, const OIIO::ImageBuf& height,
              const CorrectOptions& options = {}, OIIO::ROI roi = {}, int nthreads = 0);
 
 } // namespace relief

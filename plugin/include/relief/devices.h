@@ -3,6 +3,8 @@
 #include <string>
 #include <vector>
 
+#include "relief/export.h"
+
 namespace relief {
 
 struct DeviceDescription {
@@ -14,6 +16,6 @@ struct DeviceDescription {
 };
 
 // Every OpenCL device; empty (and geterror() set) when there is none.
-std::vector<DeviceDescription> list_devices();
+RELIEF_API std::vector<DeviceDescription> list_devices();
 
 } // namespace relief

@@ -4,6 +4,8 @@
 
 #include "options.h"
 
+#include "relief/export.h"
+
 namespace relief {
 
 // Auto: Poisson with an automatic boundary, unless ray options are given.
@@ -53,14 +55,14 @@ struct HeightOptions {
 // relief:normal_convention, relief:height_unit ("texel").
 // roi/nthreads/errors as in relief::slopes(); the roi is treated as the whole
 // texture (the boundary applies at its edges).
-OIIO::ImageBuf height(const OIIO::ImageBuf& normals, const HeightOptions& options = {},
+RELIEF_API OIIO::ImageBuf height(const OIIO::ImageBuf& normals, const HeightOptions& options = {},
                       OIIO::ROI roi = {}, int nthreads = 0);
-bool height(OIIO::ImageBuf& dst, const OIIO::ImageBuf& normals,
+RELIEF_API bool height(OIIO::ImageBuf& dst, const OIIO::ImageBuf& normals,
             const HeightOptions& options = {}, OIIO::ROI roi = {}, int nthreads = 0);
 
 // "method=rays impl=fast rays=32 radius=64 phase=0.5 directions=rational boundary=periodic"
 // or "method=poisson boundary=free highpass=0"; the values as given (auto
 // stays auto; the result's relief:parameters records what was chosen).
-std::string describe(const HeightOptions& options);
+RELIEF_API std::string describe(const HeightOptions& options);
 
 } // namespace relief

@@ -6,6 +6,8 @@
 
 #include "options.h"
 
+#include "relief/export.h"
+
 namespace relief {
 
 // Reads the first subimage of `path` as raw data: no colour conversion, and
@@ -14,13 +16,13 @@ namespace relief {
 // converted to float in memory; dst.nativespec().format keeps the file's
 // type (UNORM decoding depends on it). Returns false and sets geterror() for
 // a missing, empty, truncated or non-image file.
-bool read_image(OIIO::ImageBuf& dst, const std::string& path);
+RELIEF_API bool read_image(OIIO::ImageBuf& dst, const std::string& path);
 
 // Whether an image could be written to `path`: its folder exists, it is not
 // a folder, and its extension names a format OIIO can write. Returns false
 // and sets geterror() otherwise. write_image() checks this first; front ends
 // call it early to refuse a bad output before any work.
-bool check_output_path(const std::string& path);
+RELIEF_API bool check_output_path(const std::string& path);
 
 struct WriteOptions {
     // Pixel type of the file: FLOAT (default), HALF, UINT16 or UINT8.
@@ -44,7 +46,7 @@ struct WriteOptions {
 // records relief:height_scale and relief:height_midlevel (as text, which
 // every format keeps), and data =
 // (value - midlevel) * scale. Other images are written as they are.
-bool write_image(const OIIO::ImageBuf& image, const std::string& path,
+RELIEF_API bool write_image(const OIIO::ImageBuf& image, const std::string& path,
                  const WriteOptions& options = {});
 
 } // namespace relief

@@ -8,6 +8,7 @@
 #include "relief/correct.h"
 #include "relief/height.h"
 #include "relief/imageio.h"
+#include "relief/operations.h"
 #include "relief/options.h"
 #include "relief/slopes.h"
 #include "relief/version.h"

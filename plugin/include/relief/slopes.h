@@ -4,6 +4,8 @@
 
 #include "options.h"
 
+#include "relief/export.h"
+
 namespace relief {
 
 struct SlopeOptions {
@@ -22,9 +24,9 @@ struct SlopeOptions {
 // covers that region. nthreads: accepted for ImageBufAlgo compatibility; the
 // work runs on the OpenCL device, whose driver decides its parallelism.
 // On failure the returned image has_error() and geterror() says why.
-OIIO::ImageBuf slopes(const OIIO::ImageBuf& normals, const SlopeOptions& options = {},
+RELIEF_API OIIO::ImageBuf slopes(const OIIO::ImageBuf& normals, const SlopeOptions& options = {},
                       OIIO::ROI roi = {}, int nthreads = 0);
-bool slopes(OIIO::ImageBuf& dst, const OIIO::ImageBuf& normals, const SlopeOptions& options = {},
+RELIEF_API bool slopes(OIIO::ImageBuf& dst, const OIIO::ImageBuf& normals, const SlopeOptions& options = {},
             OIIO::ROI roi = {}, int nthreads = 0);
 
 } // namespace relief

@@ -1,0 +1,89 @@
+#pragma once
+// The operation table: every operation relief offers (its inputs, outputs
+// and modifiers) described once. The command line's parser and --help, the
+// C ABI (relief_c.h), the Python module and the option checks of the C++
+// functions all read it; the defaults are the option structs' own.
+#include <OpenImageIO/imagebuf.h>
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "relief/bake.h"
+#include "relief/correct.h"
+#include "relief/export.h"
+#include "relief/height.h"
+#include "relief/options.h"
+#include "relief/slopes.h"
+
+namespace relief {
+
+// Choice: one of `choices`. Integer, Number: a value in [min, max] (an end
+// is excluded when its *_open flag is set), or one of `choices` (words such
+// as "auto"). File: a path to an image, or one of `choices` ("alpha").
+enum class ModifierType { Choice, Integer, Number, File };
+
+struct ModifierInfo {
+    std::string name;
+    ModifierType type = ModifierType::Choice;
+    std::vector<std::string> choices;
+    double min = 0.0, max = 0.0;
+    bool min_open = false, max_open = false;
+    std::string placeholder;    // how --help writes a value: "J", "DEG", "FILE"
+    std::string unit;           // of Integer/Number values: "texels", "degrees", ""
+    std::string default_value;  // as the command line writes it
+    std::string applies_to;     // "" (always) or the setting it needs: "method=rays"
+    std::string meaning;        // one line
+};
+
+// One image an operation takes or gives, with the channel counts it accepts.
+struct ImageSlot {
+    std::string name;
+    int min_channels = 1, max_channels = 4;
+    std::string meaning;
+};
+
+struct OperationInfo {
+    std::string name;     // "height": the command line's --height
+    std::string summary;  // one line
+    std::vector<ImageSlot> inputs;   // in the order they are pushed (the top last)
+    std::vector<ImageSlot> outputs;
+    std::vector<ModifierInfo> modifiers;
+};
+
+RELIEF_API const std::vector<OperationInfo>& operations();
+// nullptr when there is no such operation.
+RELIEF_API const OperationInfo* find_operation(const std::string& name);
+// The table as a JSON document: {"abi_version": 1, "operations": [...]}.
+RELIEF_API std::string operations_json();
+
+// One call of an operation: its options as parsed from modifiers. Only the
+// member named by `operation` is used.
+struct OperationCall {
+    std::string operation;
+    SlopeOptions slopes;
+    HeightOptions height;
+    CorrectOptions correct;
+    BakeOptions bake;
+    std::string mask_file;  // height: mask=FILE, read by run_operation() unless height.mask is set
+    std::string fix_file;   // correct: fix=FILE, read by run_operation() unless correct.fix_mask is set
+};
+
+// Parses modifiers written as on the command line ("key=value:key=value",
+// fix=height:H0:DH keeping its own colons) for `operation`, checking each
+// against the table and the combinations against each other. Returns false
+// and sets geterror() to a one-line message (without the operation's name).
+RELIEF_API bool parse_modifiers(OperationCall& call, const std::string& operation,
+                                const std::string& modifiers);
+// The same from key/value pairs (Python's keywords).
+RELIEF_API bool parse_modifiers(OperationCall& call, const std::string& operation,
+                                const std::vector<std::pair<std::string, std::string>>& modifiers);
+
+// Runs `call` on `inputs` (as many as the table's inputs, in that order),
+// with `exec` (device, messages, progress). Reads mask_file/fix_file when
+// given. Returns false and sets geterror() on failure.
+RELIEF_API bool run_operation(OIIO::ImageBuf& dst, const OperationCall& call,
+                              const std::vector<const OIIO::ImageBuf*>& inputs,
+                              const Execution& exec = {});
+
+} // namespace relief

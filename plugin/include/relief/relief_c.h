@@ -1,0 +1,90 @@
+/* relief's C ABI: plain C types, no exception crosses it, stable across
+ * releases with the same relief_abi_version(). A host links librelief (or
+ * dlopen()s it by path and calls relief_plugin_entry()), lists the
+ * operations with relief_operations_json() and runs them with relief_run().
+ *
+ * Every function may be called from any thread; errors are per thread.
+ *
+ *     relief_image in = {512, 512, 3, RELIEF_UINT8, pixels};
+ *     relief_image out;
+ *     if (relief_run("height", "normal=opengl:boundary=periodic", &in, 1, &out) != RELIEF_OK)
+ *         fprintf(stderr, "%s\n", relief_last_error());
+ *     ... out.pixels: out.width * out.height * out.channels floats ...
+ *     relief_image_free(&out);
+ */
+#ifndef RELIEF_C_H
+#define RELIEF_C_H
+
+#include "relief/export.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define RELIEF_ABI_VERSION 1
+
+/* Pixel types. Integers are UNORM (code / 255 or / 65535), decoded exactly
+ * as the command line decodes a file of that type; RELIEF_HALF pixels are
+ * IEEE binary16 bit patterns. */
+typedef enum relief_type { RELIEF_UINT8 = 1, RELIEF_UINT16 = 2, RELIEF_HALF = 3, RELIEF_FLOAT = 4 } relief_type;
+
+/* An image: row-major, top row first, channels interleaved. `metadata` is
+ * optional (NULL, or zero-initialised): "key=value" lines. On output it
+ * holds the result's relief:* attributes (relief:method, relief:boundary,
+ * ...); on input such lines are attached to the image, so the offsets from
+ * "correct" tell "bake" (wrap=auto) how they were made. */
+typedef struct relief_image {
+    int width, height, channels;
+    relief_type type;
+    void* pixels;
+    char* metadata;
+} relief_image;
+
+/* Status codes of relief_run. */
+enum {
+    RELIEF_OK = 0,
+    RELIEF_INVALID = 1, /* the operation, a modifier or an input was refused before any work */
+    RELIEF_FAILED = 2   /* the operation failed (device, memory, an unreadable mask file) */
+};
+
+/* RELIEF_ABI_VERSION of the library actually loaded. */
+RELIEF_API int relief_abi_version(void);
+
+/* The operation table as JSON: {"abi_version": 1, "operations": [{"name",
+ * "summary", "inputs", "outputs", "modifiers": [{"name", "type" (choice,
+ * integer, number, file), "choices", "min", "max", "min_open", "max_open",
+ * "unit", "default", "applies_to", "meaning"}]}]}. Owned by the library. */
+RELIEF_API const char* relief_operations_json(void);
+
+/* Runs `operation` ("slopes", "height", "correct", "bake") with `modifiers`
+ * written as on the command line ("key=value:key=value"; NULL or "" for the
+ * defaults) on `n_inputs` images (as many as the operation takes, in its
+ * order: bake takes the texture, then the offsets). On RELIEF_OK `output`
+ * holds a new RELIEF_FLOAT image (free it with relief_image_free); otherwise
+ * `output` is zeroed and relief_last_error() says why. */
+RELIEF_API int relief_run(const char* operation, const char* modifiers, const relief_image* inputs,
+                          int n_inputs, relief_image* output);
+
+/* Frees the pixels and metadata of an image relief_run made; zeroes it. */
+RELIEF_API void relief_image_free(relief_image* image);
+
+/* The message of this thread's last failed call ("" if none), as the
+ * command line would print it. Valid until the thread's next relief call. */
+RELIEF_API const char* relief_last_error(void);
+
+/* The same functions, for hosts that dlopen() the library by path. */
+typedef struct relief_plugin {
+    int (*abi_version)(void);
+    const char* (*operations_json)(void);
+    int (*run)(const char*, const char*, const relief_image*, int, relief_image*);
+    void (*image_free)(relief_image*);
+    const char* (*last_error)(void);
+} relief_plugin;
+
+RELIEF_API const relief_plugin* relief_plugin_entry(void);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* RELIEF_C_H */

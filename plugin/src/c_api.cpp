@@ -1,0 +1,195 @@
+// The C ABI (relief/relief_c.h): the operation table's parser and runner
+// behind plain C types. Nothing thrown gets past a function here.
+#include "relief/relief_c.h"
+
+#include <OpenImageIO/imagebuf.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <new>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "error_state.h"
+#include "relief/errors.h"
+#include "relief/operations.h"
+
+namespace {
+
+using OIIO::ImageBuf;
+using OIIO::TypeDesc;
+
+thread_local std::string c_last_error;
+
+struct Refused : std::invalid_argument {
+    using std::invalid_argument::invalid_argument;
+};
+
+TypeDesc type_of(relief_type t)
+{
+    switch (t) {
+    case RELIEF_UINT8: return TypeDesc::UINT8;
+    case RELIEF_UINT16: return TypeDesc::UINT16;
+    case RELIEF_HALF: return TypeDesc::HALF;
+    case RELIEF_FLOAT: return TypeDesc::FLOAT;
+    }
+    throw Refused("unknown pixel type " + std::to_string(int(t)) +
+                  " (RELIEF_UINT8, RELIEF_UINT16, RELIEF_HALF or RELIEF_FLOAT)");
+}
+
+// An input as the command line would hold the same file: the pixels in
+// their own type, so integer maps decode as UNORM.
+ImageBuf to_imagebuf(const relief_image& in, const relief::ImageSlot& slot, const std::string& op)
+{
+    const std::string what = op + ": input '" + slot.name + "'";
+    const TypeDesc type = type_of(in.type);
+    if (in.width <= 0 || in.height <= 0)
+        throw Refused(what + " is " + std::to_string(in.width) + "x" + std::to_string(in.height) +
+                      " texels; both must be > 0");
+    if (in.channels < slot.min_channels || in.channels > slot.max_channels)
+        throw Refused(what + " has " + std::to_string(in.channels) + " channel(s); " + op +
+                      " takes " + std::to_string(slot.min_channels) + " to " +
+                      std::to_string(slot.max_channels));
+    if (!in.pixels)
+        throw Refused(what + " has no pixels (NULL)");
+    OIIO::ImageSpec spec(in.width, in.height, in.channels, type);
+    ImageBuf buf(spec);
+    if (!buf.set_pixels(buf.roi(), type, in.pixels))
+        throw std::runtime_error(what + ": " + buf.geterror());
+    if (in.metadata) {
+        const std::string text = in.metadata;
+        std::size_t pos = 0;
+        while (pos < text.size()) {
+            std::size_t end = text.find('\n', pos);
+            if (end == std::string::npos)
+                end = text.size();
+            const std::string line = text.substr(pos, end - pos);
+            const std::size_t eq = line.find('=');
+            if (eq != std::string::npos && eq > 0)
+                buf.specmod().attribute(line.substr(0, eq), line.substr(eq + 1));
+            pos = end + 1;
+        }
+    }
+    return buf;
+}
+
+char* copy_text(const std::string& s)
+{
+    char* p = static_cast<char*>(std::malloc(s.size() + 1));
+    if (!p)
+        throw std::bad_alloc();
+    std::memcpy(p, s.c_str(), s.size() + 1);
+    return p;
+}
+
+void to_c_image(const ImageBuf& img, relief_image* out)
+{
+    const OIIO::ImageSpec& spec = img.spec();
+    const std::size_t n = std::size_t(spec.width) * spec.height * spec.nchannels;
+    float* px = static_cast<float*>(std::malloc(n * sizeof(float)));
+    if (!px)
+        throw std::bad_alloc();
+    if (!img.get_pixels(img.roi(), TypeDesc::FLOAT, px)) {
+        std::free(px);
+        throw std::runtime_error("cannot read the result: " + img.geterror());
+    }
+    std::string meta;
+    for (const auto& p : spec.extra_attribs)
+        if (p.name().string().rfind("relief:", 0) == 0)
+            meta += p.name().string() + "=" + p.get_string() + "\n";
+    out->width = spec.width;
+    out->height = spec.height;
+    out->channels = spec.nchannels;
+    out->type = RELIEF_FLOAT;
+    out->pixels = px;
+    try {
+        out->metadata = copy_text(meta);
+    } catch (...) {
+        std::free(px);
+        *out = relief_image{};
+        throw;
+    }
+}
+
+} // namespace
+
+extern "C" {
+
+int relief_abi_version(void) { return RELIEF_ABI_VERSION; }
+
+const char* relief_operations_json(void)
+{
+    try {
+        static const std::string json = relief::operations_json();
+        return json.c_str();
+    } catch (...) {
+        return "{}";
+    }
+}
+
+int relief_run(const char* operation, const char* modifiers, const relief_image* inputs,
+               int n_inputs, relief_image* output)
+{
+    c_last_error.clear();
+    try {
+        if (!output)
+            throw Refused("relief_run: output is NULL");
+        *output = relief_image{};
+        if (!operation)
+            throw Refused("relief_run: operation is NULL");
+        const std::string op = operation;
+        relief::OperationCall call;
+        if (!relief::parse_modifiers(call, op, modifiers ? modifiers : ""))
+            throw Refused(relief::find_operation(op) ? op + ": " + relief::geterror()
+                                                     : relief::geterror());
+        const relief::OperationInfo& info = *relief::find_operation(op);
+        if (n_inputs != int(info.inputs.size()) || (n_inputs > 0 && !inputs))
+            throw Refused(op + " takes " + std::to_string(info.inputs.size()) + " image(s), got " +
+                          std::to_string(inputs ? n_inputs : 0));
+        std::vector<ImageBuf> bufs;
+        bufs.reserve(n_inputs);
+        for (int i = 0; i < n_inputs; ++i)
+            bufs.push_back(to_imagebuf(inputs[i], info.inputs[i], op));
+        std::vector<const ImageBuf*> ptrs;
+        for (const ImageBuf& b : bufs)
+            ptrs.push_back(&b);
+        ImageBuf result;
+        if (!relief::run_operation(result, call, ptrs)) {
+            c_last_error = relief::geterror();
+            return RELIEF_FAILED;
+        }
+        to_c_image(result, output);
+        return RELIEF_OK;
+    } catch (const Refused& e) {
+        c_last_error = e.what();
+        return RELIEF_INVALID;
+    } catch (const std::exception& e) {
+        c_last_error = e.what();
+        return RELIEF_FAILED;
+    } catch (...) {
+        c_last_error = "relief_run: unknown failure";
+        return RELIEF_FAILED;
+    }
+}
+
+void relief_image_free(relief_image* image)
+{
+    if (!image)
+        return;
+    std::free(image->pixels);
+    std::free(image->metadata);
+    *image = relief_image{};
+}
+
+const char* relief_last_error(void) { return c_last_error.c_str(); }
+
+const relief_plugin* relief_plugin_entry(void)
+{
+    static const relief_plugin plugin = {relief_abi_version, relief_operations_json, relief_run,
+                                         relief_image_free, relief_last_error};
+    return &plugin;
+}
+
+} // extern "C"
