@@ -1,0 +1,112 @@
+"""relief: normal maps to displacement maps (OpenCL), from Python.
+
+One function per operation of relief's operation table, with the command
+line's modifiers as keywords (the same names and values):
+
+    import relief
+    normals = relief.read("normal.png")              # uint8 H x W x 3, as stored
+    height = relief.height(normals, normal="opengl", boundary="periodic")
+    offsets = relief.correct(height, scale=0.05)
+    albedo = relief.bake(relief.read("albedo.png"), offsets)
+    relief.write("height.exr", height)
+
+Inputs are numpy arrays (H x W or H x W x C) of uint8 or uint16 (UNORM, as
+an 8/16-bit file decodes), float16 or float32. Results are float32 H x W x C
+arrays of type relief.Image, an ndarray that carries the result's metadata
+(relief:method, relief:boundary, ...) in .metadata, as a file would: bake's
+wrap=auto and write's integer mapping read it. Keywords: strings, numbers,
+True/False for on/off; device="auto"|"gpu"|"cpu"|"P:D". A value the table
+refuses raises ValueError with relief's message; a failed run RuntimeError.
+The GIL is released while the device works.
+"""
+import json as _json
+import os as _os
+
+import numpy as _np
+
+from . import _relief
+
+__version__ = _relief.version
+__all__ = ["Image", "operations", "read", "write"]
+
+
+class Image(_np.ndarray):
+    """A numpy array with the image's metadata (a dict of strings)."""
+
+    def __new__(cls, array, metadata=None):
+        obj = _np.asarray(array).view(cls)
+        obj.metadata = dict(metadata or {})
+        return obj
+
+    def __array_finalize__(self, obj):
+        self.metadata = dict(getattr(obj, "metadata", None) or {})
+
+
+def operations():
+    """The operation table: a list of dicts (name, summary, inputs, outputs,
+    modifiers with type, choices, range, default and meaning)."""
+    return _json.loads(_relief.operations_json())["operations"]
+
+
+def _text(key, value):
+    if isinstance(value, (bool, _np.bool_)):
+        return "on" if value else "off"
+    if isinstance(value, (int, float, _np.integer, _np.floating)):
+        return str(value)
+    if isinstance(value, (str, _os.PathLike)):
+        return _os.fspath(value)
+    raise ValueError(f"{key}={value!r}: give a string, a number or True/False")
+
+
+def _pixels(array):
+    a = _np.asarray(array)
+    if a.dtype == _np.float64:  # numpy's default float: relief computes in float32
+        a = a.astype(_np.float32)
+    return a
+
+
+def _operation(info):
+    name = info["name"]
+    inputs = [slot["name"] for slot in info["inputs"]]
+
+    def run(*images, device="auto", **modifiers):
+        if len(images) != len(inputs):
+            raise ValueError(f"{name} takes {len(inputs)} image(s) ({', '.join(inputs)}), got {len(images)}")
+        metadata = [dict(getattr(image, "metadata", None) or {}) for image in images]
+        pixels, meta = _relief.run(name, [_pixels(i) for i in images], metadata,
+                                   [(k, _text(k, v)) for k, v in modifiers.items()], device)
+        return Image(pixels, meta)
+
+    lines = [f"{name}({', '.join(inputs)}, **modifiers) -> relief.Image", "", info["summary"] + ".", "",
+             "Modifiers:"]
+    for m in info["modifiers"]:
+        values = "|".join(m["choices"]) if m["type"] == "choice" else m["type"]
+        if m["type"] != "choice" and m["choices"]:
+            values += " or " + "|".join(m["choices"])
+        where = f" [{m['applies_to']}]" if m["applies_to"] else ""
+        lines.append(f"    {m['name']}={values} (default {m['default']}){where}: {m['meaning']}")
+    run.__name__ = run.__qualname__ = name
+    run.__doc__ = "\n".join(lines)
+    return run
+
+
+for _info in operations():
+    globals()[_info["name"]] = _operation(_info)
+    __all__.append(_info["name"])
+del _info
+
+
+def read(path):
+    """Reads an image as stored (uint8, uint16, float16 or float32 H x W x C),
+    with its metadata, without colour conversion."""
+    pixels, meta = _relief.read(_os.fspath(path))
+    return Image(pixels, meta)
+
+
+def write(path, image, type="float", compression=""):
+    """Writes an image atomically (a failure leaves no file and keeps an old
+    one). type: float, half, uint16 or uint8; relief's signed results
+    (heights, slopes, offsets: metadata relief:method) are mapped to integers
+    as data = (value - 0.5) * scale, the scale stored in the file."""
+    _relief.write(_os.fspath(path), _pixels(image), dict(getattr(image, "metadata", None) or {}),
+                  type, compression)

@@ -1,0 +1,186 @@
+// relief._relief: the Python module's native part (pybind11). The package's
+// __init__.py makes one Python function per entry of the operation table;
+// they all come here, to run(), which parses the keywords with the table's
+// parser and runs the operation as the command line does.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <OpenImageIO/imagebuf.h>
+
+#include <cstring>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "relief/relief.h"
+
+namespace py = pybind11;
+using OIIO::ImageBuf;
+using OIIO::TypeDesc;
+
+namespace {
+
+// numpy dtype -> the pixel type the command line would read from a file.
+TypeDesc pixel_type(const py::array& a)
+{
+    const py::dtype d = a.dtype();
+    if (d.kind() == 'u' && d.itemsize() == 1)
+        return TypeDesc::UINT8;
+    if (d.kind() == 'u' && d.itemsize() == 2)
+        return TypeDesc::UINT16;
+    if (d.kind() == 'f' && d.itemsize() == 2)
+        return TypeDesc::HALF;
+    if (d.kind() == 'f' && d.itemsize() == 4)
+        return TypeDesc::FLOAT;
+    throw py::value_error("relief: pixels must be uint8, uint16, float16 or float32, not " +
+                          py::cast<std::string>(py::str(static_cast<const py::handle&>(d))));
+}
+
+// H x W or H x W x C, any strides -> an ImageBuf in the array's own type
+// (copied, so no numpy memory is touched once the GIL is released).
+ImageBuf to_imagebuf(const py::array& input, const relief::ImageSlot& slot, const std::string& op,
+                     const std::map<std::string, std::string>& metadata)
+{
+    const TypeDesc type = pixel_type(input);
+    const std::string what = op + ": input '" + slot.name + "'";
+    if (input.ndim() != 2 && input.ndim() != 3)
+        throw py::value_error(what + " must be H x W or H x W x C, not " +
+                              std::to_string(input.ndim()) + "-dimensional");
+    const py::array a = py::array::ensure(input, py::array::c_style);
+    const int h = int(a.shape(0)), w = int(a.shape(1)), c = a.ndim() == 3 ? int(a.shape(2)) : 1;
+    if (h <= 0 || w <= 0)
+        throw py::value_error(what + " is empty");
+    if (c < slot.min_channels || c > slot.max_channels)
+        throw py::value_error(what + " has " + std::to_string(c) + " channel(s); " + op +
+                              " takes " + std::to_string(slot.min_channels) + " to " +
+                              std::to_string(slot.max_channels));
+    ImageBuf buf(OIIO::ImageSpec(w, h, c, type));
+    if (!buf.set_pixels(buf.roi(), type, a.data()))
+        throw std::runtime_error(what + ": " + buf.geterror());
+    for (const auto& [key, value] : metadata)
+        buf.specmod().attribute(key, value);
+    return buf;
+}
+
+py::array_t<float> to_numpy(const ImageBuf& img)
+{
+    const OIIO::ImageSpec& s = img.spec();
+    py::array_t<float> out({py::ssize_t(s.height), py::ssize_t(s.width), py::ssize_t(s.nchannels)});
+    if (!img.get_pixels(img.roi(), TypeDesc::FLOAT, out.mutable_data()))
+        throw std::runtime_error("relief: cannot read the result: " + img.geterror());
+    return out;
+}
+
+std::map<std::string, std::string> metadata_of(const ImageBuf& img)
+{
+    std::map<std::string, std::string> m;
+    for (const auto& p : img.spec().extra_attribs)
+        if (p.name().string().rfind("relief:", 0) == 0)
+            m[p.name().string()] = p.get_string();
+    return m;
+}
+
+// One operation: inputs (arrays and their metadata), modifiers as text ->
+// (float32 array H x W x C, metadata).
+py::tuple run(const std::string& op, const std::vector<py::array>& arrays,
+              const std::vector<std::map<std::string, std::string>>& metadata,
+              const std::vector<std::pair<std::string, std::string>>& modifiers,
+              const std::string& device)
+{
+    relief::OperationCall call;
+    if (!relief::parse_modifiers(call, op, modifiers))
+        throw py::value_error(relief::find_operation(op) ? op + ": " + relief::geterror()
+                                                          : relief::geterror());
+    const relief::OperationInfo& info = *relief::find_operation(op);
+    if (arrays.size() != info.inputs.size())
+        throw py::value_error(op + " takes " + std::to_string(info.inputs.size()) +
+                              " image(s), got " + std::to_string(arrays.size()));
+    std::vector<ImageBuf> bufs;
+    for (std::size_t i = 0; i < arrays.size(); ++i)
+        bufs.push_back(to_imagebuf(arrays[i], info.inputs[i], op,
+                                   i < metadata.size() ? metadata[i] : std::map<std::string, std::string>{}));
+    std::vector<const ImageBuf*> inputs;
+    for (const ImageBuf& b : bufs)
+        inputs.push_back(&b);
+    relief::Execution exec;
+    exec.device = device;
+    ImageBuf out;
+    bool ok;
+    std::string error;
+    {
+        py::gil_scoped_release device_work;
+        ok = relief::run_operation(out, call, inputs, exec);
+        if (!ok)
+            error = relief::geterror();
+    }
+    if (!ok)
+        throw std::runtime_error(error);
+    return py::make_tuple(to_numpy(out), metadata_of(out));
+}
+
+// The file's pixels in its own type (uint8, uint16, float16, float32; other
+// types as float32), so that an operation on them decodes what the command
+// line would decode from the same file.
+py::tuple read_file(const std::string& path)
+{
+    ImageBuf img;
+    bool ok;
+    {
+        py::gil_scoped_release io;
+        ok = relief::read_image(img, path);
+    }
+    if (!ok)
+        throw std::runtime_error(relief::geterror());
+    TypeDesc t = img.nativespec().format;
+    if (t != TypeDesc::UINT8 && t != TypeDesc::UINT16 && t != TypeDesc::HALF)
+        t = TypeDesc::FLOAT;
+    const OIIO::ImageSpec& s = img.spec();
+    const std::string dtype = t == TypeDesc::UINT8    ? "uint8"
+                              : t == TypeDesc::UINT16 ? "uint16"
+                              : t == TypeDesc::HALF   ? "float16"
+                                                      : "float32";
+    py::array out(py::dtype(dtype), {py::ssize_t(s.height), py::ssize_t(s.width), py::ssize_t(s.nchannels)});
+    if (!img.get_pixels(img.roi(), t, out.mutable_data()))
+        throw std::runtime_error(path + ": " + img.geterror());
+    std::map<std::string, std::string> meta;
+    for (const auto& p : s.extra_attribs)
+        meta[p.name().string()] = p.get_string();
+    return py::make_tuple(out, meta);
+}
+
+void write_file(const std::string& path, const py::array& input,
+           const std::map<std::string, std::string>& metadata, const std::string& type,
+           const std::string& compression)
+{
+    relief::ImageSlot any{"image", 1, 64, ""};
+    const ImageBuf img = to_imagebuf(input, any, "write", metadata);
+    relief::WriteOptions w;
+    if (type == "float" || type == "half" || type == "uint16" || type == "uint8")
+        w.format = TypeDesc(type);
+    else
+        throw py::value_error("write: type=" + type + " is not one of float|half|uint16|uint8");
+    w.compression = compression;
+    bool ok;
+    {
+        py::gil_scoped_release io;
+        ok = relief::check_output_path(path) && relief::write_image(img, path, w);
+    }
+    if (!ok)
+        throw std::runtime_error(relief::geterror());
+}
+
+} // namespace
+
+PYBIND11_MODULE(_relief, m)
+{
+    m.doc() = "relief's native module; use the relief package";
+    m.attr("version") = relief::version();
+    m.def("operations_json", &relief::operations_json);
+    m.def("run", &run, py::arg("operation"), py::arg("arrays"), py::arg("metadata"),
+          py::arg("modifiers"), py::arg("device") = "auto");
+    m.def("read", &read_file, py::arg("path"));
+    m.def("write", &write_file, py::arg("path"), py::arg("array"), py::arg("metadata"),
+          py::arg("type") = "float", py::arg("compression") = "");
+}

@@ -1,0 +1,124 @@
+/* The C ABI's contract, checked from C against an installed relief: built
+ * linked (pkg-config) and, with -DRELIEF_DLOPEN, loading the library by
+ * path (argv[1]) through relief_plugin_entry. Exit 0 when every check holds. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "relief/relief_c.h"
+
+#ifdef RELIEF_DLOPEN
+#include <dlfcn.h>
+#endif
+
+static int failures = 0;
+#define CHECK(cond, what)                                                   \
+    do {                                                                    \
+        if (!(cond)) {                                                      \
+            fprintf(stderr, "c_abi_checks: FAILED: %s (%s)\n", what, #cond); \
+            ++failures;                                                     \
+        }                                                                   \
+    } while (0)
+
+static void refused(const relief_plugin* r, const char* op, const char* mods, const relief_image* in,
+                    int n, const char* needle)
+{
+    relief_image out;
+    memset(&out, 0x5a, sizeof out);
+    int status = r->run(op, mods, in, n, &out);
+    const char* e = r->last_error();
+    fprintf(stderr, "c_abi_checks: %s:%s refused: %s\n", op, mods ? mods : "", e);
+    CHECK(status == RELIEF_INVALID, needle);
+    CHECK(e && strstr(e, needle) != NULL, needle);
+    CHECK(out.pixels == NULL && out.metadata == NULL && out.width == 0, "a refused run zeroes its output");
+}
+
+int main(int argc, char** argv)
+{
+    const relief_plugin* r;
+#ifdef RELIEF_DLOPEN
+    if (argc != 2)
+        return 2;
+    void* module = dlopen(argv[1], RTLD_NOW | RTLD_LOCAL);
+    if (!module) {
+        fprintf(stderr, "c_abi_checks: %s\n", dlerror());
+        return 2;
+    }
+    const relief_plugin* (*entry)(void) = (const relief_plugin* (*)(void))dlsym(module, "relief_plugin_entry");
+    CHECK(entry != NULL, "relief_plugin_entry is exported");
+    if (!entry)
+        return 1;
+    r = entry();
+#else
+    (void)argc;
+    (void)argv;
+    r = relief_plugin_entry();
+    CHECK(r->run == relief_run && r->last_error == relief_last_error, "the entry holds the C functions");
+#endif
+    CHECK(r->abi_version() == 1, "ABI version 1");
+    const char* json = r->operations_json();
+    CHECK(strstr(json, "\"name\": \"height\"") && strstr(json, "\"name\": \"correct\""), "the table lists height and correct");
+    CHECK(strstr(json, "\"name\": \"rays\", \"type\": \"integer\""), "the table types rays");
+
+    /* a 16x16 8-bit normal map with a bump */
+    enum { W = 16, H = 16 };
+    unsigned char px[W * H * 3];
+    for (int i = 0; i < W * H; ++i) {
+        int x = i % W, y = i / W;
+        px[3 * i] = (unsigned char)(x > 5 && x < 10 ? 150 : 128);
+        px[3 * i + 1] = (unsigned char)(y > 5 && y < 10 ? 110 : 128);
+        px[3 * i + 2] = 255;
+    }
+    relief_image normals = {W, H, 3, RELIEF_UINT8, px, NULL};
+
+    refused(r, "height", "rays=-3", &normals, 1, "rays=-3 must be an integer in [1, 4096]");
+    refused(r, "height", "normal=sideways", &normals, 1, "normal=sideways is not one of");
+    refused(r, "height", "rays", &normals, 1, "is not key=value");
+    refused(r, "frobnicate", "", &normals, 1, "unknown operation 'frobnicate'");
+    refused(r, "bake", "", &normals, 1, "bake takes 2 image(s), got 1");
+    unsigned char seven[W * H * 7];
+    memset(seven, 128, sizeof seven);
+    relief_image wide = {W, H, 7, RELIEF_UINT8, seven, NULL};
+    refused(r, "height", "", &wide, 1, "has 7 channel(s); height takes 2 to 4");
+    relief_image bad_type = {W, H, 3, (relief_type)9, px, NULL};
+    refused(r, "height", "", &bad_type, 1, "unknown pixel type 9");
+    relief_image empty = {0, H, 3, RELIEF_UINT8, px, NULL};
+    refused(r, "height", "", &empty, 1, "both must be > 0");
+    CHECK(r->run("height", "", &normals, 1, NULL) == RELIEF_INVALID, "a NULL output is refused");
+
+    relief_image h;
+    CHECK(r->run("height", "normal=opengl:boundary=periodic", &normals, 1, &h) == RELIEF_OK, "height runs");
+    CHECK(strcmp(r->last_error(), "") == 0, "success leaves no error");
+    CHECK(h.width == W && h.height == H && h.channels == 1 && h.type == RELIEF_FLOAT, "height is 1 float channel");
+    CHECK(h.metadata && strstr(h.metadata, "relief:method=poisson\n"), "the result's metadata");
+    float lo = 1e30f, hi = -1e30f;
+    for (int i = 0; i < W * H; ++i) {
+        float v = ((float*)h.pixels)[i];
+        lo = v < lo ? v : lo;
+        hi = v > hi ? v : hi;
+    }
+    CHECK(hi - lo > 0.5f, "the bump has relief");
+
+    /* height -> correct (scale=auto reads the height's metadata) -> bake */
+    relief_image off;
+    CHECK(r->run("correct", "levels=1:iterations=2", &h, 1, &off) == RELIEF_OK, "correct runs on relief's height");
+    if (off.pixels) {
+        CHECK(off.channels == 2 && strstr(off.metadata, "relief:boundary=periodic\n"), "offsets say their boundary");
+        relief_image both[2] = {normals, off};
+        relief_image baked;
+        CHECK(r->run("bake", NULL, both, 2, &baked) == RELIEF_OK, "bake runs");
+        CHECK(baked.channels == 3, "bake keeps the texture's channels");
+        r->image_free(&baked);
+        r->image_free(&off);
+    }
+    relief_image plain = h;
+    plain.metadata = NULL;
+    CHECK(r->run("correct", "", &plain, 1, &off) == RELIEF_FAILED, "without metadata correct needs a scale");
+    CHECK(strstr(r->last_error(), "scale") != NULL, "and says so");
+    r->image_free(&h);
+    CHECK(h.pixels == NULL && h.metadata == NULL, "image_free zeroes the image");
+    r->image_free(NULL);
+    if (failures == 0)
+        printf("c_abi_checks: all checks hold\n");
+    return failures == 0 ? 0 : 1;
+}

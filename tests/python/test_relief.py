@@ -1,0 +1,189 @@
+"""Tests of the Python package `relief` (run by ctest with Debian's
+/usr/bin/python3 -m unittest; PYTHONPATH points at the package, RELIEF_CLI
+at the command line, RELIEF_TEST_DATA at examples/data)."""
+import os
+import subprocess
+import tempfile
+import threading
+import time
+import unittest
+
+import numpy as np
+
+import relief
+
+CLI = os.environ["RELIEF_CLI"]
+DATA = os.environ["RELIEF_TEST_DATA"]
+NORMAL = os.path.join(DATA, "dem_jacksboro", "normal.png")  # 403 x 344, 8-bit RGB
+
+
+def cli(*args):
+    r = subprocess.run([CLI, *args], capture_output=True, text=True)
+    if r.returncode != 0:
+        raise AssertionError(f"relief {' '.join(args)}: {r.stderr}")
+    return r
+
+
+class Doors(unittest.TestCase):
+    """The same bytes give the same result through Python and the command line."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        cls.normals = relief.read(NORMAL)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def path(self, name):
+        return os.path.join(self.tmp.name, name)
+
+    def cli_result(self, source, command):
+        out = self.path("cli.exr")
+        cli(source, command, "-o", out)
+        return relief.read(out)
+
+    def test_read_keeps_the_file_type(self):
+        self.assertEqual(self.normals.dtype, np.uint8)
+        self.assertEqual(self.normals.shape, (344, 403, 3))
+
+    def test_uint8_height_equals_the_cli(self):
+        for modifiers, command in [({}, "--height"),
+                                   ({"normal": "opengl", "boundary": "periodic"},
+                                    "--height:normal=opengl:boundary=periodic"),
+                                   ({"rays": 8, "radius": 16.0, "skip": False},
+                                    "--height:rays=8:radius=16:skip=off")]:
+            with self.subTest(command):
+                h = relief.height(self.normals, **modifiers)
+                self.assertEqual(h.dtype, np.float32)
+                self.assertEqual(h.shape, (344, 403, 1))
+                np.testing.assert_array_equal(h, self.cli_result(NORMAL, command))
+
+    def test_uint16_and_half_inputs_equal_the_cli_on_the_same_bytes(self):
+        n16 = (self.normals.astype(np.uint16) * 257).astype(np.uint16)
+        png16 = self.path("n16.png")
+        relief.write(png16, n16, type="uint16")
+        self.assertEqual(relief.read(png16).dtype, np.uint16)
+        np.testing.assert_array_equal(relief.height(n16, normal="opengl"),
+                                      self.cli_result(png16, "--height:normal=opengl"))
+        nh = (self.normals.astype(np.float32) / 255 * 2 - 1).astype(np.float16)
+        exr = self.path("nh.exr")
+        relief.write(exr, nh, type="half")
+        self.assertEqual(relief.read(exr).dtype, np.float16)
+        np.testing.assert_array_equal(relief.height(nh, normal="opengl"),
+                                      self.cli_result(exr, "--height:normal=opengl"))
+        # float32 holding the same signed values: the same result as half
+        np.testing.assert_array_equal(relief.height(nh.astype(np.float32), normal="opengl"),
+                                      relief.height(nh, normal="opengl"))
+
+    def test_correct_and_bake_chain_like_the_cli(self):
+        h = relief.height(self.normals, normal="opengl", boundary="periodic")
+        off = relief.correct(h, levels=1, iterations=3)
+        self.assertEqual(off.metadata.get("relief:method"), "correct")
+        self.assertEqual(off.metadata.get("relief:boundary"), "periodic")
+        baked = relief.bake(self.normals, off)
+        out = self.path("baked.exr")
+        cli(NORMAL, NORMAL, "--height:normal=opengl:boundary=periodic", "--correct:levels=1:iterations=3",
+            "-o", self.path("off.exr"), "--bake", "-d", "float", "-o", out)
+        np.testing.assert_array_equal(off, relief.read(self.path("off.exr")))
+        np.testing.assert_array_equal(baked, relief.read(out))
+
+    def test_write_maps_signed_results_to_integers_and_back(self):
+        h = relief.height(self.normals, normal="opengl")
+        png = self.path("h16.png")
+        relief.write(png, h, type="uint16")
+        back = relief.read(png)
+        scale = float(back.metadata["relief:height_scale"])
+        data = (back.astype(np.float64) / 65535 - 0.5) * scale
+        self.assertLess(np.abs(data - h).max(), scale / 65535)
+
+    def test_write_is_atomic_and_reports_failure(self):
+        target = self.path("keep.exr")
+        relief.write(target, np.ones((4, 4, 1), np.float32))
+        with open(target, "rb") as f:
+            before = f.read()
+        with self.assertRaises(RuntimeError):
+            relief.write(self.path("no/such/folder/x.exr"), np.ones((4, 4, 1), np.float32))
+        with self.assertRaises(RuntimeError):
+            relief.write(self.path("x.unknownformat"), np.ones((4, 4, 1), np.float32))
+        with open(target, "rb") as f:
+            self.assertEqual(f.read(), before)
+        self.assertEqual(sorted(os.listdir(self.tmp.name)).count("x.unknownformat"), 0)
+
+
+class Refusals(unittest.TestCase):
+    def setUp(self):
+        self.n = np.full((16, 16, 3), 128, np.uint8)
+        self.n[..., 2] = 255
+
+    def refused(self, fn, *args, contains, **kw):
+        with self.assertRaises(ValueError) as e:
+            fn(*args, **kw)
+        self.assertIn(contains, str(e.exception))
+
+    def test_bad_values_raise_value_error_with_relief_message(self):
+        self.refused(relief.height, self.n, rays=-3, contains="rays=-3 must be an integer in [1, 4096]")
+        self.refused(relief.height, self.n, phase=1.5, contains="phase=1.5 is out of range")
+        self.refused(relief.height, self.n, normal="sideways", contains="normal=sideways is not one of")
+        self.refused(relief.height, self.n, colour="red", contains="unknown modifier 'colour'")
+        self.refused(relief.height, self.n, method="poisson", rays=8, contains="apply to method=rays")
+        self.refused(relief.correct, self.n[..., :1], theta=21, contains="theta=21 is out of range")
+        self.refused(relief.bake, self.n, self.n, wrap="mirror", contains="wrap=mirror")
+        self.refused(relief.height, self.n, rays=[1], contains="give a string, a number or True/False")
+
+    def test_bad_images_raise_value_error(self):
+        self.refused(relief.height, np.zeros((8, 8, 7), np.uint8), contains="7 channel(s)")
+        self.refused(relief.height, np.zeros((8, 8, 3), np.int32), contains="uint8, uint16, float16 or float32")
+        self.refused(relief.height, np.zeros((8,), np.uint8), contains="H x W or H x W x C")
+        self.refused(relief.bake, self.n, contains="bake takes 2 image(s)")
+
+    def test_a_failed_run_raises_runtime_error(self):
+        with self.assertRaises(RuntimeError) as e:
+            relief.height(self.n, mask="alpha")
+        self.assertIn("4 channels", str(e.exception))
+
+
+class Table(unittest.TestCase):
+    def test_operations_list_the_table(self):
+        ops = {op["name"]: op for op in relief.operations()}
+        for name in ("slopes", "height", "correct", "bake"):
+            self.assertIn(name, ops)
+            self.assertTrue(callable(getattr(relief, name)))
+            self.assertIn(ops[name]["summary"], getattr(relief, name).__doc__)
+        rays = {m["name"]: m for m in ops["height"]["modifiers"]}["rays"]
+        self.assertEqual((rays["type"], rays["min"], rays["max"], rays["default"]), ("integer", 1, 4096, "32"))
+        self.assertEqual([s["name"] for s in ops["bake"]["inputs"]], ["texture", "offsets"])
+
+    def test_every_default_is_accepted_and_changes_nothing(self):
+        n = np.full((16, 16, 3), 128, np.uint8)
+        n[..., 2] = 255
+        n[5:9, 5:9, 0] = 160
+        ops = {op["name"]: op for op in relief.operations()}
+        base = relief.height(n, normal="opengl")
+        for m in ops["height"]["modifiers"]:
+            if m["applies_to"] or m["default"] == "none" or m["name"] == "normal":
+                continue
+            with self.subTest(m["name"]):
+                np.testing.assert_array_equal(relief.height(n, normal="opengl", **{m["name"]: m["default"]}), base)
+
+
+class Threads(unittest.TestCase):
+    def test_the_gil_is_released_during_device_work(self):
+        n = np.full((1024, 1024, 3), 128, np.uint8)
+        n[..., 2] = 255
+        n[::7, :, 0] = 150
+        relief.height(n, normal="opengl", rays=32, radius=64)  # builds the kernels
+        ticks = 0
+        t = threading.Thread(target=relief.height, args=(n,), kwargs={"normal": "opengl", "rays": 32, "radius": 64})
+        start = time.perf_counter()
+        t.start()
+        while t.is_alive():
+            ticks += 1
+        elapsed = time.perf_counter() - start
+        # Holding the GIL in C++ would leave this loop a handful of turns.
+        self.assertGreater(ticks, 1000, f"{ticks} turns in {elapsed:.3f} s")
+
+
+if __name__ == "__main__":
+    unittest.main()
