@@ -1,0 +1,287 @@
+// The operation table (relief/operations.h): one description that the
+// parser, --help, the JSON of the C ABI, the API's range checks and
+// run_operation() all follow.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "command_line.h"
+#include "relief/relief.h"
+#include "support/images.h"
+
+using namespace relief;
+using OIIO::ImageBuf;
+
+namespace {
+
+const std::string kHeight = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
+
+// Every option field the table can set, compared.
+bool same_options(const OperationCall& a, const OperationCall& b)
+{
+    auto dec = [](const NormalDecoding& x, const NormalDecoding& y) {
+        return x.convention == y.convention && x.max_angle == y.max_angle &&
+               x.float_encoding == y.float_encoding;
+    };
+    const HeightOptions &h = a.height, &g = b.height;
+    const CorrectOptions &c = a.correct, &d = b.correct;
+    return dec(a.slopes.normals, b.slopes.normals) && dec(h.normals, g.normals) &&
+           h.method == g.method && h.boundary == g.boundary && h.impl == g.impl &&
+           h.rays == g.rays && h.radius == g.radius && h.phase == g.phase &&
+           h.directions == g.directions && h.skip_flat == g.skip_flat &&
+           h.highpass == g.highpass && h.mask_alpha == g.mask_alpha &&
+           a.mask_file == b.mask_file && c.scale == d.scale && c.theta == d.theta &&
+           c.nodes == d.nodes && c.boundary == d.boundary && c.fix_height == d.fix_height &&
+           c.fix_width == d.fix_width && a.fix_file == b.fix_file &&
+           c.iterations == d.iterations && c.tolerance == d.tolerance && c.levels == d.levels &&
+           c.threshold == d.threshold && c.skip_tiles == d.skip_tiles &&
+           a.bake.filter == b.bake.filter && a.bake.colorspace == b.bake.colorspace &&
+           a.bake.kind == b.bake.kind && a.bake.wrap == b.bake.wrap;
+}
+
+std::vector<float> wavy_normals(int w, int h)
+{
+    std::vector<float> px(std::size_t(w) * h * 3);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const double gx = 0.3 * std::cos(6.283185307 * 2 * x / w), gy = 0.2 * std::sin(6.283185307 * y / h);
+            const double n = std::sqrt(1 + gx * gx + gy * gy);
+            float* p = &px[3 * (std::size_t(y) * w + x)];
+            p[0] = float(-gx / n);
+            p[1] = float(gy / n);  // opengl: the row component is -G
+            p[2] = float(1 / n);
+        }
+    return px;
+}
+
+} // namespace
+
+TEST_CASE("operations: the table lists each operation with its slots and typed modifiers", "[operations]")
+{
+    std::vector<std::string> names;
+    for (const OperationInfo& op : operations())
+        names.push_back(op.name);
+    CHECK(names == std::vector<std::string>{"slopes", "height", "correct", "bake"});
+    const OperationInfo* h = find_operation("height");
+    REQUIRE(h);
+    CHECK(find_operation("frobnicate") == nullptr);
+    CHECK(h->inputs.size() == 1);
+    CHECK(h->inputs[0].min_channels == 2);
+    CHECK(h->inputs[0].max_channels == 4);
+    CHECK(find_operation("bake")->inputs.size() == 2);
+    for (const OperationInfo& op : operations())
+        for (const ModifierInfo& m : op.modifiers) {
+            INFO(op.name << ":" << m.name);
+            CHECK_FALSE(m.meaning.empty());
+            CHECK_FALSE(m.default_value.empty());
+            if (m.type == ModifierType::Choice)
+                CHECK(m.choices.size() >= 2);
+            if (m.type == ModifierType::Integer || m.type == ModifierType::Number)
+                CHECK(m.min < m.max);
+        }
+}
+
+TEST_CASE("operations: defaults are the option structs' own, and each parses back to them", "[operations]")
+{
+    OperationCall base;
+    for (const OperationInfo& op : operations())
+        for (const ModifierInfo& m : op.modifiers) {
+            INFO(op.name << ":" << m.name << "=" << m.default_value);
+            if (m.default_value == "none")
+                continue;  // files: nothing to give
+            OperationCall parsed;
+            REQUIRE(parse_modifiers(parsed, op.name, m.name + "=" + m.default_value));
+            if (op.name == "height" && m.applies_to == "method=rays") {
+                // a ray modifier selects method=rays; nothing else changes
+                CHECK(parsed.height.method == HeightMethod::Rays);
+                parsed.height.method = base.height.method;
+            }
+            CHECK(same_options(parsed, base));
+        }
+    const auto find = [](const char* op, const char* name) {
+        for (const ModifierInfo& m : find_operation(op)->modifiers)
+            if (m.name == name)
+                return m;
+        FAIL("no modifier " << op << ":" << name);
+        return ModifierInfo{};
+    };
+    CHECK(find("height", "rays").default_value == std::to_string(HeightOptions{}.rays));
+    CHECK(find("height", "radius").default_value == "64");
+    CHECK(find("correct", "theta").default_value == "5");
+    CHECK(find("correct", "tolerance").default_value == "1e-05");
+    CHECK(find("correct", "scale").default_value == "auto");
+    CHECK(find("slopes", "max_angle").default_value == "85");
+    CHECK(find("bake", "filter").default_value == "bilinear");
+}
+
+TEST_CASE("operations: --help and the JSON show every operation and modifier from the table", "[operations][cli]")
+{
+    const std::string help = cli::usage_text();
+    const std::string json = operations_json();
+    CHECK(json.rfind("{\"abi_version\": 1, \"operations\": [", 0) == 0);
+    for (const OperationInfo& op : operations()) {
+        INFO(op.name);
+        const std::size_t at = help.find("Modifiers (:key=value) of --" + op.name + ":");
+        REQUIRE(at != std::string::npos);
+        CHECK(help.find("--" + op.name + "[:MODS]") != std::string::npos);
+        const std::size_t next = help.find("Modifiers (:key=value) of", at + 1);
+        const std::string section = help.substr(at, next == std::string::npos ? next : next - at);
+        CHECK(json.find("{\"name\": \"" + op.name + "\"") != std::string::npos);
+        for (const ModifierInfo& m : op.modifiers) {
+            INFO(m.name);
+            CHECK(section.find(" " + m.name + "=") != std::string::npos);
+            CHECK(json.find("{\"name\": \"" + m.name + "\"") != std::string::npos);
+            CHECK(json.find("\"default\": \"" + m.default_value + "\"") != std::string::npos);
+        }
+    }
+    CHECK(help.find("rays=J              ray directions per texel; an integer in [1, 4096]") != std::string::npos);
+    CHECK(help.find("  with method=rays:\n") != std::string::npos);
+    CHECK(json.find("{\"name\": \"rays\", \"type\": \"integer\", \"choices\": [], \"min\": 1, \"max\": 4096,") !=
+          std::string::npos);
+}
+
+TEST_CASE("operations: modifier strings parse as on the command line", "[operations][parse]")
+{
+    OperationCall c;
+    REQUIRE(parse_modifiers(c, "correct", "fix=height:0.25:0.5:theta=3"));
+    CHECK(c.correct.fix_height == 0.25f);
+    CHECK(c.correct.fix_width == 0.5f);
+    CHECK(c.correct.theta == 3.0f);
+    REQUIRE(parse_modifiers(c, "height", std::vector<std::pair<std::string, std::string>>{{"rays", "8"}, {"skip", "off"}}));
+    CHECK(c.height.rays == 8);
+    CHECK(c.height.method == HeightMethod::Rays);
+    CHECK_FALSE(c.height.skip_flat);
+    REQUIRE(parse_modifiers(c, "height", ""));
+    CHECK(c.height.rays == 32);
+    const struct {
+        const char* op;
+        const char* mods;
+        const char* message;
+    } bad[] = {
+        {"height", "rays=8:rays=9", "modifier 'rays' given twice"},
+        {"height", "rays", "modifier 'rays' is not key=value"},
+        {"height", "rays=8:", "modifier '' is not key=value"},
+        {"height", "=8", "modifier '=8' is not key=value"},
+        {"correct", "fix=height:1", "write fix=height:H0:DH"},
+        {"correct", "iterations=2.5", "iterations=2.5 must be an integer in [1, 1e+06] or auto"},
+        {"correct", "scale=0", "scale=0 is out of range; it must be in (0, 1e+09] or auto"},
+        {"bake", "colour=red", "unknown modifier 'colour' (known: filter, colorspace, kind, wrap)"},
+        {"warp", "", "unknown operation 'warp' (known: slopes, height, correct, bake)"},
+    };
+    for (const auto& b : bad) {
+        INFO(b.op << ":" << b.mods);
+        OperationCall k;
+        CHECK_FALSE(parse_modifiers(k, b.op, b.mods));
+        const std::string e = geterror();
+        INFO(e);
+        CHECK(e.find(b.message) != std::string::npos);
+    }
+}
+
+TEST_CASE("operations: the API refuses what the parser refuses, with the same words", "[operations][errors]")
+{
+    const ImageBuf n = test::image(16, 16, 3, wavy_normals(16, 16));
+    for (const char* mods : {"rays=0", "rays=5000", "radius=0", "phase=1", "max_angle=90", "highpass=-1"}) {
+        INFO(mods);
+        OperationCall parsed;
+        CHECK_FALSE(parse_modifiers(parsed, "height", mods));
+        const std::string from_parser = geterror();
+        // the same value through the C++ option struct
+        HeightOptions o;
+        const std::string m = mods;
+        const double v = std::atof(m.substr(m.find('=') + 1).c_str());
+        if (m.rfind("rays", 0) == 0) o.rays = int(v);
+        if (m.rfind("radius", 0) == 0) o.radius = float(v);
+        if (m.rfind("phase", 0) == 0) o.phase = float(v);
+        if (m.rfind("max_angle", 0) == 0) o.normals.max_angle = float(v);
+        if (m.rfind("highpass", 0) == 0) o.highpass = float(v);
+        ImageBuf out;
+        CHECK_FALSE(relief::height(out, n, o));
+        CHECK(geterror() == "height: " + from_parser);
+    }
+}
+
+TEST_CASE("operations: run_operation reads mask and fix files and equals the direct calls", "[operations][mask]")
+{
+    const int w = 64, h = 64;
+    const ImageBuf n = test::image(w, h, 3, wavy_normals(w, h));
+    std::vector<float> mw(std::size_t(w) * h, 1.0f);
+    for (int y = 20; y < 30; ++y)
+        for (int x = 10; x < 40; ++x)
+            mw[std::size_t(y) * w + x] = 0.0f;
+    const ImageBuf mask = test::image(w, h, 1, mw);
+    const std::string dir = std::string(RELIEF_TEST_TMP) + "/operations";
+    std::filesystem::create_directories(dir);
+    const std::string mask_file = dir + "/mask.exr";
+    REQUIRE(write_image(mask, mask_file));
+
+    HeightOptions direct;
+    direct.normals.convention = NormalConvention::OpenGL;
+    direct.mask = &mask;
+    const ImageBuf expected = relief::height(n, direct);
+    REQUIRE_FALSE(expected.has_error());
+
+    OperationCall call;
+    REQUIRE(parse_modifiers(call, "height", "normal=opengl:mask=" + mask_file));
+    CHECK(call.mask_file == mask_file);
+    ImageBuf got;
+    REQUIRE(run_operation(got, call, {&n}));
+    CHECK(test::pixels(got) == test::pixels(expected));
+    OperationCall unmasked;
+    REQUIRE(parse_modifiers(unmasked, "height", "normal=opengl"));
+    ImageBuf plain;
+    REQUIRE(run_operation(plain, unmasked, {&n}));
+    CHECK(test::pixels(plain) != test::pixels(expected));  // the mask mattered
+
+    // fix=FILE the same way, on relief's own height (scale implied)
+    const ImageBuf& height = expected;
+    CorrectOptions co;
+    co.levels = 1;
+    co.iterations = 3;
+    co.fix_mask = &mask;
+    const ImageBuf fixed = relief::correct(height, co);
+    REQUIRE_FALSE(fixed.has_error());
+    OperationCall fc;
+    REQUIRE(parse_modifiers(fc, "correct", "levels=1:iterations=3:fix=" + mask_file));
+    ImageBuf got_fixed;
+    REQUIRE(run_operation(got_fixed, fc, {&height}));
+    CHECK(test::pixels(got_fixed) == test::pixels(fixed));
+    OperationCall loose;
+    REQUIRE(parse_modifiers(loose, "correct", "levels=1:iterations=3"));
+    ImageBuf got_loose;
+    REQUIRE(run_operation(got_loose, loose, {&height}));
+    CHECK(test::pixels(got_loose) != test::pixels(fixed));
+
+    // a mask file that is not there by the time it runs
+    OperationCall gone = call;
+    gone.mask_file = dir + "/gone.exr";
+    CHECK_FALSE(run_operation(got, gone, {&n}));
+    CHECK(geterror().rfind("mask: ", 0) == 0);
+}
+
+TEST_CASE("operations: run_operation checks its inputs and takes the execution given", "[operations][errors]")
+{
+    const ImageBuf n = test::image(8, 8, 3, wavy_normals(8, 8));
+    OperationCall call;
+    REQUIRE(parse_modifiers(call, "bake", ""));
+    ImageBuf out;
+    CHECK_FALSE(run_operation(out, call, {&n}));
+    CHECK(geterror() == "bake takes 2 image(s), got 1");
+    CHECK_FALSE(run_operation(out, call, {&n, nullptr}));
+    CHECK(geterror().find("missing") != std::string::npos);
+    REQUIRE(parse_modifiers(call, "height", "normal=opengl"));
+    Execution exec;
+    exec.device = "9:9";
+    CHECK_FALSE(run_operation(out, call, {&n}, exec));
+    CHECK(geterror().find("9:9") != std::string::npos);
+    std::string said;
+    exec.device = "auto";
+    exec.on_message = [&](Severity, const std::string& m) { said += m + "\n"; };
+    REQUIRE(run_operation(out, call, {&n}, exec));
+    CHECK(said.find("boundary:") != std::string::npos);
+}
