@@ -58,12 +58,7 @@ std::string range_help(const ModifierInfo& m)
 {
     if (m.type != ModifierType::Integer && m.type != ModifierType::Number)
         return "";
-    char lo[32], hi[32];
-    std::snprintf(lo, sizeof lo, "%g", m.min);
-    std::snprintf(hi, sizeof hi, "%g", m.max);
-    return std::string(m.type == ModifierType::Integer ? "; an integer in " : "; in ") +
-           (m.min_open ? "(" : "[") + lo + ", " + hi + (m.max_open ? ")" : "]") +
-           (m.unit.empty() ? "" : " " + m.unit);
+    return std::string(m.type == ModifierType::Integer ? "; an integer in " : "; in ") + range_text(m);
 }
 
 std::string operations_help()

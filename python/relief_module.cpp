@@ -154,7 +154,7 @@ void write_file(const std::string& path, const py::array& input,
            const std::map<std::string, std::string>& metadata, const std::string& type,
            const std::string& compression)
 {
-    relief::ImageSlot any{"image", 1, 64, ""};
+    relief::ImageSlot any{"image", 1, 4096, ""};
     const ImageBuf img = to_imagebuf(input, any, "write", metadata);
     relief::WriteOptions w;
     if (type == "float" || type == "half" || type == "uint16" || type == "uint8")

@@ -158,6 +158,11 @@ TEST_CASE("operations: modifier strings parse as on the command line", "[operati
     CHECK_FALSE(c.height.skip_flat);
     REQUIRE(parse_modifiers(c, "height", ""));
     CHECK(c.height.rays == 32);
+    // the ends of the ranges: integers print as integers, floats are checked as stored
+    REQUIRE(parse_modifiers(c, "correct", "iterations=1000000:levels=30"));
+    CHECK(c.correct.iterations == 1000000);
+    REQUIRE(parse_modifiers(c, "height", "rays=4096:radius=65536:phase=0.9999999"));
+    CHECK(c.height.phase < 1.0f);
     const struct {
         const char* op;
         const char* mods;
@@ -168,7 +173,10 @@ TEST_CASE("operations: modifier strings parse as on the command line", "[operati
         {"height", "rays=8:", "modifier '' is not key=value"},
         {"height", "=8", "modifier '=8' is not key=value"},
         {"correct", "fix=height:1", "write fix=height:H0:DH"},
-        {"correct", "iterations=2.5", "iterations=2.5 must be an integer in [1, 1e+06] or auto"},
+        {"height", "phase=0.99999999", "phase=0.99999999 is 1 in single precision, outside [0, 1)"},
+        {"height", "max_angle=89.999999999", "is 90 in single precision, outside (0, 90) degrees"},
+        {"height", "radius=1e-50", "radius=1e-50 is 0 in single precision"},
+        {"correct", "iterations=2.5", "iterations=2.5 must be an integer in [1, 1000000] or auto"},
         {"correct", "scale=0", "scale=0 is out of range; it must be in (0, 1e+09] or auto"},
         {"bake", "colour=red", "unknown modifier 'colour' (known: filter, colorspace, kind, wrap)"},
         {"warp", "", "unknown operation 'warp' (known: slopes, height, correct, bake)"},
@@ -274,6 +282,20 @@ TEST_CASE("operations: run_operation checks its inputs and takes the execution g
     CHECK(geterror() == "bake takes 2 image(s), got 1");
     CHECK_FALSE(run_operation(out, call, {&n, nullptr}));
     CHECK(geterror().find("missing") != std::string::npos);
+    const ImageBuf gray = test::image(8, 8, 1, std::vector<float>(64, 0.5f));
+    REQUIRE(parse_modifiers(call, "height", ""));
+    CHECK_FALSE(run_operation(out, call, {&gray}));
+    CHECK(geterror().find("height: unsupported channel count 1") == 0);
+    // The API takes the top of a range the parser takes: it fails later, on the fixation mask.
+    const ImageBuf wide = test::image(9, 8, 1, std::vector<float>(72, 1.0f));
+    CorrectOptions top;
+    top.scale = 0.1f;
+    top.iterations = 1000000;
+    top.levels = 30;
+    top.fix_mask = &wide;
+    ImageBuf off;
+    CHECK_FALSE(relief::correct(off, gray, top));
+    CHECK(geterror().find("the fixation mask is 9x8") != std::string::npos);
     REQUIRE(parse_modifiers(call, "height", "normal=opengl"));
     Execution exec;
     exec.device = "9:9";

@@ -133,10 +133,10 @@ int relief_run(const char* operation, const char* modifiers, const relief_image*
                int n_inputs, relief_image* output)
 {
     c_last_error.clear();
+    int status = RELIEF_FAILED;
     try {
         if (!output)
             throw Refused("relief_run: output is NULL");
-        *output = relief_image{};
         if (!operation)
             throw Refused("relief_run: operation is NULL");
         const std::string op = operation;
@@ -155,23 +155,24 @@ int relief_run(const char* operation, const char* modifiers, const relief_image*
         std::vector<const ImageBuf*> ptrs;
         for (const ImageBuf& b : bufs)
             ptrs.push_back(&b);
+        // Only now: `output` may be one of the inputs.
+        *output = relief_image{};
         ImageBuf result;
-        if (!relief::run_operation(result, call, ptrs)) {
-            c_last_error = relief::geterror();
-            return RELIEF_FAILED;
-        }
+        if (!relief::run_operation(result, call, ptrs))
+            throw std::runtime_error(relief::geterror());
         to_c_image(result, output);
         return RELIEF_OK;
     } catch (const Refused& e) {
         c_last_error = e.what();
-        return RELIEF_INVALID;
+        status = RELIEF_INVALID;
     } catch (const std::exception& e) {
         c_last_error = e.what();
-        return RELIEF_FAILED;
     } catch (...) {
         c_last_error = "relief_run: unknown failure";
-        return RELIEF_FAILED;
     }
+    if (output)
+        *output = relief_image{};
+    return status;
 }
 
 void relief_image_free(relief_image* image)

@@ -45,15 +45,22 @@ struct Operation {
     OperationInfo info;
     std::vector<Modifier> modifiers;
     // Checks combinations once every given modifier is set (`given`: key -> text).
-    std::function<void(OperationCall&, const std::map<std::string, std::string>& given)> finish;
+    std::function<void(OperationCall&, const std::map<std::string, std::string>& given,
+                       const std::vector<Modifier>& modifiers)>
+        finish;
     std::function<bool(ImageBuf&, const OperationCall&, const std::vector<const ImageBuf*>&)> run;
 };
 
-// The shortest text that reads back as the same float.
+// Integers as integers (1000000, not 1e+06); else the shortest text that
+// reads back as the same float.
 std::string number_text(double v)
 {
     char buf[40];
-    for (int digits = 6; digits <= 17; ++digits) {  // %g's own 6 first: "10", not "1e+01"
+    if (v == std::floor(v) && std::fabs(v) < 1e7) {
+        std::snprintf(buf, sizeof buf, "%.0f", v);
+        return buf;
+    }
+    for (int digits = 6; digits <= 17; ++digits) {  // %g's own 6 first: "0.5", not "5e-01"
         std::snprintf(buf, sizeof buf, "%.*g", digits, v);
         if (float(std::strtod(buf, nullptr)) == float(v))
             break;
@@ -61,11 +68,9 @@ std::string number_text(double v)
     return buf;
 }
 
-std::string range_text(const ModifierInfo& m)
+bool in_range(const ModifierInfo& m, double v)
 {
-    std::string r = std::string(m.min_open ? "(" : "[") + number_text(m.min) + ", " +
-                    number_text(m.max) + (m.max_open ? ")" : "]");
-    return m.unit.empty() ? r : r + " " + m.unit;
+    return (m.min_open ? v > m.min : v >= m.min) && (m.max_open ? v < m.max : v <= m.max);
 }
 
 std::string joined(const std::vector<std::string>& v, const char* sep)
@@ -73,6 +78,15 @@ std::string joined(const std::vector<std::string>& v, const char* sep)
     std::string s;
     for (const auto& x : v)
         s += (s.empty() ? "" : sep) + x;
+    return s;
+}
+
+// "a, b and c"
+std::string listed(const std::vector<std::string>& names)
+{
+    std::string s;
+    for (std::size_t i = 0; i < names.size(); ++i)
+        s += (i == 0 ? "" : i + 1 == names.size() ? " and " : ", ") + names[i];
     return s;
 }
 
@@ -108,7 +122,7 @@ double check_value(const ModifierInfo& m, const std::string& text)
         auto r = std::from_chars(text.data(), end, v);
         if (text.empty() || r.ec != std::errc() || r.ptr != end || !std::isfinite(v))
             throw std::invalid_argument(kv + " is not a number");
-        if ((m.min_open ? v <= m.min : v < m.min) || (m.max_open ? v >= m.max : v > m.max))
+        if (!in_range(m, v))
             throw std::invalid_argument(kv + " is out of range; it must be in " + range_text(m) +
                                         (m.choices.empty() ? "" : " or " + joined(m.choices, "|")));
         return v;
@@ -178,12 +192,20 @@ Modifier number(const char* name, ModifierType type, F field, double min, bool m
     m.info.unit = unit;
     m.info.applies_to = applies_to;
     m.info.meaning = meaning;
-    m.set = [field, words](OperationCall& c, const std::string& text, double v) {
+    const ModifierInfo info = m.info;
+    m.set = [field, words, info](OperationCall& c, const std::string& text, double v) {
         using T = std::decay_t<decltype(field(c))>;
+        bool word = false;
         for (const auto& w : words)
-            if (w.first == text)
+            if (w.first == text) {
                 v = w.second;
+                word = true;
+            }
         field(c) = T(v);
+        // A value inside the range can round onto an excluded end (phase=0.99999999 -> 1).
+        if (!word && !in_range(info, double(field(c))))
+            throw std::invalid_argument(info.name + "=" + text + " is " + number_text(double(field(c))) +
+                                        " in single precision, outside " + range_text(info));
     };
     m.get = [field, words](const OperationCall& c) {
         const double v = double(field(c));
@@ -313,21 +335,29 @@ Operation height_operation()
                "skip tiles whose rays meet only zero slopes (the result is identical)"),
     };
     op.modifiers.insert(op.modifiers.end(), more.begin(), more.end());
-    op.finish = [](OperationCall& c, const std::map<std::string, std::string>& given) {
+    op.finish = [](OperationCall& c, const std::map<std::string, std::string>& given,
+                   const std::vector<Modifier>& modifiers) {
         HeightOptions& o = c.height;
-        bool ray_option = false;
-        for (const char* k : {"impl", "directions", "rays", "radius", "phase", "skip"})
-            ray_option |= given.count(k) > 0;
-        const bool poisson_option = given.count("mask") || given.count("highpass");
+        bool ray_option = false, poisson_option = false;
+        std::vector<std::string> ray_names, poisson_names;
+        for (const Modifier& m : modifiers) {
+            const bool rays = m.info.applies_to == "method=rays";
+            const bool poisson = m.info.applies_to == "method=poisson";
+            if (rays)
+                ray_names.push_back(m.info.name);
+            if (poisson)
+                poisson_names.push_back(m.info.name);
+            ray_option |= rays && given.count(m.info.name);
+            poisson_option |= poisson && given.count(m.info.name);
+        }
         if (o.method == HeightMethod::Auto && ray_option)
             o.method = HeightMethod::Rays;
         if (o.method == HeightMethod::Rays && poisson_option)
-            throw std::invalid_argument("highpass and mask apply to method=poisson, not to rays");
+            throw std::invalid_argument(listed(poisson_names) + " apply to method=poisson, not to rays");
         if (o.highpass > 0.0f && (o.mask_alpha || !c.mask_file.empty()))
             throw std::invalid_argument("highpass cannot be combined with a mask yet");
         if (o.method == HeightMethod::Poisson && ray_option)
-            throw std::invalid_argument(
-                "impl, directions, rays, radius, phase and skip apply to method=rays");
+            throw std::invalid_argument(listed(ray_names) + " apply to method=rays");
         const auto b = given.find("boundary");
         const std::string boundary = b == given.end() ? "auto" : b->second;
         if (o.method == HeightMethod::Rays && boundary == "free")
@@ -359,7 +389,7 @@ Operation correct_operation()
     op.info = {"correct",
                "height map -> distortion-correcting offsets (2 channels du, dv in texture units: "
                "the surface point at u shows the texture at u + offset)",
-               {{"height", 1, 4, "displacement; channel 0 is used"}},
+               {{"height", 1, 4096, "displacement; channel 0 is used"}},
                {{"offsets", 2, 2, "du, dv in texture units (1 = the width, height)"}},
                {}};
     auto k = [](auto& c) -> auto& { return c.correct; };
@@ -457,9 +487,9 @@ Operation bake_operation()
     Operation op;
     op.info = {"bake",
                "texture and offset map -> the texture resampled at u + offset(u)",
-               {{"texture", 1, 64, "colour, normal or data map"},
-                {"offsets", 2, 64, "relief's correct output (du, dv in texture units)"}},
-               {{"texture", 1, 64, "the texture's channels, corrected"}},
+               {{"texture", 1, 4096, "colour, normal or data map"},
+                {"offsets", 2, 4096, "relief's correct output (du, dv in texture units)"}},
+               {{"texture", 1, 4096, "the texture's channels, corrected"}},
                {}};
     auto b = [](auto& c) -> auto& { return c.bake; };
     op.modifiers = {
@@ -583,7 +613,7 @@ void parse(OperationCall& call, const Operation& op,
         m->set(c, value, check_value(m->info, value));
     }
     if (op.finish)
-        op.finish(c, given);
+        op.finish(c, given, op.modifiers);
     call = std::move(c);
 }
 
@@ -627,6 +657,13 @@ std::string json_slots(const std::vector<ImageSlot>& slots)
 }
 
 } // namespace
+
+std::string range_text(const ModifierInfo& m)
+{
+    std::string r = std::string(m.min_open ? "(" : "[") + number_text(m.min) + ", " +
+                    number_text(m.max) + (m.max_open ? ")" : "]");
+    return m.unit.empty() ? r : r + " " + m.unit;
+}
 
 const std::vector<OperationInfo>& operations()
 {
@@ -715,9 +752,13 @@ bool run_operation(ImageBuf& dst, const OperationCall& call,
             throw std::invalid_argument(op.info.name + " takes " +
                                         std::to_string(op.info.inputs.size()) + " image(s), got " +
                                         std::to_string(inputs.size()));
-        for (const ImageBuf* in : inputs)
-            if (!in)
-                throw std::invalid_argument(op.info.name + ": an input image is missing (null)");
+        // Channel counts are the operations' own to check (their messages say
+        // what the channels mean); the C ABI and Python check them against the
+        // table's slots before converting.
+        for (std::size_t i = 0; i < inputs.size(); ++i)
+            if (!inputs[i])
+                throw std::invalid_argument(op.info.name + ": input '" + op.info.inputs[i].name +
+                                            "' is missing (null)");
         OperationCall c = call;
         c.slopes.exec = c.height.exec = c.correct.exec = c.bake.exec = exec;
         return op.run(dst, c, inputs);

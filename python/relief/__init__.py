@@ -14,7 +14,9 @@ Inputs are numpy arrays (H x W or H x W x C) of uint8 or uint16 (UNORM, as
 an 8/16-bit file decodes), float16 or float32. Results are float32 H x W x C
 arrays of type relief.Image, an ndarray that carries the result's metadata
 (relief:method, relief:boundary, ...) in .metadata, as a file would: bake's
-wrap=auto and write's integer mapping read it. Keywords: strings, numbers,
+wrap=auto and write's integer mapping read it. Arrays have no file name:
+where the command line's bake kind=auto would go by the name (a one-channel
+"height.png" is refused, "rock_normal.png" is a normal map), give kind=. Keywords: strings, numbers,
 True/False for on/off; device="auto"|"gpu"|"cpu"|"P:D". A value the table
 refuses raises ValueError with relief's message; a failed run RuntimeError.
 The GIL is released while the device works.
@@ -62,6 +64,8 @@ def _pixels(array):
     a = _np.asarray(array)
     if a.dtype == _np.float64:  # numpy's default float: relief computes in float32
         a = a.astype(_np.float32)
+    if not a.dtype.isnative:  # e.g. ">u2" from a big-endian file
+        a = a.astype(a.dtype.newbyteorder("="))
     return a
 
 
@@ -98,7 +102,9 @@ del _info
 
 def read(path):
     """Reads an image as stored (uint8, uint16, float16 or float32 H x W x C),
-    with its metadata, without colour conversion."""
+    with its metadata, without colour conversion. Files of other types come
+    as float32 (integers scaled to [0, 1]: pass range="unsigned" to decode
+    such normals)."""
     pixels, meta = _relief.read(_os.fspath(path))
     return Image(pixels, meta)
 

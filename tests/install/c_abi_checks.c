@@ -117,6 +117,16 @@ int main(int argc, char** argv)
     CHECK(strstr(r->last_error(), "scale") != NULL, "and says so");
     r->image_free(&h);
     CHECK(h.pixels == NULL && h.metadata == NULL, "image_free zeroes the image");
+
+    /* the output may be the input: it is written only after the input is read */
+    relief_image same = normals;
+    same.pixels = malloc(sizeof px);
+    memcpy(same.pixels, px, sizeof px);
+    void* input_pixels = same.pixels;
+    CHECK(r->run("height", "normal=opengl", &same, 1, &same) == RELIEF_OK, "output over its own input");
+    CHECK(same.channels == 1 && same.type == RELIEF_FLOAT && same.pixels != input_pixels, "the result replaced it");
+    free(input_pixels);
+    r->image_free(&same);
     r->image_free(NULL);
     if (failures == 0)
         printf("c_abi_checks: all checks hold\n");

@@ -12,14 +12,18 @@ deb=$(ls "$tmp"/*.deb)
 echo "package: $(basename "$deb")"
 depends=$(dpkg-deb -f "$deb" Depends)
 echo "Depends: $depends"
-for need in libopenimageio libopencolorio ocl-icd-libopencl1 'pocl-opencl-icd | opencl-icd' python3-numpy; do
+for need in libopenimageio libopencolorio ocl-icd-libopencl1 'pocl-opencl-icd | opencl-icd' python3-numpy 'python3 (>= 3.'; do
   case "$depends" in *"$need"*) ;; *) echo "Depends lacks $need"; exit 1 ;; esac
 done
+echo "Recommends: $(dpkg-deb -f "$deb" Recommends)"
+dpkg-deb -f "$deb" Recommends | grep -q libopenimageio-dev
 dpkg-deb -c "$deb" | awk '{print $6}' > "$tmp/files"
-for f in ./usr/bin/relief ./usr/include/relief/relief_c.h ./usr/include/relief/relief.h \
-         ./usr/include/relief/export.h ./usr/lib/librelief.so.1 ./usr/lib/cmake/relief/reliefConfig.cmake \
-         ./usr/lib/pkgconfig/relief.pc ./usr/lib/python3/dist-packages/relief/__init__.py; do
-  grep -qx "$f" "$tmp/files" || { echo "the package lacks $f"; cat "$tmp/files"; exit 1; }
+# (lib/ or lib/<multiarch>/, as the build's CMAKE_INSTALL_LIBDIR says)
+for f in '\./usr/bin/relief' '\./usr/include/relief/relief_c\.h' '\./usr/include/relief/relief\.h' \
+         '\./usr/include/relief/export\.h' '\./usr/lib/(.*/)?librelief\.so\.1' \
+         '\./usr/lib/(.*/)?cmake/relief/reliefConfig\.cmake' '\./usr/lib/(.*/)?pkgconfig/relief\.pc' \
+         '\./usr/lib/python3/dist-packages/relief/__init__\.py'; do
+  grep -Eqx "$f" "$tmp/files" || { echo "the package lacks $f"; cat "$tmp/files"; exit 1; }
 done
 grep -q '^./usr/lib/python3/dist-packages/relief/_relief\..*\.so$' "$tmp/files"
 dpkg-deb -x "$deb" "$tmp/root"

@@ -65,6 +65,8 @@ class Doors(unittest.TestCase):
         png16 = self.path("n16.png")
         relief.write(png16, n16, type="uint16")
         self.assertEqual(relief.read(png16).dtype, np.uint16)
+        np.testing.assert_array_equal(relief.height(n16.astype(">u2"), normal="opengl"),
+                                      relief.height(n16, normal="opengl"))  # byte order is the array's business
         np.testing.assert_array_equal(relief.height(n16, normal="opengl"),
                                       self.cli_result(png16, "--height:normal=opengl"))
         nh = (self.normals.astype(np.float32) / 255 * 2 - 1).astype(np.float16)

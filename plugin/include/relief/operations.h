@@ -54,6 +54,8 @@ struct OperationInfo {
 RELIEF_API const std::vector<OperationInfo>& operations();
 // nullptr when there is no such operation.
 RELIEF_API const OperationInfo* find_operation(const std::string& name);
+// "[1, 4096]", "(0, 90) degrees": the values an Integer/Number modifier takes.
+RELIEF_API std::string range_text(const ModifierInfo& modifier);
 // The table as a JSON document: {"abi_version": 1, "operations": [...]}.
 RELIEF_API std::string operations_json();
 

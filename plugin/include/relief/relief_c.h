@@ -29,7 +29,8 @@ extern "C" {
 typedef enum relief_type { RELIEF_UINT8 = 1, RELIEF_UINT16 = 2, RELIEF_HALF = 3, RELIEF_FLOAT = 4 } relief_type;
 
 /* An image: row-major, top row first, channels interleaved. `metadata` is
- * optional (NULL, or zero-initialised): "key=value" lines. On output it
+ * optional: NULL (zero-initialise the struct, as `relief_image in = {w, h, c,
+ * type, pixels};` does), or "key=value" lines. On output it
  * holds the result's relief:* attributes (relief:method, relief:boundary,
  * ...); on input such lines are attached to the image, so the offsets from
  * "correct" tell "bake" (wrap=auto) how they were made. */
@@ -44,7 +45,8 @@ typedef struct relief_image {
 enum {
     RELIEF_OK = 0,
     RELIEF_INVALID = 1, /* the operation, a modifier or an input was refused before any work */
-    RELIEF_FAILED = 2   /* the operation failed (device, memory, an unreadable mask file) */
+    RELIEF_FAILED = 2   /* the operation refused its images (e.g. correct without a scale for a
+                           height that is not relief's) or failed (device, memory, a mask file) */
 };
 
 /* RELIEF_ABI_VERSION of the library actually loaded. */
@@ -56,10 +58,12 @@ RELIEF_API int relief_abi_version(void);
  * "unit", "default", "applies_to", "meaning"}]}]}. Owned by the library. */
 RELIEF_API const char* relief_operations_json(void);
 
-/* Runs `operation` ("slopes", "height", "correct", "bake") with `modifiers`
+/* Runs `operation` ("slopes", "height", "correct", "bake") on the default
+ * OpenCL device (a GPU if there is one, else the CPU) with `modifiers`
  * written as on the command line ("key=value:key=value"; NULL or "" for the
  * defaults) on `n_inputs` images (as many as the operation takes, in its
- * order: bake takes the texture, then the offsets). On RELIEF_OK `output`
+ * order: bake takes the texture, then the offsets; `output` may point at
+ * one of them, it is only written after they are read). On RELIEF_OK `output`
  * holds a new RELIEF_FLOAT image (free it with relief_image_free); otherwise
  * `output` is zeroed and relief_last_error() says why. */
 RELIEF_API int relief_run(const char* operation, const char* modifiers, const relief_image* inputs,
