@@ -241,6 +241,19 @@ std::vector<Modifier> decoding_modifiers(F decoding)
 
 // ---- the operations ---------------------------------------------------------
 
+// The image of a file modifier (mask=FILE, fix=FILE): `given` when the
+// caller read it already (the command line reads quietly), else read into
+// `storage`; nullptr when there is none.
+const ImageBuf* file_image(const ImageBuf* given, const std::string& path, const char* what,
+                           ImageBuf& storage)
+{
+    if (given || path.empty())
+        return given;
+    if (!read_image(storage, path))
+        throw std::runtime_error(std::string(what) + ": " + geterror());
+    return &storage;
+}
+
 const ImageSlot kNormals{"normals", 2, 4,
                          "tangent-space normal map: 8/16-bit UNORM, half or float; 2 channels "
                          "rebuild z, a 4th is alpha"};
@@ -371,13 +384,7 @@ Operation height_operation()
     op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
         HeightOptions o = c.height;
         ImageBuf mask;
-        if (!o.mask && !c.mask_file.empty()) {
-            if (!read_image(mask, c.mask_file)) {
-                detail::set_error("mask: " + geterror());
-                return false;
-            }
-            o.mask = &mask;
-        }
+        o.mask = file_image(o.mask, c.mask_file, "mask", mask);
         return relief::height(dst, *in[0], o);
     };
     return op;
@@ -470,13 +477,7 @@ Operation correct_operation()
     op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
         CorrectOptions o = c.correct;
         ImageBuf fix;
-        if (!o.fix_mask && !c.fix_file.empty()) {
-            if (!read_image(fix, c.fix_file)) {
-                detail::set_error("fix: " + geterror());
-                return false;
-            }
-            o.fix_mask = &fix;
-        }
+        o.fix_mask = file_image(o.fix_mask, c.fix_file, "fix", fix);
         return relief::correct(dst, *in[0], o);
     };
     return op;
