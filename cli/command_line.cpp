@@ -2,6 +2,9 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <tuple>
+
+#include "batch.h"
 
 namespace relief::cli {
 
@@ -111,6 +114,16 @@ Arguments are read left to right over a stack of images, like oiiotool:
   --device DEV          auto (default: a GPU if any, else the CPU), gpu, cpu,
                         or PLATFORM:DEVICE as --list-devices numbers them
   --list-devices        list the OpenCL devices and exit
+  --batch JOBS.txt      run the file's jobs in this process, one relief
+                        command line per line (shell-like quoting, no
+                        expansion; blank lines and # comments skipped); they
+                        share the device and its compiled kernels. A failed
+                        job is reported and the others go on (exit 1 at the
+                        end); -v and --device apply to every job
+  --shard I/N           with --batch: only the jobs whose index (from 0, in
+                        file order) is I modulo N, so N processes share a file
+  --log FILE.jsonl      one JSON object per job: job, line, args, inputs,
+                        outputs, status (ok|failed), seconds, message
   -v                    say what was chosen (device, convention), progress,
                         times, and the image libraries' own diagnostics
   --help, --version
@@ -170,6 +183,7 @@ Program parse_command_line(const std::vector<std::string>& args)
     OIIO::TypeDesc format = OIIO::TypeDesc::FLOAT;
     bool format_given = false;
     std::string compression;
+    bool shard_given = false;
     int depth = 0;  // stack depth as the program will run
     auto need = [&](const std::string& arg, int n) {
         if (depth < n)
@@ -200,6 +214,21 @@ Program parse_command_line(const std::vector<std::string>& args)
             if (prog.report.empty() || fs::is_directory(prog.report, ec) ||
                 !fs::is_directory(folder.empty() ? fs::path(".") : folder, ec))
                 throw UsageError("--report " + prog.report + ": not a writable file path (its folder must exist)");
+        } else if (a == "--batch") {
+            prog.batch = value_of(i);
+            std::error_code ec;
+            if (!fs::is_regular_file(prog.batch, ec))
+                throw UsageError("--batch " + prog.batch + ": no such file");
+        } else if (a == "--log") {
+            prog.log = value_of(i);
+            const fs::path folder = fs::path(prog.log).parent_path();
+            std::error_code ec;
+            if (prog.log.empty() || fs::is_directory(prog.log, ec) ||
+                !fs::is_directory(folder.empty() ? fs::path(".") : folder, ec))
+                throw UsageError("--log " + prog.log + ": not a writable file path (its folder must exist)");
+        } else if (a == "--shard") {
+            std::tie(prog.shard_index, prog.shard_count) = parse_shard(value_of(i));
+            shard_given = true;
         } else if (a == "--device") {
             prog.device = value_of(i);
         } else if (a == "-d") {
@@ -234,6 +263,13 @@ Program parse_command_line(const std::vector<std::string>& args)
             ++depth;
         }
     }
+    if (!prog.batch.empty() && !prog.steps.empty())
+        throw UsageError("--batch " + prog.batch +
+                         " runs the file's jobs: give the images and operations there, not beside it");
+    if (shard_given && prog.batch.empty())
+        throw UsageError("--shard takes a share of --batch's jobs; give --batch JOBS.txt");
+    if (!prog.batch.empty() && !prog.report.empty())
+        throw UsageError("--report names one file: give it in the job's line of the --batch file");
     int corrections = 0;
     for (const Step& s : prog.steps)
         corrections += s.kind == Step::Kind::Operation && s.operation == "correct";

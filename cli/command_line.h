@@ -38,6 +38,10 @@ struct Program {
     bool help = false;
     bool version = false;
     bool list_devices = false;
+    std::string batch;           // --batch JOBS.txt: run the file's jobs instead of steps
+    std::string log;             // --log FILE.jsonl: one JSON object per job
+    int shard_index = 0, shard_count = 1;  // --shard I/N (with --batch)
+    std::string label;           // set by --batch: "job 3: ", before each message
 };
 
 // Throws UsageError with a one-line explanation.

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "batch.h"
 #include "command_line.h"
 #include "text_file.h"
 #include "relief/relief.h"
@@ -79,9 +80,9 @@ private:
     void message(Severity s, const std::string& msg) const
     {
         if (s == Severity::Warning)
-            std::fprintf(stderr, "relief: warning: %s\n", msg.c_str());
+            std::fprintf(stderr, "relief: %swarning: %s\n", prog_.label.c_str(), msg.c_str());
         else if (s == Severity::Notice || prog_.verbose)
-            std::fprintf(stderr, "relief: %s\n", msg.c_str());
+            std::fprintf(stderr, "relief: %s%s\n", prog_.label.c_str(), msg.c_str());
     }
 
     relief::Execution execution(const Step& s) const
@@ -194,6 +195,143 @@ private:
     std::vector<OIIO::ImageBuf> stack_;
 };
 
+// What one job did, for stderr and the --log line.
+struct JobRecord {
+    int index = 0, line = 0;
+    std::vector<std::string> args;
+    std::vector<std::string> inputs, outputs;
+    std::string status = "failed";
+    double seconds = 0.0;
+    std::string message;
+};
+
+std::string json_list(const std::vector<std::string>& v)
+{
+    std::string s = "[";
+    for (std::size_t i = 0; i < v.size(); ++i)
+        s += (i ? ", " : "") + relief::cli::json_quote(v[i]);
+    return s + "]";
+}
+
+std::string json_line(const JobRecord& r)
+{
+    char seconds[32];
+    std::snprintf(seconds, sizeof seconds, "%.3f", r.seconds);
+    return "{\"job\": " + std::to_string(r.index) + ", \"line\": " + std::to_string(r.line) +
+           ", \"args\": " + json_list(r.args) + ", \"inputs\": " + json_list(r.inputs) +
+           ", \"outputs\": " + json_list(r.outputs) + ", \"status\": \"" + r.status +
+           "\", \"seconds\": " + seconds + ", \"message\": " + relief::cli::json_quote(r.message) + "}";
+}
+
+// Runs one parsed job; fills its record instead of throwing.
+void run_job(const Program& prog, JobRecord& rec)
+{
+    const auto t0 = std::chrono::steady_clock::now();
+    for (const Step& s : prog.steps) {
+        if (s.kind == Step::Kind::Read)
+            rec.inputs.push_back(s.path);
+        if (s.kind == Step::Kind::Write)
+            rec.outputs.push_back(s.path);
+        if (!s.mask_file.empty())
+            rec.inputs.push_back(s.mask_file);
+        if (!s.fix_file.empty())
+            rec.inputs.push_back(s.fix_file);
+    }
+    if (!prog.report.empty())
+        rec.outputs.push_back(prog.report);
+    try {
+        Runner(prog).run();
+        rec.status = "ok";
+    } catch (const std::exception& e) {
+        rec.message = e.what();
+    }
+    rec.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// The --log file: one line per job, flushed as each job ends, so a killed
+// process leaves the lines of the jobs it finished.
+class JobLog {
+public:
+    explicit JobLog(const std::string& path) : path_(path)
+    {
+        if (path.empty())
+            return;
+        file_ = std::fopen(path.c_str(), "w");
+        if (!file_)
+            throw RuntimeError("--log " + path + ": cannot write it");
+    }
+    ~JobLog()
+    {
+        if (file_)
+            std::fclose(file_);
+    }
+    JobLog(const JobLog&) = delete;
+    JobLog& operator=(const JobLog&) = delete;
+    void add(const JobRecord& r)
+    {
+        if (!file_)
+            return;
+        const std::string line = json_line(r) + "\n";
+        if (std::fputs(line.c_str(), file_) < 0 || std::fflush(file_) != 0)
+            throw RuntimeError("--log " + path_ + ": write failed");
+    }
+
+private:
+    std::string path_;
+    std::FILE* file_ = nullptr;
+};
+
+// --batch: every job of the file (or of this process's shard), one after
+// the other in this process. Returns the exit status.
+int run_batch(const Program& top)
+{
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::vector<relief::cli::Job> all = relief::cli::read_jobs(top.batch);
+    const std::vector<relief::cli::Job> jobs =
+        relief::cli::shard_of(all, top.shard_index, top.shard_count);
+    JobLog log(top.log);
+    int ok = 0, failed = 0;
+    for (std::size_t k = 0; k < jobs.size(); ++k) {
+        const relief::cli::Job& job = jobs[k];
+        JobRecord rec;
+        rec.index = job.index;
+        rec.line = job.line;
+        rec.args = job.args;
+        try {
+            // The batch's -v and --device apply to every job; a job's own come later and win.
+            std::vector<std::string> args = {"--device", top.device};
+            if (top.verbose)
+                args.push_back("-v");
+            args.insert(args.end(), job.args.begin(), job.args.end());
+            Program p = relief::cli::parse_command_line(args);
+            p.label = "job " + std::to_string(job.index) + ": ";
+            if (!p.batch.empty() || !p.log.empty() || p.help || p.version || p.list_devices || p.steps.empty())
+                throw relief::cli::UsageError("a job is images, operations and outputs (no --batch, --log, "
+                                              "--help, --version or --list-devices)");
+            run_job(p, rec);
+        } catch (const relief::cli::UsageError& e) {
+            rec.message = e.what();
+        }
+        const std::string where = top.batch + ":" + std::to_string(job.line);
+        if (rec.status == "ok") {
+            ++ok;
+            if (top.verbose)
+                std::fprintf(stderr, "relief: job %d (%s): ok, %.3f s\n", job.index, where.c_str(), rec.seconds);
+        } else {
+            ++failed;
+            std::fprintf(stderr, "relief: job %d (%s): error: %s\n", job.index, where.c_str(), rec.message.c_str());
+        }
+        log.add(rec);
+    }
+    const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::fprintf(stderr, "relief: batch %s: %d ok, %d failed of %zu job(s)", top.batch.c_str(), ok, failed,
+                 jobs.size());
+    if (top.shard_count > 1)
+        std::fprintf(stderr, " (shard %d/%d of %zu)", top.shard_index, top.shard_count, all.size());
+    std::fprintf(stderr, ", %.2f s\n", sec);
+    return failed ? 1 : 0;
+}
+
 int list_devices()
 {
     auto devices = relief::list_devices();
@@ -228,11 +366,26 @@ int main(int argc, char** argv)
     try {
         if (prog.list_devices)
             return list_devices();
+        if (!prog.batch.empty())
+            return run_batch(prog);
         if (prog.steps.empty()) {
             std::fputs(relief::cli::usage_text().c_str(), stderr);
             return 2;
         }
+        if (!prog.log.empty()) {  // a single run is a batch of one job
+            JobLog log(prog.log);
+            JobRecord rec;
+            rec.args = args;
+            run_job(prog, rec);
+            log.add(rec);
+            if (rec.status != "ok")
+                throw RuntimeError(rec.message);
+            return 0;
+        }
         Runner(prog).run();
+    } catch (const relief::cli::UsageError& e) {  // the --batch file's own syntax
+        std::fprintf(stderr, "relief: error: %s\n", e.what());
+        return 2;
     } catch (const std::exception& e) {
         std::fprintf(stderr, "relief: error: %s\n", e.what());
         return 1;

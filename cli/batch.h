@@ -1,0 +1,37 @@
+#pragma once
+// Batches: a manifest of jobs, one ordinary relief command line per line,
+// run in one process (one device context, its programs and FFT plans
+// shared), optionally one shard of them.
+#include <string>
+#include <vector>
+
+namespace relief::cli {
+
+struct Job {
+    int index = 0;                  // among the manifest's jobs, from 0 (what --shard counts)
+    int line = 0;                   // in the manifest, from 1
+    std::vector<std::string> args;  // the line's words
+};
+
+// Splits one line into words as a POSIX shell would, without any expansion:
+// blanks separate words; '...' is literal; "..." keeps blanks and takes \"
+// \\ \$ \` as escapes; a backslash outside quotes takes the next character
+// literally; an unquoted # at the start of a word begins a comment. Throws
+// UsageError for an unterminated quote or a trailing backslash.
+std::vector<std::string> split_words(const std::string& line);
+
+// The jobs of a manifest (blank and comment-only lines skipped). Throws
+// UsageError naming FILE:LINE.
+std::vector<Job> read_jobs(const std::string& path);
+
+// --shard I/N: "I/N" -> (I, N) with 0 <= I < N. Throws UsageError.
+std::pair<int, int> parse_shard(const std::string& text);
+
+// The jobs of shard I of N: those whose index is congruent to I mod N, in
+// manifest order.
+std::vector<Job> shard_of(const std::vector<Job>& jobs, int index, int count);
+
+// A JSON string literal.
+std::string json_quote(const std::string& s);
+
+} // namespace relief::cli
