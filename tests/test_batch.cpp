@@ -161,6 +161,13 @@ TEST_CASE("batch: jobs run in one process, a failed job alone fails, the log say
     // all jobs fine: exit 0
     std::ofstream(d / "good.txt") << kDem << " --slopes -o " << (d / "g.exr").string() << "\n";
     CHECK(run_cli("--batch '" + (d / "good.txt").string() + "'").rc == 0);
+    // the batch's --device reaches every job (a job's own would come after it and win)
+    auto nodev = run_cli("--device 9:9 --batch '" + (d / "good.txt").string() + "'");
+    CHECK(nodev.rc == 1);
+    CHECK(nodev.err.find("job 0 (") != std::string::npos);
+    CHECK(nodev.err.find("no OpenCL device 9:9") != std::string::npos);
+    std::ofstream(d / "own.txt") << "--device cpu " << kDem << " --slopes -o " << (d / "g2.exr").string() << "\n";
+    CHECK(run_cli("--device 9:9 --batch '" + (d / "own.txt").string() + "'").rc == 0);
     // the manifest's own syntax is a usage error before any job
     std::ofstream(d / "bad.txt") << kDem << " --slopes -o " << (d / "never.exr").string() << "\n'open\n";
     auto b = run_cli("--batch '" + (d / "bad.txt").string() + "'");
