@@ -162,6 +162,17 @@ Step parse_operation(const std::string& arg, const std::string& name)
     return s;
 }
 
+// The path of a text output (--report, --log): not a folder, in one that exists.
+std::string text_output(const std::string& option, const std::string& path)
+{
+    const fs::path folder = fs::path(path).parent_path();
+    std::error_code ec;
+    if (path.empty() || fs::is_directory(path, ec) ||
+        !fs::is_directory(folder.empty() ? fs::path(".") : folder, ec))
+        throw UsageError(option + " " + path + ": not a writable file path (its folder must exist)");
+    return path;
+}
+
 OIIO::TypeDesc parse_format(const std::string& t)
 {
     if (t == "float")
@@ -208,24 +219,14 @@ Program parse_command_line(const std::vector<std::string>& args)
         } else if (a == "--list-devices") {
             prog.list_devices = true;
         } else if (a == "--report") {
-            prog.report = value_of(i);
-            const fs::path folder = fs::path(prog.report).parent_path();
-            std::error_code ec;
-            if (prog.report.empty() || fs::is_directory(prog.report, ec) ||
-                !fs::is_directory(folder.empty() ? fs::path(".") : folder, ec))
-                throw UsageError("--report " + prog.report + ": not a writable file path (its folder must exist)");
+            prog.report = text_output(a, value_of(i));
         } else if (a == "--batch") {
             prog.batch = value_of(i);
             std::error_code ec;
             if (!fs::is_regular_file(prog.batch, ec))
                 throw UsageError("--batch " + prog.batch + ": no such file");
         } else if (a == "--log") {
-            prog.log = value_of(i);
-            const fs::path folder = fs::path(prog.log).parent_path();
-            std::error_code ec;
-            if (prog.log.empty() || fs::is_directory(prog.log, ec) ||
-                !fs::is_directory(folder.empty() ? fs::path(".") : folder, ec))
-                throw UsageError("--log " + prog.log + ": not a writable file path (its folder must exist)");
+            prog.log = text_output(a, value_of(i));
         } else if (a == "--shard") {
             std::tie(prog.shard_index, prog.shard_count) = parse_shard(value_of(i));
             shard_given = true;
