@@ -132,11 +132,19 @@ const char* relief_operations_json(void)
 int relief_run(const char* operation, const char* modifiers, const relief_image* inputs,
                int n_inputs, relief_image* output)
 {
+    return relief_run_on("auto", operation, modifiers, inputs, n_inputs, output);
+}
+
+int relief_run_on(const char* device, const char* operation, const char* modifiers,
+                  const relief_image* inputs, int n_inputs, relief_image* output)
+{
     c_last_error.clear();
     int status = RELIEF_FAILED;
     try {
         if (!output)
             throw Refused("relief_run: output is NULL");
+        if (!device || !*device)
+            throw Refused("relief_run_on: device is NULL or empty (\"auto\" picks one)");
         if (!operation)
             throw Refused("relief_run: operation is NULL");
         const std::string op = operation;
@@ -158,7 +166,9 @@ int relief_run(const char* operation, const char* modifiers, const relief_image*
         // Only now: `output` may be one of the inputs.
         *output = relief_image{};
         ImageBuf result;
-        if (!relief::run_operation(result, call, ptrs))
+        relief::Execution exec;
+        exec.device = device;
+        if (!relief::run_operation(result, call, ptrs, exec))
             throw std::runtime_error(relief::geterror());
         to_c_image(result, output);
         return RELIEF_OK;

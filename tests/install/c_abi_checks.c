@@ -128,6 +128,17 @@ int main(int argc, char** argv)
     free(input_pixels);
     r->image_free(&same);
     r->image_free(NULL);
+
+#ifndef RELIEF_DLOPEN
+    /* the device, chosen: one that does not exist fails naming it; the CPU runs */
+    relief_image on;
+    CHECK(relief_run_on("9:9", "height", "normal=opengl", &normals, 1, &on) == RELIEF_FAILED, "no device 9:9");
+    CHECK(strstr(relief_last_error(), "9:9") != NULL, "the message names the device");
+    CHECK(on.pixels == NULL, "a failed run leaves no image");
+    CHECK(relief_run_on(NULL, "height", "", &normals, 1, &on) == RELIEF_INVALID, "a NULL device is refused");
+    CHECK(relief_run_on("cpu", "height", "normal=opengl", &normals, 1, &on) == RELIEF_OK, "the CPU runs");
+    relief_image_free(&on);
+#endif
     if (failures == 0)
         printf("c_abi_checks: all checks hold\n");
     return failures == 0 ? 0 : 1;
