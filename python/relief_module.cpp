@@ -50,12 +50,9 @@ ImageBuf to_imagebuf(const py::array& input, const relief::ImageSlot& slot, cons
                               std::to_string(input.ndim()) + "-dimensional");
     const py::array a = py::array::ensure(input, py::array::c_style);
     const int h = int(a.shape(0)), w = int(a.shape(1)), c = a.ndim() == 3 ? int(a.shape(2)) : 1;
-    if (h <= 0 || w <= 0)
-        throw py::value_error(what + " is empty");
-    if (c < slot.min_channels || c > slot.max_channels)
-        throw py::value_error(what + " has " + std::to_string(c) + " channel(s); " + op +
-                              " takes " + std::to_string(slot.min_channels) + " to " +
-                              std::to_string(slot.max_channels));
+    const std::string problem = relief::input_problem(op, slot, w, h, c);
+    if (!problem.empty())
+        throw py::value_error(problem);
     ImageBuf buf(OIIO::ImageSpec(w, h, c, type));
     if (!buf.set_pixels(buf.roi(), type, a.data()))
         throw std::runtime_error(what + ": " + buf.geterror());

@@ -45,13 +45,9 @@ ImageBuf to_imagebuf(const relief_image& in, const relief::ImageSlot& slot, cons
 {
     const std::string what = op + ": input '" + slot.name + "'";
     const TypeDesc type = type_of(in.type);
-    if (in.width <= 0 || in.height <= 0)
-        throw Refused(what + " is " + std::to_string(in.width) + "x" + std::to_string(in.height) +
-                      " texels; both must be > 0");
-    if (in.channels < slot.min_channels || in.channels > slot.max_channels)
-        throw Refused(what + " has " + std::to_string(in.channels) + " channel(s); " + op +
-                      " takes " + std::to_string(slot.min_channels) + " to " +
-                      std::to_string(slot.max_channels));
+    const std::string problem = relief::input_problem(op, slot, in.width, in.height, in.channels);
+    if (!problem.empty())
+        throw Refused(problem);
     if (!in.pixels)
         throw Refused(what + " has no pixels (NULL)");
     OIIO::ImageSpec spec(in.width, in.height, in.channels, type);

@@ -666,6 +666,19 @@ std::string range_text(const ModifierInfo& m)
     return m.unit.empty() ? r : r + " " + m.unit;
 }
 
+std::string input_problem(const std::string& operation, const ImageSlot& slot, int width, int height,
+                          int channels)
+{
+    const std::string what = operation + ": input '" + slot.name + "'";
+    if (width <= 0 || height <= 0)
+        return what + " is " + std::to_string(width) + "x" + std::to_string(height) +
+               " texels; both must be > 0";
+    if (channels < slot.min_channels || channels > slot.max_channels)
+        return what + " has " + std::to_string(channels) + " channel(s); " + operation + " takes " +
+               std::to_string(slot.min_channels) + " to " + std::to_string(slot.max_channels);
+    return "";
+}
+
 const std::vector<OperationInfo>& operations()
 {
     static const std::vector<OperationInfo> infos = [] {

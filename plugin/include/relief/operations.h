@@ -56,6 +56,11 @@ RELIEF_API const std::vector<OperationInfo>& operations();
 RELIEF_API const OperationInfo* find_operation(const std::string& name);
 // "[1, 4096]", "(0, 90) degrees": the values an Integer/Number modifier takes.
 RELIEF_API std::string range_text(const ModifierInfo& modifier);
+// Why an image of width x height x channels cannot be input `slot` of
+// `operation` ("height: input 'normals' has 7 channel(s); height takes 2 to
+// 4"), or "" when it can. The C ABI and Python check their images with it.
+RELIEF_API std::string input_problem(const std::string& operation, const ImageSlot& slot, int width,
+                                     int height, int channels);
 // The table as a JSON document: {"abi_version": 1, "operations": [...]}.
 RELIEF_API std::string operations_json();
 
