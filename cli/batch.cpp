@@ -1,6 +1,9 @@
 #include "batch.h"
 
+#include <algorithm>
+#include <cctype>
 #include <charconv>
+#include <filesystem>
 #include <cstdio>
 #include <fstream>
 
@@ -72,12 +75,175 @@ std::vector<Job> read_jobs(const std::string& path)
         }
         if (job.args.empty())
             continue;
-        job.index = int(jobs.size());
         job.line = line;
-        jobs.push_back(std::move(job));
+        std::vector<std::vector<std::string>> expanded;
+        try {
+            expanded = expand_names(job.args);
+        } catch (const UsageError& e) {
+            job.error = e.what();
+            expanded = {job.args};
+        }
+        for (auto& args : expanded) {
+            Job j = job;
+            j.args = std::move(args);
+            j.index = int(jobs.size());
+            jobs.push_back(std::move(j));
+        }
     }
     if (in.bad())
         throw UsageError("--batch " + path + ": read error");
+    return jobs;
+}
+
+namespace {
+
+// "1-10,20,30-32" -> every frame, in the order given. Throws UsageError.
+std::vector<int> parse_frames(const std::string& text)
+{
+    std::vector<int> frames;
+    std::size_t pos = 0;
+    const auto bad = [&text] {
+        return UsageError("--frames " + text + ": write ranges like 1-10,20,30-32 (A <= B, at most 100000 frames)");
+    };
+    while (pos <= text.size()) {
+        const std::size_t comma = std::min(text.find(',', pos), text.size());
+        const std::string part = text.substr(pos, comma - pos);
+        const std::size_t dash = part.find('-', 1);
+        int a = 0, b = 0;
+        const char* end = part.data() + part.size();
+        const char* mid = part.data() + (dash == std::string::npos ? part.size() : dash);
+        if (std::from_chars(part.data(), mid, a).ptr != mid || part.empty())
+            throw bad();
+        b = a;
+        if (dash != std::string::npos && std::from_chars(mid + 1, end, b).ptr != end)
+            throw bad();
+        if (dash != std::string::npos && dash + 1 == part.size())
+            throw bad();
+        if (b < a || frames.size() + std::size_t(b - a) >= 100000)
+            throw bad();
+        for (int f = a; f <= b; ++f)
+            frames.push_back(f);
+        pos = comma + 1;
+    }
+    return frames;
+}
+
+// The frame tokens of `arg` replaced by `frame`; `found` says whether it had any.
+std::string with_frame(const std::string& arg, int frame, bool& found)
+{
+    std::string out;
+    for (std::size_t i = 0; i < arg.size();) {
+        const char c = arg[i];
+        if (c == '#' || c == '@') {
+            std::size_t n = 0;
+            while (i + n < arg.size() && arg[i + n] == c)
+                ++n;
+            const int width = int(c == '#' && n == 1 ? 4 : n);  // # alone: 4 digits
+            char buf[64];
+            std::snprintf(buf, sizeof buf, "%0*d", width, frame);
+            out += buf;
+            i += n;
+            found = true;
+            continue;
+        }
+        if (c == '%') {
+            std::size_t j = i + 1;
+            int width = 0;
+            if (j < arg.size() && arg[j] == '0') {
+                ++j;
+                while (j < arg.size() && std::isdigit(static_cast<unsigned char>(arg[j])))
+                    width = width * 10 + (arg[j++] - '0');
+            }
+            if (j < arg.size() && arg[j] == 'd' && width <= 32) {
+                char buf[64];
+                std::snprintf(buf, sizeof buf, "%0*d", width, frame);
+                out += buf;
+                i = j + 1;
+                found = true;
+                continue;
+            }
+        }
+        out += c;
+        ++i;
+    }
+    return out;
+}
+
+std::string with_udim(std::string arg, int tile)
+{
+    const std::string token = "<UDIM>";
+    for (std::size_t at; (at = arg.find(token)) != std::string::npos;)
+        arg.replace(at, token.size(), std::to_string(tile));
+    return arg;
+}
+
+bool is_input(const std::vector<std::string>& args, std::size_t i)
+{
+    static const std::vector<std::string> takes_value = {"-o", "--report", "--log", "-d", "--compression",
+                                                         "--device", "--batch", "--shard", "--frames"};
+    if (args[i].empty() || args[i][0] == '-')
+        return false;
+    return i == 0 || std::find(takes_value.begin(), takes_value.end(), args[i - 1]) == takes_value.end();
+}
+
+} // namespace
+
+std::vector<std::vector<std::string>> expand_names(const std::vector<std::string>& given)
+{
+    std::vector<std::string> args;
+    std::vector<int> frames;
+    bool frames_given = false;
+    for (std::size_t i = 0; i < given.size(); ++i) {
+        if (given[i] == "--frames") {
+            if (i + 1 >= given.size())
+                throw UsageError("--frames needs a value (e.g. 1-10)");
+            frames = parse_frames(given[++i]);
+            frames_given = true;
+        } else {
+            args.push_back(given[i]);
+        }
+    }
+    std::vector<int> tiles;
+    bool udim = false;
+    for (std::size_t i = 0; i < args.size(); ++i) {
+        if (args[i].find("<UDIM>") == std::string::npos)
+            continue;
+        udim = true;
+        if (!is_input(args, i))
+            continue;
+        std::error_code ec;
+        for (int t = 1001; t <= 1999; ++t)
+            if (std::filesystem::exists(with_udim(args[i], t), ec))
+                tiles.push_back(t);
+        if (tiles.empty())
+            throw UsageError("no UDIM tile (1001-1999) exists for '" + args[i] + "'");
+        break;
+    }
+    if (udim && tiles.empty())
+        throw UsageError("<UDIM> in an output needs an input file name holding <UDIM> (its tiles are the ones made)");
+    if (!udim)
+        tiles = {0};
+
+    std::vector<std::vector<std::string>> jobs;
+    for (const int tile : tiles) {
+        std::vector<std::string> tiled = args;
+        if (udim)
+            for (std::string& a : tiled)
+                a = with_udim(a, tile);
+        if (!frames_given) {
+            jobs.push_back(tiled);
+            continue;
+        }
+        bool found = false;
+        for (const int f : frames) {
+            std::vector<std::string> framed = tiled;
+            for (std::string& a : framed)
+                a = with_frame(a, f, found);
+            jobs.push_back(std::move(framed));
+        }
+        if (!found)
+            throw UsageError("--frames: no argument holds a frame token (#, @, %04d)");
+    }
     return jobs;
 }
 

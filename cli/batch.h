@@ -10,8 +10,20 @@ namespace relief::cli {
 struct Job {
     int index = 0;                  // among the manifest's jobs, from 0 (what --shard counts)
     int line = 0;                   // in the manifest, from 1
-    std::vector<std::string> args;  // the line's words
+    std::vector<std::string> args;  // the line's words (names expanded, see expand_names)
+    std::string error;              // why the line could not be expanded (the job fails alone)
 };
+
+// oiiotool-style names. In every argument, <UDIM> stands for each UDIM tile
+// (1001-1999) that exists for the first input argument holding it; with
+// --frames A-B[,C-D...] (removed from the result), # alone stands for a
+// 4-digit frame number, a run of # or @ for one digit each (#### and @@@@ =
+// 4), and %0Nd
+// or %d as in printf. Returns one argument list per tile and frame (tiles
+// outer, frames inner), or `args` alone when nothing is to expand. Without
+// --frames, # @ and % are literal. Throws UsageError (a malformed --frames,
+// --frames without a frame token, <UDIM> with no existing tile).
+std::vector<std::vector<std::string>> expand_names(const std::vector<std::string>& args);
 
 // Splits one line into words as a POSIX shell would, without any expansion:
 // blanks separate words; '...' is literal; "..." keeps blanks and takes \"
@@ -20,8 +32,10 @@ struct Job {
 // UsageError for an unterminated quote or a trailing backslash.
 std::vector<std::string> split_words(const std::string& line);
 
-// The jobs of a manifest (blank and comment-only lines skipped). Throws
-// UsageError naming FILE:LINE.
+// The jobs of a manifest (blank and comment-only lines skipped), each line
+// expanded into one job per tile and frame. Throws UsageError naming
+// FILE:LINE for a line that cannot be split into words; a line whose names
+// cannot be expanded becomes one job carrying the error.
 std::vector<Job> read_jobs(const std::string& path);
 
 // --shard I/N: "I/N" -> (I, N) with 0 <= I < N. Throws UsageError.

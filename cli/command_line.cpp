@@ -123,7 +123,20 @@ Arguments are read left to right over a stack of images, like oiiotool:
   --shard I/N           with --batch: only the jobs whose index (from 0, in
                         file order) is I modulo N, so N processes share a file
   --log FILE.jsonl      one JSON object per job: job, line, args, inputs,
-                        outputs, status (ok|failed), seconds, message
+                        outputs, status (ok|skipped|failed), seconds, message
+  --update              make-like: skip a job whose outputs all exist and
+                        record the digest it would write (relief:digest, a
+                        hash of its input files' bytes, every operation and
+                        modifier, and relief's kernels); only headers are read
+  --dry-run             list the jobs as --log lines on stdout (status
+                        pending, or skipped where --update would skip), run none
+  --frames A-B[,C-D...] run once per frame: in every argument # alone is the
+                        frame number in 4 digits, a run of # or @ one digit
+                        each (@@@ = 3 digits), %04d as printf
+Names: <UDIM> in an argument runs once per UDIM tile (1001-1999) that exists
+for the first input file name holding it, e.g.
+  relief 'in/n.<UDIM>.png' --height -o 'out/h.<UDIM>.exr'
+Such runs, and --batch, share one device context and report per job.
   -v                    say what was chosen (device, convention), progress,
                         times, and the image libraries' own diagnostics
   --help, --version
@@ -218,6 +231,10 @@ Program parse_command_line(const std::vector<std::string>& args)
             prog.verbose = true;
         } else if (a == "--list-devices") {
             prog.list_devices = true;
+        } else if (a == "--update") {
+            prog.update = true;
+        } else if (a == "--dry-run") {
+            prog.dry_run = true;
         } else if (a == "--report") {
             prog.report = text_output(a, value_of(i));
         } else if (a == "--batch") {

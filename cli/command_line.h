@@ -41,6 +41,8 @@ struct Program {
     std::string batch;           // --batch JOBS.txt: run the file's jobs instead of steps
     std::string log;             // --log FILE.jsonl: one JSON object per job
     int shard_index = 0, shard_count = 1;  // --shard I/N (with --batch)
+    bool update = false;         // --update: skip a job whose outputs carry its relief:digest
+    bool dry_run = false;        // --dry-run: list the jobs (and what --update would skip), run none
     std::string label;           // set by --batch: "job 3: ", before each message
 };
 

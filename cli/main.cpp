@@ -9,12 +9,14 @@
 #include <chrono>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <iostream>
 #include <string>
 #include <vector>
 
 #include "batch.h"
 #include "command_line.h"
+#include "job_digest.h"
 #include "text_file.h"
 #include "relief/relief.h"
 
@@ -62,7 +64,8 @@ private:
 
 class Runner {
 public:
-    explicit Runner(const Program& prog) : prog_(prog) {}
+    // `digest`: the job's relief:digest, recorded in every output.
+    Runner(const Program& prog, std::string digest) : prog_(prog), digest_(std::move(digest)) {}
 
     void run()
     {
@@ -178,6 +181,7 @@ private:
                 std::fprintf(stderr, "relief: warning: %s: half offsets above 2048 texels are coarser than 1/8 texel; prefer float\n",
                              s.path.c_str());
             w.compression = s.compression;
+            stack_.back().specmod().attribute("relief:digest", digest_);
             // The integer mapping is needed to read the file back: always say it.
             w.on_message = [](Severity, const std::string& m) {
                 std::fprintf(stderr, "relief: %s\n", m.c_str());
@@ -192,6 +196,7 @@ private:
     }
 
     const Program& prog_;
+    const std::string digest_;
     std::vector<OIIO::ImageBuf> stack_;
 };
 
@@ -223,6 +228,17 @@ std::string json_line(const JobRecord& r)
            "\", \"seconds\": " + seconds + ", \"message\": " + relief::cli::json_quote(r.message) + "}";
 }
 
+// Whether every output of the job exists and records `digest` (read from
+// the headers only). A --report file records none; it must exist.
+bool up_to_date(const Program& prog, const std::string& digest)
+{
+    for (const Step& s : prog.steps)
+        if (s.kind == Step::Kind::Write && relief::recorded_digest(s.path) != digest)
+            return false;
+    std::error_code ec;
+    return prog.report.empty() || std::filesystem::is_regular_file(prog.report, ec);
+}
+
 // Runs one parsed job; fills its record instead of throwing.
 void run_job(const Program& prog, JobRecord& rec)
 {
@@ -240,8 +256,16 @@ void run_job(const Program& prog, JobRecord& rec)
     if (!prog.report.empty())
         rec.outputs.push_back(prog.report);
     try {
-        Runner(prog).run();
-        rec.status = "ok";
+        const std::string digest = relief::cli::job_digest(prog);
+        if (prog.update && up_to_date(prog, digest)) {
+            rec.status = "skipped";
+            rec.message = "up to date";
+        } else if (prog.dry_run) {
+            rec.status = "pending";
+        } else {
+            Runner(prog, digest).run();
+            rec.status = "ok";
+        }
     } catch (const std::exception& e) {
         rec.message = e.what();
     }
@@ -281,51 +305,70 @@ private:
     std::FILE* file_ = nullptr;
 };
 
-// --batch: every job of the file (or of this process's shard), one after
-// the other in this process. Returns the exit status.
-int run_batch(const Program& top)
+// Jobs in this process, one after the other, sharing the device context and
+// its caches: a --batch file's (`manifest` names it; the batch's -v,
+// --device, --update and --dry-run apply to every job, a job's own come
+// later and win) or a command line's tiles and frames (`manifest` empty:
+// each job is a whole command line). Only this process's --shard runs.
+// Returns the exit status.
+int run_jobs(const Program& top, const std::vector<relief::cli::Job>& all, const std::string& manifest)
 {
     const auto t0 = std::chrono::steady_clock::now();
-    const std::vector<relief::cli::Job> all = relief::cli::read_jobs(top.batch);
-    const std::vector<relief::cli::Job> jobs =
-        relief::cli::shard_of(all, top.shard_index, top.shard_count);
-    JobLog log(top.log);
-    int ok = 0, failed = 0;
-    for (std::size_t k = 0; k < jobs.size(); ++k) {
-        const relief::cli::Job& job = jobs[k];
+    const std::vector<relief::cli::Job> jobs = relief::cli::shard_of(all, top.shard_index, top.shard_count);
+    JobLog log(top.dry_run ? std::string() : top.log);
+    int ok = 0, skipped = 0, failed = 0, pending = 0;
+    for (const relief::cli::Job& job : jobs) {
         JobRecord rec;
         rec.index = job.index;
         rec.line = job.line;
         rec.args = job.args;
+        rec.message = job.error;
         try {
-            // The batch's -v and --device apply to every job; a job's own come later and win.
-            std::vector<std::string> args = {"--device", top.device};
-            if (top.verbose)
-                args.push_back("-v");
+            if (!job.error.empty())
+                throw relief::cli::UsageError(job.error);
+            std::vector<std::string> args;
+            if (!manifest.empty()) {
+                args = {"--device", top.device};
+                for (const auto& [on, flag] : {std::pair{top.verbose, "-v"}, std::pair{top.update, "--update"},
+                                               std::pair{top.dry_run, "--dry-run"}})
+                    if (on)
+                        args.push_back(flag);
+            }
             args.insert(args.end(), job.args.begin(), job.args.end());
             Program p = relief::cli::parse_command_line(args);
             p.label = "job " + std::to_string(job.index) + ": ";
-            if (!p.batch.empty() || !p.log.empty() || p.help || p.version || p.list_devices || p.steps.empty())
+            if (!manifest.empty() &&
+                (!p.batch.empty() || !p.log.empty() || p.help || p.version || p.list_devices || p.steps.empty()))
                 throw relief::cli::UsageError("a job is images, operations and outputs (no --batch, --log, "
                                               "--help, --version or --list-devices)");
             run_job(p, rec);
         } catch (const relief::cli::UsageError& e) {
             rec.message = e.what();
         }
-        const std::string where = top.batch + ":" + std::to_string(job.line);
-        if (rec.status == "ok") {
-            ++ok;
-            if (top.verbose)
-                std::fprintf(stderr, "relief: job %d (%s): ok, %.3f s\n", job.index, where.c_str(), rec.seconds);
-        } else {
+        const std::string where = manifest.empty() ? std::string("command line")
+                                                   : manifest + ":" + std::to_string(job.line);
+        if (rec.status == "failed") {
             ++failed;
             std::fprintf(stderr, "relief: job %d (%s): error: %s\n", job.index, where.c_str(), rec.message.c_str());
+        } else {
+            ++(rec.status == "ok" ? ok : rec.status == "skipped" ? skipped : pending);
+            if (top.verbose)
+                std::fprintf(stderr, "relief: job %d (%s): %s, %.3f s\n", job.index, where.c_str(),
+                             rec.status.c_str(), rec.seconds);
+        }
+        if (top.dry_run) {
+            std::printf("%s\n", json_line(rec).c_str());
+            std::fflush(stdout);
         }
         log.add(rec);
     }
     const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    std::fprintf(stderr, "relief: batch %s: %d ok, %d failed of %zu job(s)", top.batch.c_str(), ok, failed,
-                 jobs.size());
+    std::fprintf(stderr, "relief: %s%s: ", manifest.empty() ? "jobs" : "batch ", manifest.c_str());
+    if (top.dry_run)
+        std::fprintf(stderr, "%d pending, %d skipped, %d failed of %zu job(s) (dry run)", pending, skipped,
+                     failed, jobs.size());
+    else
+        std::fprintf(stderr, "%d ok, %d skipped, %d failed of %zu job(s)", ok, skipped, failed, jobs.size());
     if (top.shard_count > 1)
         std::fprintf(stderr, " (shard %d/%d of %zu)", top.shard_index, top.shard_count, all.size());
     std::fprintf(stderr, ", %.2f s\n", sec);
@@ -347,10 +390,12 @@ int list_devices()
 
 int main(int argc, char** argv)
 {
-    std::vector<std::string> args(argv + 1, argv + argc);
+    const std::vector<std::string> args(argv + 1, argv + argc);
     Program prog;
+    std::vector<std::vector<std::string>> expanded;
     try {
-        prog = relief::cli::parse_command_line(args);
+        expanded = relief::cli::expand_names(args);
+        prog = relief::cli::parse_command_line(expanded.front());
     } catch (const relief::cli::UsageError& e) {
         std::fprintf(stderr, "relief: error: %s\n", e.what());
         return 2;
@@ -367,22 +412,31 @@ int main(int argc, char** argv)
         if (prog.list_devices)
             return list_devices();
         if (!prog.batch.empty())
-            return run_batch(prog);
+            return run_jobs(prog, relief::cli::read_jobs(prog.batch), prog.batch);
         if (prog.steps.empty()) {
             std::fputs(relief::cli::usage_text().c_str(), stderr);
             return 2;
         }
-        if (!prog.log.empty()) {  // a single run is a batch of one job
-            JobLog log(prog.log);
-            JobRecord rec;
-            rec.args = args;
-            run_job(prog, rec);
-            log.add(rec);
-            if (rec.status != "ok")
-                throw RuntimeError(rec.message);
-            return 0;
+        if (expanded.size() > 1 || expanded.front() != args || prog.dry_run) {
+            // Tiles and frames: a batch of whole command lines.
+            std::vector<relief::cli::Job> jobs;
+            for (const auto& a : expanded) {
+                relief::cli::Job j;
+                j.index = int(jobs.size());
+                j.args = a;
+                jobs.push_back(j);
+            }
+            return run_jobs(prog, jobs, "");
         }
-        Runner(prog).run();
+        JobLog log(prog.log);
+        JobRecord rec;
+        rec.args = args;
+        run_job(prog, rec);
+        log.add(rec);
+        if (rec.status == "failed")
+            throw RuntimeError(rec.message);
+        if (rec.status == "skipped" && prog.verbose)
+            std::fprintf(stderr, "relief: up to date (every output records this run's relief:digest)\n");
     } catch (const relief::cli::UsageError& e) {  // the --batch file's own syntax
         std::fprintf(stderr, "relief: error: %s\n", e.what());
         return 2;

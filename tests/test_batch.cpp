@@ -128,7 +128,7 @@ TEST_CASE("batch: jobs run in one process, a failed job alone fails, the log say
     CHECK(r.err.find("job 2 (" + m.string() + ":4): error: cannot read") != std::string::npos);
     CHECK(r.err.find("job 3 (" + m.string() + ":5): error: --height:rays=-3: rays=-3 must be") != std::string::npos);
     CHECK(r.err.find("relief: job 0: boundary:") != std::string::npos);  // messages name their job
-    CHECK(r.err.find("3 ok, 2 failed of 5 job(s)") != std::string::npos);
+    CHECK(r.err.find("3 ok, 0 skipped, 2 failed of 5 job(s)") != std::string::npos);
     CHECK_FALSE(fs::exists(d / "h2.exr"));
     CHECK_FALSE(fs::exists(d / "h3.exr"));
 
@@ -191,7 +191,7 @@ TEST_CASE("batch: three shards of six jobs cover each job exactly once", "[batch
         auto r = run_cli("--batch '" + m.string() + "' --shard " + std::to_string(s) + "/3 --log '" + log.string() + "'");
         INFO(r.err);
         REQUIRE(r.rc == 0);
-        CHECK(r.err.find("2 ok, 0 failed of 2 job(s) (shard " + std::to_string(s) + "/3 of 6)") != std::string::npos);
+        CHECK(r.err.find("2 ok, 0 skipped, 0 failed of 2 job(s) (shard " + std::to_string(s) + "/3 of 6)") != std::string::npos);
         for (const std::string& l : lines_of(log)) {
             const int job = std::stoi(l.substr(std::string("{\"job\": ").size()));
             CHECK(job % 3 == s);

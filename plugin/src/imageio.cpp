@@ -63,6 +63,19 @@ bool read_image(ImageBuf& dst, const std::string& path)
         dst.clear();
         return false;
     }
+    // A digest describes the file it is in: it must not travel with the
+    // pixels into another file (a stale one would make --update skip).
+    ImageSpec& spec = dst.specmod();
+    spec.erase_attribute("relief:digest");
+    std::string description = spec.get_string_attribute("ImageDescription");
+    const std::size_t at = description.rfind("relief:digest=");
+    if (at != std::string::npos) {
+        description.erase(at > 0 && description[at - 1] == '\n' ? at - 1 : at);
+        if (description.empty())
+            spec.erase_attribute("ImageDescription");
+        else
+            spec.attribute("ImageDescription", description);
+    }
     return true;
 }
 
@@ -131,6 +144,13 @@ std::string write_file(const ImageBuf& image, const fs::path& path, TypeDesc for
     spec.channelformats.clear();
     if (!compression.empty())
         spec.attribute("compression", compression);
+    const std::string digest = spec.get_string_attribute("relief:digest");
+    const std::string ext = lowercase(path.extension().string());
+    if (!digest.empty() && ext != ".exr" && ext != ".png") {
+        // These formats drop custom attributes but keep the description.
+        std::string d = spec.get_string_attribute("ImageDescription");
+        spec.attribute("ImageDescription", (d.empty() ? "" : d + "\n") + "relief:digest=" + digest);
+    }
     std::FILE* f = nullptr;
     std::unique_ptr<CheckedFile> file;
     if (out->supports("ioproxy")) {
@@ -159,6 +179,26 @@ std::string write_file(const ImageBuf& image, const fs::path& path, TypeDesc for
 }
 
 } // namespace
+
+std::string recorded_digest(const std::string& path)
+{
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) {
+        OIIO::geterror();  // consume it: a missing output just means "recompute"
+        return "";
+    }
+    const ImageSpec& spec = in->spec();
+    std::string digest = spec.get_string_attribute("relief:digest");
+    if (digest.empty()) {
+        const std::string d = spec.get_string_attribute("ImageDescription");
+        const std::string key = "relief:digest=";
+        const std::size_t at = d.rfind(key);
+        if (at != std::string::npos)
+            digest = d.substr(at + key.size(), d.find('\n', at) - at - key.size());
+    }
+    in->close();
+    return digest;
+}
 
 bool check_output_path(const std::string& path)
 {

@@ -46,7 +46,16 @@ struct WriteOptions {
 // records relief:height_scale and relief:height_midlevel (as text, which
 // every format keeps), and data =
 // (value - midlevel) * scale. Other images are written as they are.
+//
+// A "relief:digest" attribute of the image (what `relief --update`
+// compares) is kept in every format that keeps any metadata: as itself in
+// OpenEXR and PNG, as a "relief:digest=HEX" line of ImageDescription in
+// TIFF, JPEG and Targa.
 RELIEF_API bool write_image(const OIIO::ImageBuf& image, const std::string& path,
                  const WriteOptions& options = {});
+
+// The relief:digest that the image file at `path` records, read from its
+// header without decoding pixels; "" when it records none or cannot be read.
+RELIEF_API std::string recorded_digest(const std::string& path);
 
 } // namespace relief

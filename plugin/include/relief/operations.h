@@ -76,6 +76,17 @@ struct OperationCall {
     std::string fix_file;   // correct: fix=FILE, read by run_operation() unless correct.fix_mask is set
 };
 
+// Every modifier of call.operation as "key=value", joined by ':' in the
+// table's order, defaults included: the call written out in full. Two calls
+// with the same text compute the same result from the same images (file
+// modifiers give the path; hash the file's bytes alongside).
+RELIEF_API std::string modifier_text(const OperationCall& call);
+
+// A digest (32 hex digits, XXH3-128) of what decides results besides the
+// images and the modifiers: relief's version and the OpenCL kernel sources
+// it builds (those of $RELIEF_KERNEL_DIR when that is set).
+RELIEF_API std::string implementation_digest();
+
 // Parses modifiers written as on the command line ("key=value:key=value",
 // fix=height:H0:DH keeping its own colons) for `operation`, checking each
 // against the table and the combinations against each other. Returns false

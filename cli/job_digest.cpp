@@ -1,0 +1,90 @@
+#include "job_digest.h"
+
+#include <xxhash.h>
+
+#include <cstdio>
+#include <memory>
+#include <stdexcept>
+#include <vector>
+
+namespace relief::cli {
+
+namespace {
+
+class Hasher {
+public:
+    Hasher() : state_(XXH3_createState(), XXH3_freeState) { XXH3_128bits_reset(state_.get()); }
+
+    // Length first, so that no two sequences of texts feed the same bytes.
+    void text(const std::string& s)
+    {
+        const unsigned long long n = s.size();
+        XXH3_128bits_update(state_.get(), &n, sizeof n);
+        XXH3_128bits_update(state_.get(), s.data(), s.size());
+    }
+
+    void file(const std::string& path)
+    {
+        std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), std::fclose);
+        if (!f)
+            throw std::runtime_error("cannot read '" + path + "'");
+        XXH3_state_t* inner = XXH3_createState();
+        XXH3_128bits_reset(inner);
+        std::vector<char> buf(1 << 20);
+        std::size_t n;
+        while ((n = std::fread(buf.data(), 1, buf.size(), f.get())) > 0)
+            XXH3_128bits_update(inner, buf.data(), n);
+        const bool failed = std::ferror(f.get());
+        const XXH128_hash_t h = XXH3_128bits_digest(inner);
+        XXH3_freeState(inner);
+        if (failed)
+            throw std::runtime_error("cannot read '" + path + "': read error");
+        text(hex(h));
+    }
+
+    std::string digest() const { return hex(XXH3_128bits_digest(state_.get())); }
+
+private:
+    static std::string hex(XXH128_hash_t h)
+    {
+        char s[33];
+        std::snprintf(s, sizeof s, "%016llx%016llx", static_cast<unsigned long long>(h.high64),
+                      static_cast<unsigned long long>(h.low64));
+        return s;
+    }
+
+    std::unique_ptr<XXH3_state_t, XXH_errorcode (*)(XXH3_state_t*)> state_;
+};
+
+} // namespace
+
+std::string job_digest(const Program& prog)
+{
+    Hasher h;
+    h.text("relief job digest 1");
+    h.text(implementation_digest());
+    for (const Step& s : prog.steps) {
+        switch (s.kind) {
+        case Step::Kind::Read:
+            h.text("read");
+            h.file(s.path);
+            break;
+        case Step::Kind::Operation:
+            h.text(s.operation);
+            h.text(modifier_text(s));
+            if (!s.mask_file.empty())
+                h.file(s.mask_file);
+            if (!s.fix_file.empty())
+                h.file(s.fix_file);
+            break;
+        case Step::Kind::Write:
+            h.text("write");
+            h.text(std::string(s.format.c_str()) + (s.format_given ? " given" : " default"));
+            h.text(s.compression);
+            break;
+        }
+    }
+    return h.digest();
+}
+
+} // namespace relief::cli

@@ -1,0 +1,18 @@
+#pragma once
+// relief:digest, what `--update` compares: one hash of everything that
+// decides a job's outputs.
+#include <string>
+
+#include "command_line.h"
+
+namespace relief::cli {
+
+// XXH3-128 (32 hex digits) over relief's implementation digest (version and
+// kernel sources) and the job's steps in order: each read's file bytes, each
+// operation with every modifier (defaults included) and the bytes of its
+// mask/fix files, each write's pixel type and compression. Paths themselves
+// do not count: moving a job's files keeps its digest. Throws
+// std::runtime_error naming an input that cannot be read.
+std::string job_digest(const Program& prog);
+
+} // namespace relief::cli
