@@ -2,6 +2,8 @@
 // one process, a failed job alone failing, shards covering every job once.
 #include <catch2/catch.hpp>
 
+#include <OpenImageIO/imagebufalgo.h>
+
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -10,6 +12,7 @@
 
 #include "batch.h"
 #include "command_line.h"
+#include "relief/imageio.h"
 #include "support/images.h"
 #include "support/run_cli.h"
 
@@ -201,4 +204,179 @@ TEST_CASE("batch: three shards of six jobs cover each job exactly once", "[batch
     CHECK(done == std::multiset<int>{0, 1, 2, 3, 4, 5});
     for (int i = 0; i < 6; ++i)
         CHECK(fs::exists(d / ("s" + std::to_string(i) + ".exr")));
+}
+
+namespace {
+
+// A small 8-bit PNG crop of a bundled normal map, for quick jobs.
+void write_crop(const std::string& from, const fs::path& to, int x0, int size = 96)
+{
+    OIIO::ImageBuf src(from);
+    OIIO::ImageBuf crop = OIIO::ImageBufAlgo::cut(src, OIIO::ROI(x0, x0 + size, 0, size));
+    crop.set_write_format(OIIO::TypeDesc::UINT8);
+    REQUIRE(crop.write(to.string()));
+}
+
+std::vector<std::string> statuses(const fs::path& log)
+{
+    std::vector<std::string> s;
+    for (const std::string& l : lines_of(log)) {
+        const std::size_t at = l.find("\"status\": \"") + 11;
+        s.push_back(l.substr(at, l.find('"', at) - at));
+    }
+    return s;
+}
+
+} // namespace
+
+TEST_CASE("names: <UDIM>, # @ %0Nd and --frames expand as oiiotool's", "[names][parse]")
+{
+    using V = std::vector<std::string>;
+    using VV = std::vector<V>;
+    using relief::cli::expand_names;
+    const fs::path d = scratch("names");
+    for (const char* t : {"1001", "1002", "1011"})
+        std::ofstream(d / ("n." + std::string(t) + ".png")) << "x";
+    const std::string in = (d / "n.<UDIM>.png").string();
+    const auto tile = [&](const char* t) { return (d / ("n." + std::string(t) + ".png")).string(); };
+    CHECK(expand_names({in, "--height", "-o", "h.<UDIM>.exr"}) ==
+          VV{{tile("1001"), "--height", "-o", "h.1001.exr"},
+             {tile("1002"), "--height", "-o", "h.1002.exr"},
+             {tile("1011"), "--height", "-o", "h.1011.exr"}});
+    // nothing to expand: the arguments as they are; # is literal without --frames
+    CHECK(expand_names({"a#.png", "--height", "-o", "b@%04d.exr"}) == VV{{"a#.png", "--height", "-o", "b@%04d.exr"}});
+    CHECK(expand_names({"f.#.png", "--frames", "9-10,12", "-o", "o.%04d.exr"}) ==
+          VV{{"f.0009.png", "-o", "o.0009.exr"}, {"f.0010.png", "-o", "o.0010.exr"}, {"f.0012.png", "-o", "o.0012.exr"}});
+    CHECK(expand_names({"f.@@@.png", "--frames", "7", "-o", "o.%d.exr", "x.####.y%03dz##"}) ==
+          VV{{"f.007.png", "-o", "o.7.exr", "x.0007.y007z07"}});
+    CHECK(expand_names({"--frames", "1-2", in, "-o", "h.<UDIM>.#.exr"}).size() == 6);
+    CHECK(expand_names({"--frames", "1-2", in, "-o", "h.<UDIM>.#.exr"})[1] == V{tile("1001"), "-o", "h.1001.0002.exr"});
+    // the tiles are those of the first input holding <UDIM>, not of an output
+    CHECK(expand_names({"-o", (d / "n.<UDIM>.png").string(), in}).size() == 3);
+    for (const V& bad : {V{"x.<UDIM>.png"}, V{"a.png", "-o", "h.<UDIM>.exr"}, V{"a.png", "--frames", "1-3"},
+                         V{"a#.png", "--frames"}, V{"a#.png", "--frames", "3-1"}, V{"a#.png", "--frames", "1-"},
+                         V{"a#.png", "--frames", "1,,2"}, V{"a#.png", "--frames", "x"}, V{"a#.png", "--frames", "0-100000"}})
+        CHECK_THROWS_AS(expand_names(bad), UsageError);
+    // in a manifest, each line expands into jobs of its own; a line that cannot fails alone
+    std::ofstream(d / "jobs.txt") << "'" << in << "' --slopes -o 'h.<UDIM>.exr'\nnone.<UDIM>.png --slopes -o x.exr\n"
+                                  << tile("1001") << " --slopes -o y.exr\n";
+    const std::vector<Job> jobs = relief::cli::read_jobs((d / "jobs.txt").string());
+    REQUIRE(jobs.size() == 5);
+    CHECK(jobs[2].args.back() == "h.1011.exr");
+    CHECK(jobs[2].line == 1);
+    CHECK(jobs[3].error.find("no UDIM tile") != std::string::npos);
+    CHECK(jobs[3].line == 2);
+    CHECK(jobs[4].index == 4);
+    CHECK(jobs[4].error.empty());
+}
+
+TEST_CASE("names: a <UDIM> set and a # sequence run one job per existing tile and frame, each as its own run", "[names][cli]")
+{
+    const fs::path d = scratch("tiles");
+    write_crop(kNormal, d / "n.1001.png", 0);
+    write_crop(kNormal, d / "n.1002.png", 96);
+    write_crop(kDem, d / "n.1012.png", 0);
+    fs::create_directories(d / "out");
+    auto r = run_cli("'" + (d / "n.<UDIM>.png").string() + "' --height -o '" + (d / "out/h.<UDIM>.exr").string() + "'");
+    INFO(r.err);
+    CHECK(r.rc == 0);
+    CHECK(r.err.find("3 ok, 0 skipped, 0 failed of 3 job(s)") != std::string::npos);
+    std::set<std::string> made;
+    for (const auto& e : fs::directory_iterator(d / "out"))
+        made.insert(e.path().filename().string());
+    CHECK(made == std::set<std::string>{"h.1001.exr", "h.1002.exr", "h.1012.exr"});
+    for (const char* t : {"1001", "1012"}) {
+        const fs::path single = d / ("single." + std::string(t) + ".exr");
+        REQUIRE(run_cli("'" + (d / ("n." + std::string(t) + ".png")).string() + "' --height -o '" + single.string() + "'").rc == 0);
+        CHECK(relief::test::file_pixels(single) == relief::test::file_pixels(d / "out" / ("h." + std::string(t) + ".exr")));
+    }
+    // frames 1001-1003: 1003 does not exist and fails alone
+    auto f = run_cli("'" + (d / "n.#.png").string() + "' --frames 1001-1003 --slopes -o '" + (d / "out/s.%04d.exr").string() + "'");
+    CHECK(f.rc == 1);
+    CHECK(f.err.find("job 2 (command line): error: cannot read '" + (d / "n.1003.png").string()) != std::string::npos);
+    CHECK(fs::exists(d / "out/s.1001.exr"));
+    CHECK(fs::exists(d / "out/s.1002.exr"));
+    CHECK_FALSE(fs::exists(d / "out/s.1003.exr"));
+}
+
+TEST_CASE("update: a job is skipped exactly when its outputs record the digest it would write", "[update][cli]")
+{
+    const fs::path d = scratch("update");
+    for (int i = 0; i < 4; ++i)
+        write_crop(i % 2 ? kDem : kNormal, d / ("n" + std::to_string(i) + ".png"), 8 * i);
+    const fs::path m = d / "jobs.txt";
+    const auto manifest = [&](const std::string& job1_modifiers, const std::string& job2_type) {
+        std::ofstream f(m);
+        f << "n0.png --height -o h0.exr\n";
+        f << "n1.png --height" << job1_modifiers << " -o h1.exr -o h1.png\n";
+        f << "n2.png --slopes -d " << job2_type << " -o s2.exr\n";
+        f << "n3.png --height -o h3.tif\n";  // TIFF keeps the digest in ImageDescription
+    };
+    manifest("", "float");
+    const fs::path log = d / "log.jsonl";
+    auto run = [&](const std::string& extra = "", const std::string& env = "") {
+        return relief::test::run_cli("--batch jobs.txt --update --log log.jsonl " + extra, env + " cd '" + d.string() + "' &&");
+    };
+    using S = std::vector<std::string>;
+    auto r = run();
+    INFO(r.err);
+    REQUIRE(r.rc == 0);
+    CHECK(statuses(log) == S{"ok", "ok", "ok", "ok"});
+    const std::string digest = relief::recorded_digest((d / "h0.exr").string());
+    CHECK(digest.size() == 32);
+    CHECK(relief::recorded_digest((d / "h1.png").string()) == relief::recorded_digest((d / "h1.exr").string()));
+    CHECK(relief::recorded_digest((d / "h3.tif").string()).size() == 32);
+    CHECK(relief::recorded_digest((d / "n0.png").string()).empty());
+    const auto h0_time = fs::last_write_time(d / "h0.exr");
+
+    // nothing changed: everything skipped, nothing rewritten
+    r = run();
+    CHECK(r.rc == 0);
+    CHECK(statuses(log) == S{"skipped", "skipped", "skipped", "skipped"});
+    CHECK(r.err.find("0 ok, 4 skipped, 0 failed of 4 job(s)") != std::string::npos);
+    CHECK(fs::last_write_time(d / "h0.exr") == h0_time);
+    // the same bytes written again (a new mtime) are the same input
+    fs::copy_file(d / "n3.png", d / "n3.copy.png");
+    fs::remove(d / "n3.png");
+    fs::rename(d / "n3.copy.png", d / "n3.png");
+    CHECK(statuses((run(), log)) == S{"skipped", "skipped", "skipped", "skipped"});
+
+    // a changed input byte, a changed modifier, a changed -d, a lost output: exactly those run
+    write_crop(kNormal, d / "n0.png", 40);
+    manifest(":normal=opengl", "half");
+    fs::remove(d / "h1.png");
+    auto dry = relief::test::run_cli("--batch jobs.txt --update --dry-run", "cd '" + d.string() + "' &&");
+    CHECK(dry.rc == 0);
+    CHECK(dry.out.find("\"status\": \"pending\"") != std::string::npos);
+    CHECK(dry.err.find("3 pending, 1 skipped, 0 failed of 4 job(s) (dry run)") != std::string::npos);
+    CHECK(fs::last_write_time(d / "h0.exr") == h0_time);  // a dry run writes nothing
+    CHECK_FALSE(fs::exists(d / "h1.png"));
+    r = run();
+    CHECK(statuses(log) == S{"ok", "ok", "ok", "skipped"});
+    CHECK(relief::recorded_digest((d / "h0.exr").string()) != digest);
+    manifest(":normal=opengl", "half");
+    fs::remove(d / "h1.png");  // one of a job's two outputs lost
+    CHECK(statuses((run(), log)) == S{"skipped", "ok", "skipped", "skipped"});
+    // without --update every job runs
+    CHECK(statuses((relief::test::run_cli("--batch jobs.txt --log log.jsonl", "cd '" + d.string() + "' &&"), log)) ==
+          S{"ok", "ok", "ok", "ok"});
+
+    // other kernels (RELIEF_KERNEL_DIR) are another implementation: every job is pending
+    const fs::path kernels = d / "kernels";
+    fs::copy(RELIEF_KERNELS_DIR, kernels);
+    dry = relief::test::run_cli("--batch jobs.txt --update --dry-run", "cd '" + d.string() + "' && RELIEF_KERNEL_DIR='" + kernels.string() + "'");
+    CHECK(dry.err.find("0 pending, 4 skipped") != std::string::npos);  // the same sources
+    std::ofstream(kernels / "ddm.cl", std::ios::app) << "\n// changed\n";
+    dry = relief::test::run_cli("--batch jobs.txt --update --dry-run", "cd '" + d.string() + "' && RELIEF_KERNEL_DIR='" + kernels.string() + "'");
+    CHECK(dry.err.find("4 pending, 0 skipped") != std::string::npos);
+
+    // a digest belongs to its file: reading an output does not carry it into another
+    OIIO::ImageBuf img;
+    for (const char* out : {"h0.exr", "h3.tif"}) {
+        REQUIRE(relief::read_image(img, (d / out).string()));
+        CHECK(img.spec().get_string_attribute("relief:digest").empty());
+        CHECK(img.spec().get_string_attribute("ImageDescription").find("relief:digest") == std::string::npos);
+        REQUIRE(relief::write_image(img, (d / "copy.exr").string()));
+        CHECK(relief::recorded_digest((d / "copy.exr").string()).empty());
+    }
 }

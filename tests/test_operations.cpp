@@ -119,6 +119,48 @@ TEST_CASE("operations: defaults are the option structs' own, and each parses bac
     CHECK(find("bake", "filter").default_value == "bilinear");
 }
 
+TEST_CASE("operations: modifier_text writes every modifier, and any change to one changes it", "[operations][digest]")
+{
+    for (const OperationInfo& op : operations()) {
+        OperationCall base;
+        base.operation = op.name;
+        std::string expected;
+        for (const ModifierInfo& m : op.modifiers)
+            expected += (expected.empty() ? "" : ":") + m.name + "=" + m.default_value;
+        CHECK(relief::modifier_text(base) == expected);
+        int changed = 0;
+        std::string unchanged;
+        for (const ModifierInfo& m : op.modifiers) {
+            const int before = changed;
+            std::vector<std::string> values = m.choices;
+            if (m.type == ModifierType::Integer || m.type == ModifierType::Number)
+                for (double v : {m.min + 1.0, m.max - 1.0, (m.min + m.max) / 2, m.min + 0.25})
+                    values.push_back(m.type == ModifierType::Integer ? std::to_string(long(v)) : std::to_string(v));
+            if (m.type == ModifierType::File)
+                values.push_back(kHeight);
+            for (const std::string& v : values) {
+                OperationCall c;
+                if (v == m.default_value || !parse_modifiers(c, op.name, m.name + "=" + v) || same_options(c, OperationCall{}))
+                    continue;  // needs another modifier with it, or an alias of the default (clip is free)
+                c.operation = op.name;
+                INFO(op.name << ":" << m.name << "=" << v << " -> " << relief::modifier_text(c));
+                // the modifier's own field in the text changed
+                const std::string text = ":" + relief::modifier_text(c) + ":";
+                CHECK(text.find(":" + m.name + "=" + m.default_value + ":") == std::string::npos);
+                CHECK(text.find(":" + m.name + "=") != std::string::npos);
+                ++changed;
+                break;
+            }
+            if (changed == before)
+                unchanged += " " + m.name;
+        }
+        INFO(op.name << ": no value tried changes" << unchanged);
+        CHECK(changed >= int(op.modifiers.size()) - 1);
+    }
+    CHECK(relief::implementation_digest().size() == 32);
+    CHECK(relief::implementation_digest() == relief::implementation_digest());
+}
+
 TEST_CASE("operations: --help and the JSON show every operation and modifier from the table", "[operations][cli]")
 {
     const std::string help = cli::usage_text();
