@@ -256,7 +256,8 @@ void run_job(const Program& prog, JobRecord& rec)
     if (!prog.report.empty())
         rec.outputs.push_back(prog.report);
     try {
-        const std::string digest = relief::cli::job_digest(prog);
+        // A dry run without --update lists the jobs without reading their inputs.
+        const std::string digest = prog.dry_run && !prog.update ? std::string() : relief::cli::job_digest(prog);
         if (prog.update && up_to_date(prog, digest)) {
             rec.status = "skipped";
             rec.message = "up to date";

@@ -19,7 +19,7 @@ echo "Recommends: $(dpkg-deb -f "$deb" Recommends)"
 dpkg-deb -f "$deb" Recommends | grep -q libopenimageio-dev
 dpkg-deb -c "$deb" | awk '{print $6}' > "$tmp/files"
 # (lib/ or lib/<multiarch>/, as the build's CMAKE_INSTALL_LIBDIR says)
-for f in '\./usr/bin/relief' '\./usr/include/relief/relief_c\.h' '\./usr/include/relief/relief\.h' \
+for f in '\./usr/bin/relief' '\./usr/bin/relief-slurm' '\./usr/include/relief/relief_c\.h' '\./usr/include/relief/relief\.h' \
          '\./usr/include/relief/export\.h' '\./usr/lib/(.*/)?librelief\.so\.1' \
          '\./usr/lib/(.*/)?cmake/relief/reliefConfig\.cmake' '\./usr/lib/(.*/)?pkgconfig/relief\.pc' \
          '\./usr/lib/python3/dist-packages/relief/__init__\.py'; do
