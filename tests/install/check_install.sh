@@ -29,7 +29,8 @@ step "the installed CLI"
 # relief-slurm is installed beside relief and finds it there
 echo "'$normal' --slopes -o '$tmp/slurm_job.exr'" > "$tmp/jobs.txt"
 "$prefix/bin/relief-slurm" submit "$tmp/jobs.txt" --tasks 2 --dry-run | grep -F "exec $prefix/bin/relief --batch" >/dev/null
-"$prefix/bin/relief-slurm" status "$tmp/jobs.txt" --log-dir "$tmp/none" | grep -F "1 job(s): 0 ok, 0 skipped, 0 failed, 1 missing" >/dev/null
+st=$("$prefix/bin/relief-slurm" status "$tmp/jobs.txt" --log-dir "$tmp/none") && exit 1  # 1: a job is missing
+echo "$st" | grep -F "1 job(s): 0 ok, 0 skipped, 0 failed, 1 missing" >/dev/null
 
 step "the same bytes as a binary PPM, for the C host"
 PYTHONPATH=$pyroot "$python" - "$normal" "$tmp/normal.ppm" <<'PY'
