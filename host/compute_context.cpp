@@ -9,6 +9,7 @@
 #include "errors.h"
 #include "kernel_sources.h"
 #include "opencl_context.h"
+#include "setup_times.h"
 
 namespace relief::host {
 
@@ -128,6 +129,7 @@ std::shared_ptr<ComputeContext> ComputeContext::acquire(const std::string& spec)
 {
     static std::mutex mutex;
     static std::map<std::string, std::shared_ptr<ComputeContext>> contexts;
+    SetupTimer timer(SetupTimer::Kind::Device);
     DeviceInfo info = choose_device(spec);
     std::string key = std::to_string(info.platform_index) + ":" + std::to_string(info.device_index);
     std::lock_guard<std::mutex> lock(mutex);
@@ -208,6 +210,7 @@ cl::Program& ComputeContext::Impl::program(const std::string& file, const std::s
     auto it = programs.find(key);
     if (it != programs.end())
         return it->second;
+    SetupTimer timer(SetupTimer::Kind::Programs);
     std::string source = kernel_source("common.h") + "\n#line 1 \"" + file + "\"\n" +
                          kernel_source(file);
     cl::Program prog(context, source);

@@ -2,6 +2,8 @@
 // plan time; it is confined to this file.
 #include "fft_plan.h"
 
+#include "setup_times.h"
+
 #define VKFFT_BACKEND 3
 #include <vkFFT.h>
 
@@ -102,6 +104,7 @@ struct FftPlan::Impl {
 FftPlan::FftPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, cl::Buffer& buffer)
     : impl_(new Impl(c))
 {
+    SetupTimer timer(SetupTimer::Kind::Plans);
     if (n0 < 2 || n1 < 1)
         throw Error("internal error: FFT plan of size " + std::to_string(n0) + "x" +
                     std::to_string(n1));

@@ -4,6 +4,7 @@
 
 #include "compute_context.h"
 #include "error_state.h"
+#include "setup_times.h"
 
 namespace relief {
 
@@ -18,6 +19,12 @@ std::vector<DeviceDescription> list_devices()
         detail::set_error(e.what());
     }
     return out;
+}
+
+SetupTimes setup_times()
+{
+    const host::SetupTimes t = host::setup_times();
+    return {t.device, t.programs, t.plans};
 }
 
 } // namespace relief
