@@ -8,7 +8,9 @@
 
 #include "errors.h"
 #include "kernel_sources.h"
+#include "binary_cache.h"
 #include "opencl_context.h"
+#include "plan_cache.h"
 #include "setup_times.h"
 
 namespace relief::host {
@@ -145,7 +147,13 @@ ComputeContext::ComputeContext(const DeviceInfo& device) : device_(device), impl
         impl_->device = device_at(device.platform_index, device.device_index);
         impl_->context = cl::Context(impl_->device);
         impl_->queue = cl::CommandQueue(impl_->context, impl_->device);
+        impl_->plans = std::make_shared<PlanCache>();
         impl_->max_alloc = std::size_t(impl_->device.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>());
+        const cl::Platform platform(impl_->device.getInfo<CL_DEVICE_PLATFORM>());
+        impl_->identity = platform.getInfo<CL_PLATFORM_NAME>() + "\n" + platform.getInfo<CL_PLATFORM_VERSION>() +
+                          "\n" + impl_->device.getInfo<CL_DEVICE_NAME>() + "\n" +
+                          impl_->device.getInfo<CL_DEVICE_VERSION>() + "\n" +
+                          impl_->device.getInfo<CL_DRIVER_VERSION>();
     } catch (const cl::Error& e) {
         throw Error("cannot open OpenCL device " + device.describe() + ": " + e.what() +
                     " (error " + std::to_string(e.err()) + ")");
@@ -211,11 +219,23 @@ cl::Program& ComputeContext::Impl::program(const std::string& file, const std::s
     if (it != programs.end())
         return it->second;
     SetupTimer timer(SetupTimer::Kind::Programs);
-    std::string source = kernel_source("common.h") + "\n#line 1 \"" + file + "\"\n" +
-                         kernel_source(file);
+    const std::string source = kernel_source("common.h") + "\n#line 1 \"" + file + "\"\n" +
+                               kernel_source(file);
+    const std::string build_options = "-cl-std=CL1.2 " + options;
+    const std::string cache_key = BinaryCache::key({"program", identity, source, build_options});
+    if (const std::optional<std::string> binary = BinaryCache::load(cache_key)) {
+        try {
+            cl::Program prog(context, {device},
+                             cl::Program::Binaries{std::vector<unsigned char>(binary->begin(), binary->end())});
+            prog.build({device}, build_options.c_str());
+            return programs.emplace(key, prog).first->second;
+        } catch (const cl::Error&) {
+            // a binary this driver no longer takes: build from source, store anew
+        }
+    }
     cl::Program prog(context, source);
     try {
-        prog.build({device}, ("-cl-std=CL1.2 " + options).c_str());
+        prog.build({device}, build_options.c_str());
     } catch (const cl::Error&) {
         std::string log;
         try {
@@ -223,6 +243,13 @@ cl::Program& ComputeContext::Impl::program(const std::string& file, const std::s
         } catch (const cl::Error&) {
         }
         throw KernelBuildError("OpenCL kernel " + file + " failed to build:\n" + log, log);
+    }
+    try {
+        const std::vector<std::vector<unsigned char>> binaries = prog.getInfo<CL_PROGRAM_BINARIES>();
+        if (binaries.size() == 1)
+            BinaryCache::store(cache_key, std::string(binaries[0].begin(), binaries[0].end()));
+    } catch (const cl::Error&) {
+        // no binary to keep: the next process builds from source again
     }
     return programs.emplace(key, prog).first->second;
 }

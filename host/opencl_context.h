@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <string>
 
@@ -12,15 +13,22 @@
 
 namespace relief::host {
 
+class PlanCache;  // plan_cache.h
+
 struct ComputeContext::Impl {
     cl::Device device;
     cl::Context context;
     cl::CommandQueue queue;
     std::mutex mutex;  // guards programs; also serialises stage launches
     std::map<std::string, cl::Program> programs;
+    // FFT/DCT plans kept for the next map of the same size (plan_cache.h).
+    std::shared_ptr<PlanCache> plans;
     // The largest buffer to allocate: CL_DEVICE_MAX_MEM_ALLOC_SIZE, or less
     // when $RELIEF_DEVICE_MAX_ALLOC (bytes) says so (a shared device; tests).
     std::size_t max_alloc = 0;
+    // What a compiled binary depends on besides its source: platform and
+    // device names and versions (a driver update invalidates binaries).
+    std::string identity;
 
     // A buffer of `bytes` (copied from `host` when given), or Error with the
     // numbers when it is larger than max_alloc; `what` names it for users.

@@ -10,6 +10,7 @@
 #include "fft_plan.h"
 #include "field_ops.h"
 #include "opencl_context.h"
+#include "plan_cache.h"
 
 namespace relief::host {
 
@@ -53,12 +54,12 @@ void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes, const Po
         cl::Program& prog = c.program("poisson.cl");
         cl::Buffer gx = c.buffer(CL_MEM_READ_WRITE, bytes, "the Poisson stage");
         cl::Buffer gy = c.buffer(CL_MEM_READ_WRITE, bytes, "the Poisson stage");
-        std::optional<FftPlan> fft;
-        std::optional<DctPlan> dct;
+        std::shared_ptr<FftPlan> fft;
+        std::shared_ptr<DctPlan> dct;
         if (periodic)
-            fft.emplace(c, n0, n1, gx);
+            fft = c.plans->fft(c, n0, n1, gx);
         else
-            dct.emplace(c, n0, n1);
+            dct = c.plans->dct(c, n0, n1);
         auto forward = [&](cl::Buffer& b) { periodic ? fft->forward(b) : dct->forward(b); };
         const std::size_t grid = padded(std::size_t(n0) * n1);
 

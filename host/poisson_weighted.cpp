@@ -13,6 +13,7 @@
 #include "fft_plan.h"
 #include "field_ops.h"
 #include "opencl_context.h"
+#include "plan_cache.h"
 #include "poisson_stage.h"
 
 namespace relief::host {
@@ -82,12 +83,12 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
         cl::Buffer d = buffer(sizeof(float) * n), q = buffer(sizeof(float) * n);
         cl::Buffer partial = buffer(sizeof(float) * groups);
         cl::Buffer grid = buffer(sizeof(float) * stride * n1);
-        std::optional<FftPlan> fft;
-        std::optional<DctPlan> dct;
+        std::shared_ptr<FftPlan> fft;
+        std::shared_ptr<DctPlan> dct;
         if (periodic)
-            fft.emplace(c, n0, n1, grid);
+            fft = c.plans->fft(c, n0, n1, grid);
         else
-            dct.emplace(c, n0, n1);
+            dct = c.plans->dct(c, n0, n1);
         const cl::NDRange global(padded(n)), local(kGroupSize);
         auto run = [&](cl::Kernel& k, std::size_t items = 0) {
             c.queue.enqueueNDRangeKernel(k, cl::NullRange, items ? cl::NDRange(padded(items)) : global,

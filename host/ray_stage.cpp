@@ -9,6 +9,7 @@
 #include "errors.h"
 #include "fft_plan.h"
 #include "field_ops.h"
+#include "plan_cache.h"
 #include "opencl_context.h"
 
 namespace relief::host {
@@ -287,7 +288,7 @@ void integrate_rays_by_fft(ComputeContext& ctx, const DeviceSlopes& slopes, cons
         cl::Buffer gy = c.buffer(CL_MEM_READ_WRITE, bytes, "ray integration");
         cl::Buffer bx = c.buffer(CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, "ray integration", kxf.data());
         cl::Buffer by = c.buffer(CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, "ray integration", kyf.data());
-        FftPlan plan(c, n0, n1, gx);
+        const std::shared_ptr<FftPlan> plan = c.plans->fft(c, n0, n1, gx);
         const cl::NDRange local(kGroupSize);
 
         cl::Kernel split(spectral, "poisson_split");
@@ -303,7 +304,7 @@ void integrate_rays_by_fft(ComputeContext& ctx, const DeviceSlopes& slopes, cons
         split.setArg(a++, gy);
         c.queue.enqueueNDRangeKernel(split, cl::NullRange, cl::NDRange(padded(n)), local);
         for (cl::Buffer* b : {&gx, &gy, &bx, &by})
-            plan.forward(*b);
+            plan->forward(*b);
         if (progress) {
             c.queue.finish();
             progress(0.5);
@@ -318,7 +319,7 @@ void integrate_rays_by_fft(ComputeContext& ctx, const DeviceSlopes& slopes, cons
         combine.setArg(4, cl_int(count));
         combine.setArg(5, cl_float(-1.0 / total));
         c.queue.enqueueNDRangeKernel(combine, cl::NullRange, cl::NDRange(padded(count)), local);
-        plan.inverse(gx);
+        plan->inverse(gx);
 
         cl::Buffer out = c.buffer(CL_MEM_WRITE_ONLY, sizeof(float) * n, "ray integration");
         cl::Kernel gather(spectral, "poisson_gather");

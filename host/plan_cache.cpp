@@ -1,0 +1,55 @@
+#include "plan_cache.h"
+
+namespace relief::host {
+
+PlanCache::Entry* PlanCache::find(bool dct, std::size_t n0, std::size_t n1)
+{
+    for (auto it = entries_.begin(); it != entries_.end(); ++it)
+        if (it->dct == dct && it->n0 == n0 && it->n1 == n1) {
+            entries_.splice(entries_.begin(), entries_, it);
+            return &entries_.front();
+        }
+    return nullptr;
+}
+
+void PlanCache::make_room(std::size_t bytes)
+{
+    std::size_t total = bytes;
+    for (const Entry& e : entries_)
+        total += e.bytes;
+    while (total > kMaxBytes && !entries_.empty()) {
+        total -= entries_.back().bytes;
+        entries_.pop_back();  // a plan still in use lives on in its caller's pointer
+    }
+}
+
+std::shared_ptr<FftPlan> PlanCache::fft(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, cl::Buffer& buffer)
+{
+    if (Entry* e = find(false, n0, n1))
+        return e->fft;
+    const std::size_t bytes = sizeof(float) * FftPlan::row_stride(n0) * n1;
+    // (a plan over a non-smooth strided axis holds a second grid of its own)
+    if (bytes > kMaxPlanBytes)
+        return std::make_shared<FftPlan>(c, n0, n1, buffer);
+    make_room(2 * bytes);
+    Entry e{false, n0, n1, 2 * bytes, c.buffer(CL_MEM_READ_WRITE, bytes, "an FFT plan"), nullptr, nullptr};
+    e.fft = std::make_shared<FftPlan>(c, n0, n1, e.buffer);
+    entries_.push_front(std::move(e));
+    return entries_.front().fft;
+}
+
+std::shared_ptr<DctPlan> PlanCache::dct(ComputeContext::Impl& c, std::size_t n0, std::size_t n1)
+{
+    if (Entry* e = find(true, n0, n1))
+        return e->dct_plan;
+    const std::size_t bytes = sizeof(float) * FftPlan::row_stride(n0) * n1;
+    if (bytes > kMaxPlanBytes)
+        return std::make_shared<DctPlan>(c, n0, n1);
+    make_room(2 * bytes);
+    Entry e{true, n0, n1, 2 * bytes, cl::Buffer(), nullptr, nullptr};
+    e.dct_plan = std::make_shared<DctPlan>(c, n0, n1);
+    entries_.push_front(std::move(e));
+    return entries_.front().dct_plan;
+}
+
+} // namespace relief::host

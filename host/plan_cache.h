@@ -1,0 +1,49 @@
+#pragma once
+// FFT and DCT plans kept per device context between operations, so that the
+// next map of the same size (a --batch, a UDIM set, a host calling relief in
+// a loop) does not plan again: planning costs VkFFT a kernel build each
+// time, more than the whole transform of a 512^2 map. Small plans only
+// (their buffers stay allocated); the least recently used go first.
+// Included only by host/*.cpp; use under the context's mutex.
+#include <CL/opencl.hpp>
+
+#include <cstddef>
+#include <list>
+#include <memory>
+
+#include "dct_plan.h"
+#include "fft_plan.h"
+#include "opencl_context.h"
+
+namespace relief::host {
+
+class PlanCache {
+public:
+    // Plans whose buffers take more than this are built for the call only.
+    static constexpr std::size_t kMaxPlanBytes = std::size_t(64) << 20;
+    // The cache holds at most this many bytes of plan buffers.
+    static constexpr std::size_t kMaxBytes = std::size_t(256) << 20;
+
+    // The FFT plan for n0 x n1. A cached plan has a buffer of its own to be
+    // built against; one too large to keep is built against `buffer` (any
+    // buffer of FftPlan::row_stride(n0) * n1 floats that outlives the plan).
+    std::shared_ptr<FftPlan> fft(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, cl::Buffer& buffer);
+    // The DCT plan for n0 x n1.
+    std::shared_ptr<DctPlan> dct(ComputeContext::Impl& c, std::size_t n0, std::size_t n1);
+
+    std::size_t size() const { return entries_.size(); }
+
+private:
+    struct Entry {
+        bool dct;
+        std::size_t n0, n1, bytes;
+        cl::Buffer buffer;  // what an FFT plan was built against
+        std::shared_ptr<FftPlan> fft;
+        std::shared_ptr<DctPlan> dct_plan;
+    };
+    Entry* find(bool dct, std::size_t n0, std::size_t n1);
+    void make_room(std::size_t bytes);
+    std::list<Entry> entries_;  // most recently used first
+};
+
+} // namespace relief::host
