@@ -17,7 +17,7 @@ void PlanCache::make_room(std::size_t bytes)
     std::size_t total = bytes;
     for (const Entry& e : entries_)
         total += e.bytes;
-    while (total > kMaxBytes && !entries_.empty()) {
+    while (total > max_bytes_ && !entries_.empty()) {
         total -= entries_.back().bytes;
         entries_.pop_back();  // a plan still in use lives on in its caller's pointer
     }
@@ -29,7 +29,7 @@ std::shared_ptr<FftPlan> PlanCache::fft(ComputeContext::Impl& c, std::size_t n0,
         return e->fft;
     const std::size_t bytes = sizeof(float) * FftPlan::row_stride(n0) * n1;
     // (a plan over a non-smooth strided axis holds a second grid of its own)
-    if (bytes > kMaxPlanBytes)
+    if (bytes > max_plan_bytes_)
         return std::make_shared<FftPlan>(c, n0, n1, buffer);
     make_room(2 * bytes);
     Entry e{false, n0, n1, 2 * bytes, c.buffer(CL_MEM_READ_WRITE, bytes, "an FFT plan"), nullptr, nullptr};
@@ -43,7 +43,7 @@ std::shared_ptr<DctPlan> PlanCache::dct(ComputeContext::Impl& c, std::size_t n0,
     if (Entry* e = find(true, n0, n1))
         return e->dct_plan;
     const std::size_t bytes = sizeof(float) * FftPlan::row_stride(n0) * n1;
-    if (bytes > kMaxPlanBytes)
+    if (bytes > max_plan_bytes_)
         return std::make_shared<DctPlan>(c, n0, n1);
     make_room(2 * bytes);
     Entry e{true, n0, n1, 2 * bytes, cl::Buffer(), nullptr, nullptr};

@@ -19,10 +19,13 @@ namespace relief::host {
 
 class PlanCache {
 public:
-    // Plans whose buffers take more than this are built for the call only.
-    static constexpr std::size_t kMaxPlanBytes = std::size_t(64) << 20;
-    // The cache holds at most this many bytes of plan buffers.
-    static constexpr std::size_t kMaxBytes = std::size_t(256) << 20;
+    // Plans whose buffers take more than `max_plan_bytes` are built for the
+    // call only; the cache holds at most `max_bytes` of plan buffers.
+    explicit PlanCache(std::size_t max_plan_bytes = std::size_t(64) << 20,
+                       std::size_t max_bytes = std::size_t(256) << 20)
+        : max_plan_bytes_(max_plan_bytes), max_bytes_(max_bytes)
+    {
+    }
 
     // The FFT plan for n0 x n1. A cached plan has a buffer of its own to be
     // built against; one too large to keep is built against `buffer` (any
@@ -43,6 +46,7 @@ private:
     };
     Entry* find(bool dct, std::size_t n0, std::size_t n1);
     void make_room(std::size_t bytes);
+    std::size_t max_plan_bytes_, max_bytes_;
     std::list<Entry> entries_;  // most recently used first
 };
 

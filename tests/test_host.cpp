@@ -1,15 +1,20 @@
 // Host layer: device choice and kernel build failures.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
+#include "binary_cache.h"
 #include "compute_context.h"
 #include "bake_stage.h"
 #include "correct_stage.h"
 #include "errors.h"
+#include "plan_cache.h"
 #include "slope_stage.h"
+#include "support/run_cli.h"
 
 using namespace relief::host;
 
@@ -79,4 +84,120 @@ TEST_CASE("maps past the kernels' 32-bit indices are refused before any work", "
     CorrectParams p;
     CHECK_THROWS_WITH(correct_distortion(*ctx, nullptr, 46340, 46340, p, nullptr),
                       Catch::Contains("correct: a 46340x46340 map"));
+}
+
+TEST_CASE("compiled programs are kept on disk and a damaged entry is rebuilt", "[host][cache]")
+{
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::path(RELIEF_TEST_TMP) / "binary_cache";
+    fs::remove_all(dir);
+    const char* before = std::getenv("RELIEF_CACHE_DIR");
+    const std::string saved = before ? before : "";
+    ::setenv("RELIEF_CACHE_DIR", dir.c_str(), 1);
+    const auto entries = [&] {
+        std::vector<fs::path> v;
+        for (const auto& e : fs::directory_iterator(dir))
+            v.push_back(e.path());
+        return v;
+    };
+    const auto kernels = [](ComputeContext& ctx, const char* file) {
+        return ctx.impl().program(file).getInfo<CL_PROGRAM_KERNEL_NAMES>();
+    };
+    {
+        ComputeContext ctx(choose_device("auto"));
+        ctx.build_program("ddm.cl");
+    }
+    REQUIRE(entries().size() == 1);
+    const fs::path ddm = entries()[0];
+    {
+        ComputeContext ctx(choose_device("auto"));
+        ctx.build_program("bake.cl");
+    }
+    REQUIRE(entries().size() == 2);
+    const fs::path bake = entries()[0] == ddm ? entries()[1] : entries()[0];
+    const std::string bake_entry = BinaryCache::load(bake.stem().string()).value();
+
+    // the entry is what a fresh context uses: ddm's binary under bake's name is taken as it is
+    fs::copy_file(ddm, bake, fs::copy_options::overwrite_existing);
+    {
+        ComputeContext ctx(choose_device("auto"));
+        CHECK(kernels(ctx, "bake.cl").find("ddm_slopes") != std::string::npos);
+    }
+    // a damaged entry (checksum) is ignored and replaced
+    {
+        std::string bytes = relief::test::slurp(bake);
+        bytes[bytes.size() / 2] ^= 0x5a;
+        std::ofstream(bake, std::ios::binary) << bytes;
+    }
+    CHECK_FALSE(BinaryCache::load(bake.stem().string()).has_value());
+    {
+        ComputeContext ctx(choose_device("auto"));
+        CHECK(kernels(ctx, "bake.cl").find("ddm_slopes") == std::string::npos);
+    }
+    CHECK(BinaryCache::load(bake.stem().string()).has_value());
+    // an intact entry that the driver refuses: built from source, stored anew
+    BinaryCache::store(bake.stem().string(), "not a program binary");
+    {
+        ComputeContext ctx(choose_device("auto"));
+        CHECK(kernels(ctx, "bake.cl").find("ddm_slopes") == std::string::npos);
+    }
+    CHECK(BinaryCache::load(bake.stem().string()).value() != "not a program binary");
+    CHECK(entries().size() == 2);  // no temporary files left behind
+
+    // off: nothing stored
+    fs::remove_all(dir);
+    ::setenv("RELIEF_CACHE_DIR", "off", 1);
+    {
+        ComputeContext ctx(choose_device("auto"));
+        ctx.build_program("ddm.cl");
+    }
+    CHECK_FALSE(fs::exists(dir));
+    if (before)
+        ::setenv("RELIEF_CACHE_DIR", saved.c_str(), 1);
+    else
+        ::unsetenv("RELIEF_CACHE_DIR");
+    CHECK(bake_entry.size() > 0);
+}
+
+TEST_CASE("plans are kept by kind and size, the least recently used dropped first", "[host][cache]")
+{
+    auto ctx = ComputeContext::acquire("auto");
+    auto& c = ctx->impl();
+    std::lock_guard<std::mutex> lock(c.mutex);
+    const std::size_t b64x48 = sizeof(float) * FftPlan::row_stride(64) * 48;
+    const std::size_t b48x64 = sizeof(float) * FftPlan::row_stride(48) * 64;
+    // room for the first three plans below (each counted twice: plan buffer and work)
+    PlanCache cache(2 * b48x64, 2 * (2 * b64x48 + b48x64));
+    cl::Buffer scratch(c.context, CL_MEM_READ_WRITE, sizeof(float) * FftPlan::row_stride(128) * 128);
+    const auto a = cache.fft(c, 64, 48, scratch);
+    CHECK(cache.fft(c, 64, 48, scratch) == a);
+    const auto d = cache.dct(c, 64, 48);
+    CHECK(cache.dct(c, 64, 48) == d);
+    const auto t = cache.fft(c, 48, 64, scratch);  // the other orientation is another plan
+    CHECK(t != a);
+    CHECK(cache.size() == 3);
+    CHECK(cache.fft(c, 64, 48, scratch) == a);  // a is now the most recent; d the least
+    const auto e = cache.fft(c, 32, 32, scratch);
+    CHECK(cache.size() == 3);
+    CHECK(cache.dct(c, 64, 48) != d);  // d was dropped (and still works for whoever holds it)
+    // too large to keep: built against the caller's buffer, every time
+    const auto big = cache.fft(c, 128, 128, scratch);
+    CHECK(cache.fft(c, 128, 128, scratch) != big);
+    CHECK(cache.size() == 3);
+
+    // a kept plan transforms any buffer of its size: round trip of a ramp
+    std::vector<float> x(FftPlan::row_stride(64) * 48, 0.0f), y(x.size());
+    for (std::size_t r = 0; r < 48; ++r)
+        for (std::size_t i = 0; i < 64; ++i)
+            x[r * FftPlan::row_stride(64) + i] = float(i + 3 * r);
+    cl::Buffer buf(c.context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(float) * x.size(), x.data());
+    a->forward(buf);
+    a->inverse(buf);
+    c.queue.enqueueReadBuffer(buf, CL_TRUE, 0, sizeof(float) * y.size(), y.data());
+    double worst = 0;
+    for (std::size_t r = 0; r < 48; ++r)
+        for (std::size_t i = 0; i < 64; ++i)
+            worst = std::max(worst, double(std::abs(y[r * FftPlan::row_stride(64) + i] - x[r * FftPlan::row_stride(64) + i])));
+    CHECK(worst < 1e-3);
+    CHECK(e != nullptr);
 }
