@@ -144,11 +144,16 @@ Environment:
   RELIEF_DEVICE_MAX_ALLOC=BYTES  the largest device buffer to allocate (default
                         and upper bound: the device's own limit); larger
                         needs are refused with the numbers
+  RELIEF_CACHE_DIR=DIR  where compiled kernels are kept between runs (default
+                        $XDG_CACHE_HOME/relief or ~/.cache/relief; off: none)
 Examples:
   relief normal.png --height -o height.exr
   relief height.png --correct:scale=0.05:nodes=center -o offsets.exr
   relief albedo.png height.png --correct:scale=0.05 -o offsets.exr --bake -o albedo_fixed.png
   relief normal.png --height:normal=directx:rays=16:radius=32:boundary=clip -o height.exr
+  relief 'in/n.<UDIM>.png' --height -o 'out/h.<UDIM>.exr' --update
+  relief --batch jobs.txt --shard 0/4 --update --log task0.jsonl
+  relief-slurm submit jobs.txt --tasks 4   (a Slurm job array; relief-slurm --help)
 )";
     return text;
 }
