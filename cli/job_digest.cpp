@@ -56,9 +56,7 @@ private:
     std::unique_ptr<XXH3_state_t, XXH_errorcode (*)(XXH3_state_t*)> state_;
 };
 
-} // namespace
-
-std::string job_digest(const Program& prog)
+std::string digest_of(const Program& prog)
 {
     Hasher h;
     h.text("relief job digest 1");
@@ -85,6 +83,17 @@ std::string job_digest(const Program& prog)
         }
     }
     return h.digest();
+}
+
+} // namespace
+
+std::string job_digest(const Program& prog)
+{
+    try {
+        return digest_of(prog);
+    } catch (const std::runtime_error&) {
+        return "";
+    }
 }
 
 } // namespace relief::cli

@@ -11,8 +11,8 @@ namespace relief::cli {
 // kernel sources) and the job's steps in order: each read's file bytes, each
 // operation with every modifier (defaults included) and the bytes of its
 // mask/fix files, each write's pixel type and compression. Paths themselves
-// do not count: moving a job's files keeps its digest. Throws
-// std::runtime_error naming an input that cannot be read.
+// do not count: moving a job's files keeps its digest. "" when an input
+// cannot be read (the run itself then says why, as reading it fails).
 std::string job_digest(const Program& prog);
 
 } // namespace relief::cli

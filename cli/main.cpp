@@ -247,6 +247,8 @@ std::string json_line(const JobRecord& r)
 // the headers only). A --report file records none; it must exist.
 bool up_to_date(const Program& prog, const std::string& digest)
 {
+    if (digest.empty())
+        return false;
     for (const Step& s : prog.steps)
         if (s.kind == Step::Kind::Write && relief::recorded_digest(s.path) != digest)
             return false;

@@ -31,6 +31,12 @@ echo "'$normal' --slopes -o '$tmp/slurm_job.exr'" > "$tmp/jobs.txt"
 "$prefix/bin/relief-slurm" submit "$tmp/jobs.txt" --tasks 2 --dry-run | grep -F "exec $prefix/bin/relief --batch" >/dev/null
 st=$("$prefix/bin/relief-slurm" status "$tmp/jobs.txt" --log-dir "$tmp/none") && exit 1  # 1: a job is missing
 echo "$st" | grep -F "1 job(s): 0 ok, 0 skipped, 0 failed, 1 missing" >/dev/null
+mkdir "$tmp/badlogs"
+echo "'$tmp/missing.png' --slopes -o '$tmp/never.exr'" > "$tmp/bad.txt"
+"$prefix/bin/relief" --batch "$tmp/bad.txt" --log "$tmp/badlogs/task-0.jsonl" 2>/dev/null && exit 1
+st=$("$prefix/bin/relief-slurm" status "$tmp/bad.txt" --log-dir "$tmp/badlogs") && exit 1
+echo "$st" | grep -F "1 job(s): 0 ok, 0 skipped, 1 failed, 0 missing" >/dev/null
+echo "$st" | grep -F "job 0 (line 1): cannot read '$tmp/missing.png'" >/dev/null
 
 step "the same bytes as a binary PPM, for the C host"
 PYTHONPATH=$pyroot "$python" - "$normal" "$tmp/normal.ppm" <<'PY'
