@@ -192,8 +192,8 @@ int main(int argc, char** argv)
     std::fprintf(stderr, "bench_farm: %zu maps (%zu of 1024^2)\n", maps.size(), big.size());
 
     // warm-up (untimed): relief's and PoCL's caches for both sizes
-    for (const Map* m : {&maps.front(), &big.front()})
-        run({relief, m->png, "--height", "-o", work + "/warm.exr"});
+    for (const std::string& png : {maps.front().png, big.front().png})
+        run({relief, png, "--height", "-o", work + "/warm.exr"});
 
     // throughput
     std::ofstream jobs(work + "/jobs.txt");
