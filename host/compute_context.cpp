@@ -53,8 +53,17 @@ std::vector<cl::Platform> platforms()
     return list;
 }
 
+// The ICD loader and PoCL initialise on the first enumeration, and that is
+// not safe from two threads at once (prepare() runs beside the read).
+std::mutex& enumeration_mutex()
+{
+    static std::mutex m;
+    return m;
+}
+
 cl::Device device_at(int platform_index, int device_index)
 {
+    std::lock_guard<std::mutex> lock(enumeration_mutex());
     auto plats = platforms();
     std::vector<cl::Device> devs;
     plats.at(platform_index).getDevices(CL_DEVICE_TYPE_ALL, &devs);
@@ -65,6 +74,7 @@ cl::Device device_at(int platform_index, int device_index)
 
 std::vector<DeviceInfo> list_devices()
 {
+    std::lock_guard<std::mutex> lock(enumeration_mutex());
     auto plats = platforms();
     if (plats.empty())
         throw NoDeviceError("no OpenCL platform found (install an OpenCL driver, e.g. the "
@@ -132,9 +142,11 @@ std::shared_ptr<ComputeContext> ComputeContext::acquire(const std::string& spec)
     static std::mutex mutex;
     static std::map<std::string, std::shared_ptr<ComputeContext>> contexts;
     SetupTimer timer(SetupTimer::Kind::Device);
+    // One thread at a time from choosing to creating: a second waits for the
+    // context the first is making (device_at enumerates again, too).
+    std::lock_guard<std::mutex> lock(mutex);
     DeviceInfo info = choose_device(spec);
     std::string key = std::to_string(info.platform_index) + ":" + std::to_string(info.device_index);
-    std::lock_guard<std::mutex> lock(mutex);
     auto& slot = contexts[key];
     if (!slot)
         slot = std::make_shared<ComputeContext>(info);
@@ -214,6 +226,7 @@ void ComputeContext::build_program(const std::string& file)
 
 cl::Program& ComputeContext::Impl::program(const std::string& file, const std::string& options)
 {
+    std::lock_guard<std::mutex> lock(programs_mutex);
     const std::string key = file + " " + options;
     auto it = programs.find(key);
     if (it != programs.end())

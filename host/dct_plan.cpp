@@ -1,5 +1,7 @@
 #include "dct_plan.h"
 
+#include "plan_cache.h"
+
 namespace relief::host {
 
 DctPlan::DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1)
@@ -7,7 +9,7 @@ DctPlan::DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1)
       n0_(n0),
       n1_(n1),
       work_(c.buffer(CL_MEM_READ_WRITE, sizeof(float) * FftPlan::row_stride(n0) * n1, "the DCT")),
-      fft_(c, n0, n1, work_)
+      fft_(c.plans->fft(c, n0, n1, work_))
 {
     cl::Program& prog = c.program("dct.cl");
     reorder_ = cl::Kernel(prog, "dct_reorder");
@@ -40,7 +42,7 @@ void DctPlan::forward(cl::Buffer& buffer)
 {
     reorder_.setArg(0, buffer);
     launch(reorder_, n0_ * n1_);
-    fft_.forward(work_);
+    fft_->forward(work_);
     post_.setArg(3, buffer);
     launch(post_, n0_ * n1_);
 }
@@ -49,7 +51,7 @@ void DctPlan::inverse(cl::Buffer& buffer)
 {
     pre_.setArg(0, buffer);
     launch(pre_, (n0_ / 2 + 1) * n1_);
-    fft_.inverse(work_);
+    fft_->inverse(work_);
     unreorder_.setArg(4, buffer);
     launch(unreorder_, n0_ * n1_);
 }

@@ -7,6 +7,7 @@
 #include <CL/opencl.hpp>
 
 #include <cstddef>
+#include <memory>
 
 #include "fft_plan.h"
 #include "opencl_context.h"
@@ -29,7 +30,7 @@ private:
     ComputeContext::Impl& c_;
     std::size_t n0_, n1_;
     cl::Buffer work_;  // the R2C grid
-    FftPlan fft_;
+    std::shared_ptr<FftPlan> fft_;  // the context's plan of this size (plan_cache.h)
     cl::Kernel reorder_, unreorder_, post_, pre_;
 };
 

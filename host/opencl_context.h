@@ -19,7 +19,8 @@ struct ComputeContext::Impl {
     cl::Device device;
     cl::Context context;
     cl::CommandQueue queue;
-    std::mutex mutex;  // guards programs; also serialises stage launches
+    std::mutex mutex;  // serialises stage launches
+    std::mutex programs_mutex;  // guards programs (built also by prepare_height)
     std::map<std::string, cl::Program> programs;
     // FFT/DCT plans kept for the next map of the same size (plan_cache.h).
     std::shared_ptr<PlanCache> plans;

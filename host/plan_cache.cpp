@@ -1,5 +1,7 @@
 #include "plan_cache.h"
 
+#include "setup_times.h"
+
 namespace relief::host {
 
 PlanCache::Entry* PlanCache::find(bool dct, std::size_t n0, std::size_t n1)
@@ -23,8 +25,16 @@ void PlanCache::make_room(std::size_t bytes)
     }
 }
 
+std::size_t PlanCache::size() const
+{
+    std::lock_guard<std::recursive_mutex> lock(mutex_);
+    return entries_.size();
+}
+
 std::shared_ptr<FftPlan> PlanCache::fft(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, cl::Buffer& buffer)
 {
+    SetupTimer timer(SetupTimer::Kind::Plans);  // waiting for a plan made ahead counts too
+    std::lock_guard<std::recursive_mutex> lock(mutex_);
     if (Entry* e = find(false, n0, n1))
         return e->fft;
     const std::size_t bytes = sizeof(float) * FftPlan::row_stride(n0) * n1;
@@ -40,6 +50,8 @@ std::shared_ptr<FftPlan> PlanCache::fft(ComputeContext::Impl& c, std::size_t n0,
 
 std::shared_ptr<DctPlan> PlanCache::dct(ComputeContext::Impl& c, std::size_t n0, std::size_t n1)
 {
+    SetupTimer timer(SetupTimer::Kind::Plans);
+    std::lock_guard<std::recursive_mutex> lock(mutex_);
     if (Entry* e = find(true, n0, n1))
         return e->dct_plan;
     const std::size_t bytes = sizeof(float) * FftPlan::row_stride(n0) * n1;
@@ -50,6 +62,22 @@ std::shared_ptr<DctPlan> PlanCache::dct(ComputeContext::Impl& c, std::size_t n0,
     e.dct_plan = std::make_shared<DctPlan>(c, n0, n1);
     entries_.push_front(std::move(e));
     return entries_.front().dct_plan;
+}
+
+void prepare_height(ComputeContext& ctx, int width, int height)
+{
+    if (width < 1 || height < 1)
+        return;
+    auto& c = ctx.impl();
+    for (const char* file : {"ddm.cl", "poisson.cl"})
+        c.program(file);
+    // as the Poisson stage lays the map out: a one-texel-wide map transposed
+    const std::size_t n0 = width == 1 ? height : width, n1 = width == 1 ? 1 : height;
+    if (n0 < 2)
+        return;
+    // The DCT plan (free boundary) holds the FFT plan (periodic) of the
+    // same size: planning it prepares both.
+    c.plans->dct(c, n0, n1);
 }
 
 } // namespace relief::host

@@ -4,12 +4,14 @@
 // a loop) does not plan again: planning costs VkFFT a kernel build each
 // time, more than the whole transform of a 512^2 map. Small plans only
 // (their buffers stay allocated); the least recently used go first.
-// Included only by host/*.cpp; use under the context's mutex.
+// Thread-safe: prepare_height() fills it on a thread of its own while a
+// stage may be running. Included only by host/*.cpp.
 #include <CL/opencl.hpp>
 
 #include <cstddef>
 #include <list>
 #include <memory>
+#include <mutex>
 
 #include "dct_plan.h"
 #include "fft_plan.h"
@@ -34,7 +36,7 @@ public:
     // The DCT plan for n0 x n1.
     std::shared_ptr<DctPlan> dct(ComputeContext::Impl& c, std::size_t n0, std::size_t n1);
 
-    std::size_t size() const { return entries_.size(); }
+    std::size_t size() const;
 
 private:
     struct Entry {
@@ -47,7 +49,15 @@ private:
     Entry* find(bool dct, std::size_t n0, std::size_t n1);
     void make_room(std::size_t bytes);
     std::size_t max_plan_bytes_, max_bytes_;
+    // Recursive: a DCT plan takes its FFT plan from the cache while being made.
+    mutable std::recursive_mutex mutex_;
     std::list<Entry> entries_;  // most recently used first
 };
+
+// Builds ahead what a Poisson height of width x height will need (relief's
+// kernels for it, and the FFT and DCT plans of that size), so that a front
+// end can overlap it with reading the map. Errors are left for the height
+// itself to meet and report.
+void prepare_height(ComputeContext& ctx, int width, int height);
 
 } // namespace relief::host

@@ -10,6 +10,7 @@ namespace {
 std::mutex totals_mutex;
 SetupTimes totals;
 thread_local SetupTimer* innermost = nullptr;
+thread_local bool ahead = false;
 
 double now()
 {
@@ -36,8 +37,21 @@ SetupTimer::~SetupTimer()
     if (parent_)
         parent_->children_ += total;
     std::lock_guard<std::mutex> lock(totals_mutex);
-    double& sum = kind_ == Kind::Device ? totals.device : kind_ == Kind::Programs ? totals.programs : totals.plans;
+    double& sum = ahead                    ? totals.prepared
+                  : kind_ == Kind::Device   ? totals.device
+                  : kind_ == Kind::Programs ? totals.programs
+                                            : totals.plans;
     sum += total - children_;
+}
+
+Ahead::Ahead() : was_(ahead)
+{
+    ahead = true;
+}
+
+Ahead::~Ahead()
+{
+    ahead = was_;
 }
 
 } // namespace relief::host

@@ -8,10 +8,24 @@ struct SetupTimes {
     double device = 0.0;    // seconds: platforms, device choice, context and queue
     double programs = 0.0;  // relief's own kernel builds (PoCL's cache makes repeats cheap)
     double plans = 0.0;     // FFT/DCT plans, VkFFT's kernel generation and builds
+    double prepared = 0.0;  // all of the above done by threads marked Ahead (prepare_height)
 };
 
-// Totals since the process started, over all threads.
+// Totals since the process started, over all threads (a thread marked Ahead
+// adds to `prepared` only).
 SetupTimes setup_times();
+
+// While it lives, this thread's set-up counts as done ahead (`prepared`).
+class Ahead {
+public:
+    Ahead();
+    ~Ahead();
+    Ahead(const Ahead&) = delete;
+    Ahead& operator=(const Ahead&) = delete;
+
+private:
+    bool was_;
+};
 
 // Adds its lifetime to one total. Nested timers are not counted twice: a
 // program built while planning an FFT counts as the program's, the rest as

@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <functional>
+#include <future>
 #include <string>
 #include <vector>
 
@@ -348,4 +349,37 @@ TEST_CASE("operations: run_operation checks its inputs and takes the execution g
     exec.on_message = [&](Severity, const std::string& m) { said += m + "\n"; };
     REQUIRE(run_operation(out, call, {&n}, exec));
     CHECK(said.find("boundary:") != std::string::npos);
+}
+
+TEST_CASE("prepare: set-up ahead, beside a running height, changes nothing but the time", "[operations][prepare]")
+{
+    // sizes no other test plans, so that prepare() really plans them here
+    const int w = 70, h = 54;
+    const ImageBuf n = test::image(w, h, 3, wavy_normals(w, h));
+    HeightOptions periodic;
+    periodic.boundary = Boundary::Periodic;
+    HeightOptions free_edges;
+    free_edges.boundary = Boundary::Free;
+    const ImageBuf before_p = relief::height(n, periodic), before_f = relief::height(n, free_edges);
+    const relief::SetupTimes t0 = relief::setup_times();
+    // beside the operations, over and over: no crash, the same bits
+    for (int round = 0; round < 3; ++round) {
+        auto ahead = std::async(std::launch::async, [&] { relief::prepare("auto", w + round, h); });
+        CHECK(test::pixels(relief::height(n, free_edges)) == test::pixels(before_f));
+        CHECK(test::pixels(relief::height(n, periodic)) == test::pixels(before_p));
+        ahead.wait();
+    }
+    const relief::SetupTimes t1 = relief::setup_times();
+    CHECK(t1.prepared > t0.prepared);  // its time is counted apart
+    // prepared sizes are then found ready: a height of 72 x 54 plans nothing
+    relief::prepare("auto", w + 2, h);
+    const double plans = relief::setup_times().plans;
+    const ImageBuf m = test::image(w + 2, h, 3, wavy_normals(w + 2, h));
+    CHECK(relief::height(m, free_edges).initialized());
+    CHECK(relief::setup_times().plans - plans < 0.01);
+    // problems are left to the operation
+    const std::string error = relief::geterror();
+    relief::prepare("9:9", 64, 64);
+    relief::prepare("auto", 0, -3);
+    CHECK(relief::geterror() == error);
 }

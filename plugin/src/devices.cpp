@@ -4,6 +4,7 @@
 
 #include "compute_context.h"
 #include "error_state.h"
+#include "plan_cache.h"
 #include "setup_times.h"
 
 namespace relief {
@@ -24,7 +25,17 @@ std::vector<DeviceDescription> list_devices()
 SetupTimes setup_times()
 {
     const host::SetupTimes t = host::setup_times();
-    return {t.device, t.programs, t.plans};
+    return {t.device, t.programs, t.plans, t.prepared};
+}
+
+void prepare(const std::string& device, int width, int height)
+{
+    host::Ahead ahead;
+    try {
+        host::prepare_height(*host::ComputeContext::acquire(device), width, height);
+    } catch (...) {
+        // the operation meets the same problem and reports it
+    }
 }
 
 } // namespace relief

@@ -23,11 +23,23 @@ RELIEF_API std::vector<DeviceDescription> list_devices();
 // building relief's kernels, and planning FFTs (VkFFT builds kernels of its
 // own). The first operation on a device pays most of it; later operations
 // in the same process (a --batch) reuse the device and its programs.
+// `prepared`: the seconds prepare() spent, apart from the rest (it may have
+// run beside other work).
 struct SetupTimes {
     double device = 0.0;
     double programs = 0.0;
     double plans = 0.0;
+    double prepared = 0.0;
 };
 RELIEF_API SetupTimes setup_times();
+
+// Sets up now what a height() of a width x height map on `device` (as
+// Execution::device names it) needs first: the device, its kernels and the
+// FFT plans of that size. Operations do this themselves when needed; a
+// front end that knows the size before it has the pixels calls prepare() on
+// a thread of its own, so that the set-up overlaps reading the map (the
+// command line does). Errors are not reported here: the operation meets
+// them again and reports them. Safe to call concurrently with operations.
+RELIEF_API void prepare(const std::string& device, int width, int height);
 
 } // namespace relief
