@@ -113,16 +113,21 @@ private:
         if (st.size() < 2 || st[0].kind != Step::Kind::Read || st[1].kind != Step::Kind::Operation ||
             st[1].operation != "height" || st[1].height.method == relief::HeightMethod::Rays)
             return;
-        ahead_ = std::async(std::launch::async, [path = st[0].path, device = prog_.device] {
-            int width = 0, height = 0;
-            if (auto in = OIIO::ImageInput::open(path)) {
+        int width = 0, height = 0;
+        {
+            // The size from the header (about a millisecond), quietly: a
+            // damaged file is the read's to report.
+            QuietLibraries quiet(prog_.verbose);
+            if (auto in = OIIO::ImageInput::open(st[0].path)) {
                 width = in->spec().width;
                 height = in->spec().height;
             } else {
-                OIIO::geterror();  // the read reports it
+                OIIO::geterror();
+                return;
             }
-            relief::prepare(device, width, height);
-        });
+        }
+        ahead_ = std::async(std::launch::async,
+                            [device = prog_.device, width, height] { relief::prepare(device, width, height); });
     }
 
     void message(Severity s, const std::string& msg) const

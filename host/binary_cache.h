@@ -18,7 +18,8 @@ public:
     // empty (no cache) when RELIEF_CACHE_DIR is "off" or no folder is known.
     static std::string folder();
 
-    // The 32-hex-digit name of an entry: a hash of `parts` (each with its length).
+    // The 32-hex-digit name of an entry: XXH3-128 of `parts`, each preceded
+    // by its length (so that no two lists feed the same bytes).
     static std::string key(const std::vector<std::string>& parts);
 
     // The bytes stored under `key`, when the file exists and is intact (its

@@ -17,8 +17,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include <xxhash.h>
-
+#include "binary_cache.h"
 #include "error_state.h"
 #include "kernel_sources.h"
 #include "operation_table.h"
@@ -796,25 +795,12 @@ std::string modifier_text(const OperationCall& call)
 
 std::string implementation_digest()
 {
-    XXH3_state_t* state = XXH3_createState();
-    XXH3_128bits_reset(state);
-    auto add = [state](const std::string& s) {
-        // Lengths first, so that no two lists of texts feed the same bytes.
-        const unsigned long long n = s.size();
-        XXH3_128bits_update(state, &n, sizeof n);
-        XXH3_128bits_update(state, s.data(), s.size());
-    };
-    add(version());
+    std::vector<std::string> parts = {version()};
     for (const host::EmbeddedSource& s : host::embedded_kernel_sources()) {
-        add(s.name);
-        add(host::kernel_source(s.name));
+        parts.push_back(s.name);
+        parts.push_back(host::kernel_source(s.name));
     }
-    const XXH128_hash_t h = XXH3_128bits_digest(state);
-    XXH3_freeState(state);
-    char hex[33];
-    std::snprintf(hex, sizeof hex, "%016llx%016llx", static_cast<unsigned long long>(h.high64),
-                  static_cast<unsigned long long>(h.low64));
-    return hex;
+    return host::BinaryCache::key(parts);
 }
 
 void detail::check_modifier_values(const std::string& operation, const OperationCall& call)
