@@ -180,4 +180,6 @@ PYBIND11_MODULE(_relief, m)
     m.def("read", &read_file, py::arg("path"));
     m.def("write", &write_file, py::arg("path"), py::arg("array"), py::arg("metadata"),
           py::arg("type") = "float", py::arg("compression") = "");
+    m.def("prepare", &relief::prepare, py::arg("device"), py::arg("width"), py::arg("height"),
+          py::call_guard<py::gil_scoped_release>());
 }

@@ -29,7 +29,7 @@ import numpy as _np
 from . import _relief
 
 __version__ = _relief.version
-__all__ = ["Image", "operations", "read", "write"]
+__all__ = ["Image", "operations", "prepare", "read", "write"]
 
 
 class Image(_np.ndarray):
@@ -98,6 +98,14 @@ for _info in operations():
     globals()[_info["name"]] = _operation(_info)
     __all__.append(_info["name"])
 del _info
+
+
+def prepare(width, height, device="auto"):
+    """Sets up now (the device, its kernels, the FFT plans of that size) what
+    a height of a width x height map needs, without the GIL: call it on a
+    thread of your own while you read the map. Problems are left for the
+    operation to raise."""
+    _relief.prepare(device, int(width), int(height))
 
 
 def read(path):

@@ -194,5 +194,16 @@ class Threads(unittest.TestCase):
         # switch intervals.
         self.assertLess(longest, 0.5 * alone, f"the loop stalled {longest:.3f} s of a {alone:.3f} s call")
 
+    def test_prepare_beside_a_height_changes_nothing(self):
+        n = np.full((40, 52, 3), 128, np.uint8)
+        n[..., 2] = 255
+        n[::5, :, 0] = 160
+        base = relief.height(n, normal="opengl", boundary="free")
+        t = threading.Thread(target=relief.prepare, args=(52, 40))
+        t.start()
+        np.testing.assert_array_equal(relief.height(n, normal="opengl", boundary="free"), base)
+        t.join()
+        self.assertIsNone(relief.prepare(52, 40, device="9:9"))  # left for the operation to raise
+
 if __name__ == "__main__":
     unittest.main()
