@@ -252,7 +252,9 @@ TEST_CASE("names: <UDIM>, # @ %0Nd and --frames expand as oiiotool's", "[names][
     CHECK(expand_names({"--frames", "1-2", in, "-o", "h.<UDIM>.#.exr"}).size() == 6);
     CHECK(expand_names({"--frames", "1-2", in, "-o", "h.<UDIM>.#.exr"})[1] == V{tile("1001"), "-o", "h.1001.0002.exr"});
     // the tiles are those of the first input holding <UDIM>, not of an output
-    CHECK(expand_names({"-o", (d / "n.<UDIM>.png").string(), in}).size() == 3);
+    // (an earlier output with tiles of its own: o.1005.exr)
+    std::ofstream(d / "o.1005.exr") << "x";
+    CHECK(expand_names({"-o", (d / "o.<UDIM>.exr").string(), in}).size() == 3);
     for (const V& bad : {V{"x.<UDIM>.png"}, V{"a.png", "-o", "h.<UDIM>.exr"}, V{"a.png", "--frames", "1-3"},
                          V{"a#.png", "--frames"}, V{"a#.png", "--frames", "3-1"}, V{"a#.png", "--frames", "1-"},
                          V{"a#.png", "--frames", "1,,2"}, V{"a#.png", "--frames", "x"}, V{"a#.png", "--frames", "0-100000"}})
