@@ -343,20 +343,17 @@ TEST_CASE("update: a job is skipped exactly when its outputs record the digest i
     fs::rename(d / "n3.copy.png", d / "n3.png");
     CHECK(statuses((run(), log)) == S{"skipped", "skipped", "skipped", "skipped"});
 
-    // a changed input byte, a changed modifier, a changed -d, a lost output: exactly those run
+    // a changed input byte, a changed modifier, a changed -d: exactly those run
     write_crop(kNormal, d / "n0.png", 40);
     manifest(":normal=opengl", "half");
-    fs::remove(d / "h1.png");
     auto dry = relief::test::run_cli("--batch jobs.txt --update --dry-run", "cd '" + d.string() + "' &&");
     CHECK(dry.rc == 0);
     CHECK(dry.out.find("\"status\": \"pending\"") != std::string::npos);
     CHECK(dry.err.find("3 pending, 1 skipped, 0 failed of 4 job(s) (dry run)") != std::string::npos);
     CHECK(fs::last_write_time(d / "h0.exr") == h0_time);  // a dry run writes nothing
-    CHECK_FALSE(fs::exists(d / "h1.png"));
     r = run();
     CHECK(statuses(log) == S{"ok", "ok", "ok", "skipped"});
     CHECK(relief::recorded_digest((d / "h0.exr").string()) != digest);
-    manifest(":normal=opengl", "half");
     fs::remove(d / "h1.png");  // one of a job's two outputs lost
     CHECK(statuses((run(), log)) == S{"skipped", "ok", "skipped", "skipped"});
     // without --update every job runs
