@@ -459,9 +459,7 @@ int list_devices()
     return 0;
 }
 
-} // namespace
-
-int main(int argc, char** argv)
+int run(int argc, char** argv)
 {
     const double age = process_age();
     const std::vector<std::string> args(argv + 1, argv + argc);
@@ -513,6 +511,8 @@ int main(int argc, char** argv)
             throw RuntimeError(rec.message);
         if (rec.status == "skipped" && prog.verbose)
             std::fprintf(stderr, "relief: up to date (every output records this run's relief:digest)\n");
+        if (prog.verbose)
+            std::fprintf(stderr, "relief: done %.2f s after the process started (then its exit)\n", process_age());
     } catch (const relief::cli::UsageError& e) {  // the --batch file's own syntax
         std::fprintf(stderr, "relief: error: %s\n", e.what());
         return 2;
@@ -521,4 +521,25 @@ int main(int argc, char** argv)
         return 1;
     }
     return 0;
+}
+
+// Ends the process without the libraries' teardown (OpenCL contexts and
+// PoCL's threads, OpenImageIO's caches): about 0.02 s a farm would pay per
+// map for nothing, since every output is closed, synced and renamed by now.
+// Sanitizer builds exit normally, so that their leak checks run.
+[[noreturn]] void leave(int status)
+{
+    std::fflush(nullptr);
+#if defined(__SANITIZE_ADDRESS__)
+    std::exit(status);
+#else
+    std::_Exit(status);
+#endif
+}
+
+} // namespace
+
+int main(int argc, char** argv)
+{
+    leave(run(argc, argv));
 }
