@@ -3,9 +3,10 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
-#include <filesystem>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <system_error>
 
 #include "command_line.h"
 
@@ -100,35 +101,49 @@ namespace {
 // "1-10,20,30-32" -> every frame, in the order given. Throws UsageError.
 std::vector<int> parse_frames(const std::string& text)
 {
+    constexpr long long kLimit = 1000000000;  // |frame| <= 10^9: no overflow below
     std::vector<int> frames;
-    std::size_t pos = 0;
     const auto bad = [&text] {
-        return UsageError("--frames " + text + ": write ranges like 1-10,20,30-32 (A <= B, at most 100000 frames)");
+        return UsageError("--frames " + text + ": write ranges like 1-10,20,30-32 (A <= B, |frames| <= 10^9, "
+                          "at most 100000 frames)");
     };
-    while (pos <= text.size()) {
+    const auto number = [&](const char* from, const char* to) {
+        long long v = 0;
+        const auto r = std::from_chars(from, to, v);
+        if (from == to || r.ptr != to || r.ec != std::errc() || v < -kLimit || v > kLimit)
+            throw bad();
+        return v;
+    };
+    for (std::size_t pos = 0; pos <= text.size();) {
         const std::size_t comma = std::min(text.find(',', pos), text.size());
         const std::string part = text.substr(pos, comma - pos);
-        const std::size_t dash = part.find('-', 1);
-        int a = 0, b = 0;
-        const char* end = part.data() + part.size();
-        const char* mid = part.data() + (dash == std::string::npos ? part.size() : dash);
-        if (std::from_chars(part.data(), mid, a).ptr != mid || part.empty())
+        const std::size_t dash = part.empty() ? std::string::npos : part.find('-', 1);
+        const char* begin = part.data();
+        const char* end = begin + part.size();
+        const char* mid = dash == std::string::npos ? end : begin + dash;
+        const long long first = number(begin, mid);
+        const long long last = dash == std::string::npos ? first : number(mid + 1, end);
+        if (last < first || frames.size() + std::size_t(last - first) >= 100000)
             throw bad();
-        b = a;
-        if (dash != std::string::npos && std::from_chars(mid + 1, end, b).ptr != end)
-            throw bad();
-        if (dash != std::string::npos && dash + 1 == part.size())
-            throw bad();
-        if (b < a || frames.size() + std::size_t(b - a) >= 100000)
-            throw bad();
-        for (int f = a; f <= b; ++f)
-            frames.push_back(f);
+        for (long long f = first; f <= last; ++f)
+            frames.push_back(int(f));
         pos = comma + 1;
     }
     return frames;
 }
 
-// The frame tokens of `arg` replaced by `frame`; `found` says whether it had any.
+// The frame number in `width` digits (zero-padded). Throws UsageError past 32.
+std::string padded_frame(int frame, std::size_t width)
+{
+    if (width > 32)
+        throw UsageError("a frame token of " + std::to_string(width) + " digits (32 at most)");
+    char buf[48];
+    std::snprintf(buf, sizeof buf, "%0*d", int(width), frame);
+    return buf;
+}
+
+// The frame tokens of `arg` replaced by `frame` (%% is a literal %); `found`
+// says whether it had any.
 std::string with_frame(const std::string& arg, int frame, bool& found)
 {
     std::string out;
@@ -138,26 +153,23 @@ std::string with_frame(const std::string& arg, int frame, bool& found)
             std::size_t n = 0;
             while (i + n < arg.size() && arg[i + n] == c)
                 ++n;
-            const int width = int(c == '#' && n == 1 ? 4 : n);  // # alone: 4 digits
-            char buf[64];
-            std::snprintf(buf, sizeof buf, "%0*d", width, frame);
-            out += buf;
+            out += padded_frame(frame, c == '#' && n == 1 ? 4 : n);  // # alone: 4 digits
             i += n;
             found = true;
             continue;
         }
+        if (c == '%' && i + 1 < arg.size() && arg[i + 1] == '%') {
+            out += '%';
+            i += 2;
+            continue;
+        }
         if (c == '%') {
-            std::size_t j = i + 1;
-            int width = 0;
-            if (j < arg.size() && arg[j] == '0') {
-                ++j;
-                while (j < arg.size() && std::isdigit(static_cast<unsigned char>(arg[j])))
-                    width = width * 10 + (arg[j++] - '0');
-            }
-            if (j < arg.size() && arg[j] == 'd' && width <= 32) {
-                char buf[64];
-                std::snprintf(buf, sizeof buf, "%0*d", width, frame);
-                out += buf;
+            std::size_t j = i + 1, width = 0;
+            if (j < arg.size() && arg[j] == '0')
+                for (++j; j < arg.size() && std::isdigit(static_cast<unsigned char>(arg[j])); ++j)
+                    width = std::min<std::size_t>(width * 10 + std::size_t(arg[j] - '0'), 1000);
+            if (j < arg.size() && arg[j] == 'd') {
+                out += padded_frame(frame, width);
                 i = j + 1;
                 found = true;
                 continue;
@@ -186,25 +198,12 @@ bool is_input(const std::vector<std::string>& args, std::size_t i)
     return i == 0 || std::find(takes_value.begin(), takes_value.end(), args[i - 1]) == takes_value.end();
 }
 
-} // namespace
-
-std::vector<std::vector<std::string>> expand_names(const std::vector<std::string>& given)
+// One argument list per UDIM tile of `args` (frames already substituted),
+// or `args` alone when no argument holds <UDIM>.
+std::vector<std::vector<std::string>> expand_udim(const std::vector<std::string>& args)
 {
-    std::vector<std::string> args;
-    std::vector<int> frames;
-    bool frames_given = false;
-    for (std::size_t i = 0; i < given.size(); ++i) {
-        if (given[i] == "--frames") {
-            if (i + 1 >= given.size())
-                throw UsageError("--frames needs a value (e.g. 1-10)");
-            frames = parse_frames(given[++i]);
-            frames_given = true;
-        } else {
-            args.push_back(given[i]);
-        }
-    }
-    std::vector<int> tiles;
     bool udim = false;
+    std::vector<int> tiles;
     for (std::size_t i = 0; i < args.size(); ++i) {
         if (args[i].find("<UDIM>") == std::string::npos)
             continue;
@@ -219,30 +218,55 @@ std::vector<std::vector<std::string>> expand_names(const std::vector<std::string
             throw UsageError("no UDIM tile (1001-1999) exists for '" + args[i] + "'");
         break;
     }
-    if (udim && tiles.empty())
-        throw UsageError("<UDIM> in an output needs an input file name holding <UDIM> (its tiles are the ones made)");
     if (!udim)
-        tiles = {0};
-
+        return {args};
+    if (tiles.empty())
+        throw UsageError("<UDIM> in an output needs an input file name holding <UDIM> (its tiles are the ones made)");
     std::vector<std::vector<std::string>> jobs;
     for (const int tile : tiles) {
-        std::vector<std::string> tiled = args;
-        if (udim)
-            for (std::string& a : tiled)
-                a = with_udim(a, tile);
-        if (!frames_given) {
-            jobs.push_back(tiled);
-            continue;
+        jobs.push_back(args);
+        for (std::string& a : jobs.back())
+            a = with_udim(a, tile);
+    }
+    return jobs;
+}
+
+} // namespace
+
+std::vector<std::vector<std::string>> expand_names(const std::vector<std::string>& given)
+{
+    std::vector<std::string> args;
+    std::vector<int> frames;
+    bool frames_given = false;
+    for (std::size_t i = 0; i < given.size(); ++i) {
+        if (given[i] == "--frames") {
+            if (frames_given)
+                throw UsageError("--frames is given twice (write all ranges in one: 1-10,20-30)");
+            if (i + 1 >= given.size())
+                throw UsageError("--frames needs a value (e.g. 1-10)");
+            frames = parse_frames(given[++i]);
+            frames_given = true;
+        } else {
+            args.push_back(given[i]);
         }
-        bool found = false;
-        for (const int f : frames) {
-            std::vector<std::string> framed = tiled;
-            for (std::string& a : framed)
-                a = with_frame(a, f, found);
-            jobs.push_back(std::move(framed));
-        }
+    }
+    if (!frames_given)
+        return expand_udim(args);
+    // Frames outer, tiles inner: each frame's tiles are those that exist for it.
+    std::vector<std::vector<std::string>> jobs;
+    bool found = false;
+    for (const int f : frames) {
+        std::vector<std::string> framed = args;
+        for (std::string& a : framed)
+            a = with_frame(a, f, found);
         if (!found)
             throw UsageError("--frames: no argument holds a frame token (#, @, %04d)");
+        try {
+            for (auto& job : expand_udim(framed))
+                jobs.push_back(std::move(job));
+        } catch (const UsageError&) {
+            jobs.push_back(framed);  // a frame without tiles: its job fails alone, naming the file
+        }
     }
     return jobs;
 }

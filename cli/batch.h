@@ -18,11 +18,12 @@ struct Job {
 // (1001-1999) that exists for the first input argument holding it; with
 // --frames A-B[,C-D...] (removed from the result), # alone stands for a
 // 4-digit frame number, a run of # or @ for one digit each (#### and @@@@ =
-// 4), and %0Nd
-// or %d as in printf. Returns one argument list per tile and frame (tiles
-// outer, frames inner), or `args` alone when nothing is to expand. Without
-// --frames, # @ and % are literal. Throws UsageError (a malformed --frames,
-// --frames without a frame token, <UDIM> with no existing tile).
+// 4), %0Nd or %d as in printf, %% for a literal %. Returns one argument
+// list per frame and tile (frames outer; each frame's tiles are those that
+// exist for it), or `args` alone when nothing is to expand. Without
+// --frames, # @ and % are literal. Throws UsageError (a malformed or
+// repeated --frames, --frames without a frame token, <UDIM> with no
+// existing tile).
 std::vector<std::vector<std::string>> expand_names(const std::vector<std::string>& args);
 
 // Splits one line into words as a POSIX shell would, without any expansion:

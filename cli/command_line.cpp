@@ -206,7 +206,7 @@ OIIO::TypeDesc parse_format(const std::string& t)
 
 } // namespace
 
-Program parse_command_line(const std::vector<std::string>& args)
+Program parse_command_line(const std::vector<std::string>& args, bool check_inputs)
 {
     Program prog;
     OIIO::TypeDesc format = OIIO::TypeDesc::FLOAT;
@@ -280,7 +280,7 @@ Program parse_command_line(const std::vector<std::string>& args)
             throw UsageError("unknown option '" + a + "' (see relief --help)");
         } else {
             std::error_code ec;
-            if (!fs::exists(a, ec))
+            if (check_inputs && !fs::exists(a, ec))
                 throw UsageError("cannot read '" + a + "': no such file");
             prog.steps.push_back(make_step(Step::Kind::Read, a, a));
             ++depth;

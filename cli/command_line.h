@@ -46,8 +46,10 @@ struct Program {
     std::string label;           // set by --batch: "job 3: ", before each message
 };
 
-// Throws UsageError with a one-line explanation.
-Program parse_command_line(const std::vector<std::string>& args);
+// Throws UsageError with a one-line explanation. `check_inputs` false: an
+// input file need not exist yet (the options of a command line whose tiles
+// or frames are each parsed, and checked, as jobs of their own).
+Program parse_command_line(const std::vector<std::string>& args, bool check_inputs = true);
 
 // --help: the fixed options, then every operation and modifier of the table.
 const std::string& usage_text();

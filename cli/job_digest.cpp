@@ -67,14 +67,20 @@ std::string digest_of(const Program& prog)
             h.text("read");
             h.file(s.path);
             break;
-        case Step::Kind::Operation:
+        case Step::Kind::Operation: {
+            // mask and fix files count by their bytes, not their paths
+            OperationCall call = s;
+            call.mask_file.clear();
+            call.fix_file.clear();
             h.text(s.operation);
-            h.text(modifier_text(s));
-            if (!s.mask_file.empty())
-                h.file(s.mask_file);
-            if (!s.fix_file.empty())
-                h.file(s.fix_file);
+            h.text(modifier_text(call));
+            for (const std::string* file : {&s.mask_file, &s.fix_file})
+                if (!file->empty()) {
+                    h.text(file == &s.mask_file ? "mask file" : "fix file");
+                    h.file(*file);
+                }
             break;
+        }
         case Step::Kind::Write:
             h.text("write");
             h.text(std::string(s.format.c_str()) + (s.format_given ? " given" : " default"));
@@ -94,6 +100,16 @@ std::string job_digest(const Program& prog)
     } catch (const std::runtime_error&) {
         return "";
     }
+}
+
+std::string output_digest(const std::string& job, int output)
+{
+    if (job.empty())
+        return "";
+    Hasher h;
+    h.text(job);
+    h.text("output " + std::to_string(output));
+    return h.digest();
 }
 
 } // namespace relief::cli

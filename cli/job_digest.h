@@ -15,4 +15,9 @@ namespace relief::cli {
 // cannot be read (the run itself then says why, as reading it fails).
 std::string job_digest(const Program& prog);
 
+// What the job's output number `output` (from 0, in the order of its -o
+// steps) records: the job's digest and the output's place in the job, so
+// that swapping two outputs' names makes both out of date. "" when `job` is.
+std::string output_digest(const std::string& job, int output);
+
 } // namespace relief::cli

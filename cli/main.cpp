@@ -231,7 +231,11 @@ private:
                 std::fprintf(stderr, "relief: warning: %s: half offsets above 2048 texels are coarser than 1/8 texel; prefer float\n",
                              s.path.c_str());
             w.compression = s.compression;
-            stack_.back().specmod().attribute("relief:digest", digest_);
+            const std::string digest = relief::cli::output_digest(digest_, outputs_++);
+            if (digest.empty())
+                stack_.back().specmod().erase_attribute("relief:digest");
+            else
+                stack_.back().specmod().attribute("relief:digest", digest);
             // The integer mapping is needed to read the file back: always say it.
             w.on_message = [](Severity, const std::string& m) {
                 std::fprintf(stderr, "relief: %s\n", m.c_str());
@@ -247,6 +251,7 @@ private:
 
     const Program& prog_;
     const std::string digest_;
+    int outputs_ = 0;          // -o steps run so far
     std::future<void> ahead_;  // prepare_ahead(); its destructor waits for it
     std::vector<OIIO::ImageBuf> stack_;
 };
@@ -285,8 +290,10 @@ bool up_to_date(const Program& prog, const std::string& digest)
 {
     if (digest.empty())
         return false;
+    int output = 0;
     for (const Step& s : prog.steps)
-        if (s.kind == Step::Kind::Write && relief::recorded_digest(s.path) != digest)
+        if (s.kind == Step::Kind::Write &&
+            relief::recorded_digest(s.path) != relief::cli::output_digest(digest, output++))
             return false;
     std::error_code ec;
     return prog.report.empty() || std::filesystem::is_regular_file(prog.report, ec);
@@ -467,7 +474,9 @@ int run(int argc, char** argv)
     std::vector<std::vector<std::string>> expanded;
     try {
         expanded = relief::cli::expand_names(args);
-        prog = relief::cli::parse_command_line(expanded.front());
+        // With several tiles or frames, each is checked as a job of its own
+        // (a missing one fails alone); here only the options count.
+        prog = relief::cli::parse_command_line(expanded.front(), expanded.size() == 1);
     } catch (const relief::cli::UsageError& e) {
         std::fprintf(stderr, "relief: error: %s\n", e.what());
         return 2;

@@ -86,6 +86,7 @@ struct FftPlan::Impl {
     cl::Buffer work;                       // the transposed half spectrum
     std::unique_ptr<Transform1d> columns_fft;  // C2C along axis 1, `columns` batches
     cl::Kernel transpose;
+    cl::Buffer built_against;  // VkFFT's kernels were built against it: kept alive with the plan
 
     explicit Impl(ComputeContext::Impl& ctx) : c(ctx) {}
 
@@ -112,6 +113,7 @@ FftPlan::FftPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, cl::Bu
     p.n0 = n0;
     p.n1 = n1;
     p.columns = n0 / 2 + 1;
+    p.built_against = buffer;
     const std::size_t bytes = sizeof(float) * row_stride(n0) * n1;
     // VkFFT builds its kernels against a buffer; launches name their own.
     // A strided axis of radix sizes is VkFFT's common 2-D path, and faster

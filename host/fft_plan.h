@@ -26,7 +26,7 @@ public:
 
     // A 2-D plan over n0 (fast axis) x n1; a 1-D plan when n1 == 1. n0 >= 2.
     // Launches may name any buffer of row_stride * n1 floats; VkFFT builds
-    // its kernels against `buffer`, which must outlive the plan.
+    // its kernels against `buffer`, which the plan keeps alive.
     FftPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, cl::Buffer& buffer);
     ~FftPlan();
     FftPlan(const FftPlan&) = delete;

@@ -31,6 +31,11 @@ std::size_t PlanCache::size() const
     return entries_.size();
 }
 
+bool PlanCache::keeps(std::size_t n0, std::size_t n1) const
+{
+    return sizeof(float) * FftPlan::row_stride(n0) * n1 <= max_plan_bytes_;
+}
+
 std::shared_ptr<FftPlan> PlanCache::fft(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, cl::Buffer& buffer)
 {
     SetupTimer timer(SetupTimer::Kind::Plans);  // waiting for a plan made ahead counts too
@@ -73,8 +78,8 @@ void prepare_height(ComputeContext& ctx, int width, int height)
         c.program(file);
     // as the Poisson stage lays the map out: a one-texel-wide map transposed
     const std::size_t n0 = width == 1 ? height : width, n1 = width == 1 ? 1 : height;
-    if (n0 < 2)
-        return;
+    if (n0 < 2 || !c.plans->keeps(n0, n1))
+        return;  // a plan too large to keep would be built twice
     // The DCT plan (free boundary) holds the FFT plan (periodic) of the
     // same size: planning it prepares both.
     c.plans->dct(c, n0, n1);

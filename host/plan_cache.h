@@ -31,12 +31,14 @@ public:
 
     // The FFT plan for n0 x n1. A cached plan has a buffer of its own to be
     // built against; one too large to keep is built against `buffer` (any
-    // buffer of FftPlan::row_stride(n0) * n1 floats that outlives the plan).
+    // buffer of FftPlan::row_stride(n0) * n1 floats; the plan keeps it alive).
     std::shared_ptr<FftPlan> fft(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, cl::Buffer& buffer);
     // The DCT plan for n0 x n1.
     std::shared_ptr<DctPlan> dct(ComputeContext::Impl& c, std::size_t n0, std::size_t n1);
 
     std::size_t size() const;
+    // Whether plans of n0 x n1 are small enough to keep.
+    bool keeps(std::size_t n0, std::size_t n1) const;
 
 private:
     struct Entry {

@@ -250,14 +250,27 @@ TEST_CASE("names: <UDIM>, # @ %0Nd and --frames expand as oiiotool's", "[names][
     CHECK(expand_names({"f.@@@.png", "--frames", "7", "-o", "o.%d.exr", "x.####.y%03dz##"}) ==
           VV{{"f.007.png", "-o", "o.7.exr", "x.0007.y007z07"}});
     CHECK(expand_names({"--frames", "1-2", in, "-o", "h.<UDIM>.#.exr"}).size() == 6);
-    CHECK(expand_names({"--frames", "1-2", in, "-o", "h.<UDIM>.#.exr"})[1] == V{tile("1001"), "-o", "h.1001.0002.exr"});
+    CHECK(expand_names({"--frames", "1-2", in, "-o", "h.<UDIM>.#.exr"})[4] == V{tile("1002"), "-o", "h.1002.0002.exr"});
+    // tiles and frames in one input name: each frame's own tiles
+    for (const char* f : {"t.1001.0001.png", "t.1002.0001.png", "t.1001.0002.png"})
+        std::ofstream(d / f) << "x";
+    const std::string both = (d / "t.<UDIM>.#.png").string();
+    CHECK(expand_names({both, "--frames", "1-3", "-o", "o.<UDIM>.#.exr"}) ==
+          VV{{(d / "t.1001.0001.png").string(), "-o", "o.1001.0001.exr"},
+             {(d / "t.1002.0001.png").string(), "-o", "o.1002.0001.exr"},
+             {(d / "t.1001.0002.png").string(), "-o", "o.1001.0002.exr"},
+             {(d / "t.<UDIM>.0003.png").string(), "-o", "o.<UDIM>.0003.exr"}});  // no tile: fails alone
+    CHECK(expand_names({"a%%b%d.png", "--frames", "5"}) == VV{{"a%b5.png"}});
     // the tiles are those of the first input holding <UDIM>, not of an output
     // (an earlier output with tiles of its own: o.1005.exr)
     std::ofstream(d / "o.1005.exr") << "x";
     CHECK(expand_names({"-o", (d / "o.<UDIM>.exr").string(), in}).size() == 3);
     for (const V& bad : {V{"x.<UDIM>.png"}, V{"a.png", "-o", "h.<UDIM>.exr"}, V{"a.png", "--frames", "1-3"},
                          V{"a#.png", "--frames"}, V{"a#.png", "--frames", "3-1"}, V{"a#.png", "--frames", "1-"},
-                         V{"a#.png", "--frames", "1,,2"}, V{"a#.png", "--frames", "x"}, V{"a#.png", "--frames", "0-100000"}})
+                         V{"a#.png", "--frames", "1,,2"}, V{"a#.png", "--frames", "x"}, V{"a#.png", "--frames", "0-100000"},
+                         V{"a#.png", "--frames", "99999999999"}, V{"a#.png", "--frames", "5-99999999999"},
+                         V{"a#.png", "--frames", "2147483647"}, V{"a#.png", "--frames", "1", "--frames", "2"},
+                         V{"a%040d.png", "--frames", "1"}})
         CHECK_THROWS_AS(expand_names(bad), UsageError);
     // in a manifest, each line expands into jobs of its own; a line that cannot fails alone
     std::ofstream(d / "jobs.txt") << "'" << in << "' --slopes -o 'h.<UDIM>.exr'\nnone.<UDIM>.png --slopes -o x.exr\n"
@@ -307,10 +320,11 @@ TEST_CASE("update: a job is skipped exactly when its outputs record the digest i
     for (int i = 0; i < 4; ++i)
         write_crop(i % 2 ? kDem : kNormal, d / ("n" + std::to_string(i) + ".png"), 8 * i);
     const fs::path m = d / "jobs.txt";
-    const auto manifest = [&](const std::string& job1_modifiers, const std::string& job2_type) {
+    const auto manifest = [&](const std::string& job1_modifiers, const std::string& job2_type,
+                              const std::string& job1_outputs = "-o h1.exr -o h1.png") {
         std::ofstream f(m);
         f << "n0.png --height -o h0.exr\n";
-        f << "n1.png --height" << job1_modifiers << " -o h1.exr -o h1.png\n";
+        f << "n1.png --height" << job1_modifiers << " " << job1_outputs << "\n";
         f << "n2.png --slopes -d " << job2_type << " -o s2.exr\n";
         f << "n3.png --height -o h3.tif\n";  // TIFF keeps the digest in ImageDescription
     };
@@ -326,7 +340,9 @@ TEST_CASE("update: a job is skipped exactly when its outputs record the digest i
     CHECK(statuses(log) == S{"ok", "ok", "ok", "ok"});
     const std::string digest = relief::recorded_digest((d / "h0.exr").string());
     CHECK(digest.size() == 32);
-    CHECK(relief::recorded_digest((d / "h1.png").string()) == relief::recorded_digest((d / "h1.exr").string()));
+    // each output records its own place in the job
+    CHECK(relief::recorded_digest((d / "h1.png").string()).size() == 32);
+    CHECK(relief::recorded_digest((d / "h1.png").string()) != relief::recorded_digest((d / "h1.exr").string()));
     CHECK(relief::recorded_digest((d / "h3.tif").string()).size() == 32);
     CHECK(relief::recorded_digest((d / "n0.png").string()).empty());
     const auto h0_time = fs::last_write_time(d / "h0.exr");
@@ -356,6 +372,9 @@ TEST_CASE("update: a job is skipped exactly when its outputs record the digest i
     CHECK(relief::recorded_digest((d / "h0.exr").string()) != digest);
     fs::remove(d / "h1.png");  // one of a job's two outputs lost
     CHECK(statuses((run(), log)) == S{"skipped", "ok", "skipped", "skipped"});
+    manifest(":normal=opengl", "half", "-o h1.png -o h1.exr");  // the outputs' names swapped
+    CHECK(statuses((run(), log)) == S{"skipped", "ok", "skipped", "skipped"});
+    CHECK(statuses((run(), log)) == S{"skipped", "skipped", "skipped", "skipped"});
     // without --update every job runs
     CHECK(statuses((relief::test::run_cli("--batch jobs.txt --log log.jsonl", "cd '" + d.string() + "' &&"), log)) ==
           S{"ok", "ok", "ok", "ok"});

@@ -68,9 +68,12 @@ bool read_image(ImageBuf& dst, const std::string& path)
     ImageSpec& spec = dst.specmod();
     spec.erase_attribute("relief:digest");
     std::string description = spec.get_string_attribute("ImageDescription");
-    const std::size_t at = description.rfind("relief:digest=");
+    const std::size_t at = description.find("relief:digest=");
     if (at != std::string::npos) {
-        description.erase(at > 0 && description[at - 1] == '\n' ? at - 1 : at);
+        const std::size_t end = description.find('\n', at);
+        // the line and the line break before (or after) it
+        const std::size_t from = at > 0 && description[at - 1] == '\n' ? at - 1 : at;
+        description.erase(from, (end == std::string::npos ? description.size() : end + (from == at)) - from);
         if (description.empty())
             spec.erase_attribute("ImageDescription");
         else
@@ -147,8 +150,9 @@ std::string write_file(const ImageBuf& image, const fs::path& path, TypeDesc for
     const std::string digest = spec.get_string_attribute("relief:digest");
     const std::string ext = lowercase(path.extension().string());
     if (!digest.empty() && ext != ".exr" && ext != ".png") {
-        // These formats drop custom attributes but keep the description.
-        std::string d = spec.get_string_attribute("ImageDescription");
+        // These formats drop custom attributes but keep the description
+        // (after relief's own first line, which says how to read the data).
+        const std::string d = spec.get_string_attribute("ImageDescription");
         spec.attribute("ImageDescription", (d.empty() ? "" : d + "\n") + "relief:digest=" + digest);
     }
     std::FILE* f = nullptr;
@@ -192,7 +196,7 @@ std::string recorded_digest(const std::string& path)
     if (digest.empty()) {
         const std::string d = spec.get_string_attribute("ImageDescription");
         const std::string key = "relief:digest=";
-        const std::size_t at = d.rfind(key);
+        const std::size_t at = d.find(key);
         if (at != std::string::npos)
             digest = d.substr(at + key.size(), d.find('\n', at) - at - key.size());
     }

@@ -18,7 +18,10 @@ for p in munged mungekey slurmctld slurmd sbatch squeue sinfo oiiotool; do
 done
 
 rm -rf "$work"
-mkdir -p "$work"/{state,spool,data/out,logs}
+# the manifest's folder and the logs' hold a blank and a %, as users' paths may
+data="$work/maps 100%"
+logs="$work/task logs %a"
+mkdir -p "$work"/{state,spool} "$data/out" "$logs"
 cd "$work"
 pids=()
 stop() {
@@ -94,8 +97,8 @@ done
 [ -n "$up" ] || fail "the node did not come up in 60 s: $(sinfo -h -N -o '%N %T' 2>&1)"
 echo "slurm up after ${SECONDS}s"
 
-# 8 jobs: 4 crops x (slopes, height); outputs in data/out.
-cd data
+# 8 jobs: 4 crops x (slopes, height); outputs in $data/out.
+cd "$data"
 for i in 0 1 2 3; do
   oiiotool "$normal" --cut "96x96+$((32 * i))+0" -d uint8 -o "n$i.png"
 done
@@ -124,31 +127,31 @@ print(" ".join(f"{k}:{s[k]}" for k in sorted(s)))' "$1"
 
 "$relief_slurm" submit jobs.txt --tasks 4 --dry-run > script.txt
 grep -q -- '--array=0-3' script.txt || fail "dry run: no 0-3 array in $(cat script.txt)"
-[ ! -e "$work/logs/relief-array.sbatch" ] || fail "a dry run wrote the script"
+[ ! -e "$logs/relief-array.sbatch" ] || fail "a dry run wrote the script"
 
-out=$("$relief_slurm" submit jobs.txt --tasks 4 --log-dir "$work/logs" -- --time=5)
+out=$("$relief_slurm" submit jobs.txt --tasks 4 --log-dir "$logs" -- --time=5)
 id=$(echo "$out" | tail -1)
 [[ "$id" =~ ^[0-9]+$ ]] || fail "submit printed '$out', not a job id"
 wait_for "$id"
 for i in 0 1 2 3; do
   [ -s "out/s$i.exr" ] && [ -s "out/h$i.exr" ] || fail "missing outputs after the first run: $(ls out)"
 done
-ls "$work/logs"/task-{0,1,2,3}.jsonl >/dev/null || fail "a task log is missing: $(ls "$work/logs")"
-got=$(statuses "$work/logs")
-[ "$got" = "0:ok 1:ok 2:ok 3:ok 4:ok 5:ok 6:ok 7:ok" ] || fail "first run: $got; $(cat "$work"/logs/task-*.out)"
-"$relief_slurm" status jobs.txt --log-dir "$work/logs" | tail -1 | grep -q "8 job(s): 8 ok, 0 skipped, 0 failed, 0 missing" ||
-  fail "status after the first run: $("$relief_slurm" status jobs.txt --log-dir "$work/logs")"
+ls "$logs"/task-{0,1,2,3}.jsonl >/dev/null || fail "a task log is missing: $(ls "$logs")"
+got=$(statuses "$logs")
+[ "$got" = "0:ok 1:ok 2:ok 3:ok 4:ok 5:ok 6:ok 7:ok" ] || fail "first run: $got; $(cat "$logs"/task-*.out)"
+"$relief_slurm" status jobs.txt --log-dir "$logs" | tail -1 | grep -q "8 job(s): 8 ok, 0 skipped, 0 failed, 0 missing" ||
+  fail "status after the first run: $("$relief_slurm" status jobs.txt --log-dir "$logs")"
 # each task took the jobs of its shard
-grep -q '"job": 5' "$work/logs/task-1.jsonl" || fail "task 1 did not run job 5"
+grep -q '"job": 5' "$logs/task-1.jsonl" || fail "task 1 did not run job 5"
 
 # two outputs lost (a node died, a disk was cleaned): only those recompute
 before=$(stat -c %y out/h0.exr)
 rm out/s1.exr out/h2.exr
-id=$("$relief_slurm" submit jobs.txt --tasks 4 --log-dir "$work/logs" | tail -1)
+id=$("$relief_slurm" submit jobs.txt --tasks 4 --log-dir "$logs" | tail -1)
 wait_for "$id"
 [ -s out/s1.exr ] && [ -s out/h2.exr ] || fail "the deleted outputs were not remade"
-got=$(statuses "$work/logs")
+got=$(statuses "$logs")
 [ "$got" = "0:skipped 1:skipped 2:ok 3:skipped 4:skipped 5:ok 6:skipped 7:skipped" ] || fail "resubmission: $got"
 [ "$(stat -c %y out/h0.exr)" = "$before" ] || fail "an up-to-date output was rewritten"
-"$relief_slurm" status jobs.txt --log-dir "$work/logs" | tail -1 | grep -q "6 skipped, 0 failed, 0 missing" || fail "status after the resubmission"
+"$relief_slurm" status jobs.txt --log-dir "$logs" | tail -1 | grep -q "6 skipped, 0 failed, 0 missing" || fail "status after the resubmission"
 echo "PASS: 8 jobs as a 4-task array, 2 lost outputs recomputed alone (${SECONDS}s)"
