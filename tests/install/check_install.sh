@@ -37,6 +37,29 @@ echo "'$tmp/missing.png' --slopes -o '$tmp/never.exr'" > "$tmp/bad.txt"
 st=$("$prefix/bin/relief-slurm" status "$tmp/bad.txt" --log-dir "$tmp/badlogs") && exit 1
 echo "$st" | grep -F "1 job(s): 0 ok, 0 skipped, 1 failed, 0 missing" >/dev/null
 echo "$st" | grep -F "job 0 (line 1): cannot read '$tmp/missing.png'" >/dev/null
+# submit, against a stand-in sbatch that records its arguments
+mkdir -p "$tmp/fakebin" "$tmp/sub" "$tmp/sub/logs 5%"
+cat > "$tmp/fakebin/sbatch" <<'SH'
+#!/bin/sh
+printf '%s\n' "$@" > "$FAKE_SBATCH_ARGS"
+echo "4242;relief"
+SH
+chmod +x "$tmp/fakebin/sbatch"
+cp "$normal" "$tmp/sub/n.1001.png"
+cp "$normal" "$tmp/sub/n.1002.png"
+echo "n.<UDIM>.png --slopes -o 'o.<UDIM>.exr'" > "$tmp/sub/jobs.txt"
+echo '{"job": 0, "args": ["n.1001.png", "--slopes", "-o", "o.1001.exr"], "status": "ok"}' > "$tmp/sub/logs 5%/task-7.jsonl"
+id=$(cd "$tmp/sub" && FAKE_SBATCH_ARGS="$tmp/sbatch.args" PATH="$tmp/fakebin:$PATH" \
+     "$prefix/bin/relief-slurm" submit jobs.txt --tasks 2 --log-dir "logs 5%" -- --time=1 | tail -n 1)
+test "$id" = 4242
+grep -Fx -- "--parsable" "$tmp/sbatch.args" >/dev/null
+grep -Fx -- "--output=$tmp/sub/logs 5%%/task-%a.out" "$tmp/sbatch.args" >/dev/null
+grep -Fx -- "--time=1" "$tmp/sbatch.args" >/dev/null
+test "$(tail -n 1 "$tmp/sbatch.args")" = "$tmp/sub/logs 5%/relief-array.sbatch"
+test ! -e "$tmp/sub/logs 5%/task-7.jsonl"  # the last submission's logs are gone
+# status lists the jobs as the tasks see them, from the folder submitted from
+st=$(cd / && "$prefix/bin/relief-slurm" status "$tmp/sub/jobs.txt" --log-dir "$tmp/sub/logs 5%") && exit 1
+echo "$st" | grep -F "2 job(s): 0 ok, 0 skipped, 0 failed, 2 missing" >/dev/null
 
 step "the same bytes as a binary PPM, for the C host"
 PYTHONPATH=$pyroot "$python" - "$normal" "$tmp/normal.ppm" <<'PY'
