@@ -397,4 +397,20 @@ TEST_CASE("update: a job is skipped exactly when its outputs record the digest i
         REQUIRE(relief::write_image(img, (d / "copy.exr").string()));
         CHECK(relief::recorded_digest((d / "copy.exr").string()).empty());
     }
+
+    // paths do not count: an input and a mask moved (same bytes) keep the jobs up to date
+    {
+        std::ofstream f(m);
+        f << "n0.png --height:mask=n1.png -o hm.exr\n";
+    }
+    CHECK(statuses((run(), log)) == S{"ok"});
+    fs::rename(d / "n0.png", d / "moved0.png");
+    fs::rename(d / "n1.png", d / "moved1.png");
+    {
+        std::ofstream f(m);
+        f << "moved0.png --height:mask=moved1.png -o hm.exr\n";
+    }
+    CHECK(statuses((run(), log)) == S{"skipped"});
+    write_crop(kDem, d / "moved1.png", 24);  // the mask's bytes do count
+    CHECK(statuses((run(), log)) == S{"ok"});
 }
