@@ -9,13 +9,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <exception>
-#include <fstream>
-#include <sstream>
 #include <cstdlib>
+#include <exception>
 #include <filesystem>
+#include <fstream>
 #include <future>
 #include <iostream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -69,7 +69,7 @@ private:
 
 class Runner {
 public:
-    // `digest`: the job's relief:digest, recorded in every output.
+    // `digest`: the job's digest; output k records output_digest(digest, k).
     Runner(const Program& prog, std::string digest) : prog_(prog), digest_(std::move(digest)) {}
 
     void run()
@@ -284,8 +284,9 @@ std::string json_line(const JobRecord& r)
            "\", \"seconds\": " + seconds + ", \"message\": " + relief::cli::json_quote(r.message) + "}";
 }
 
-// Whether every output of the job exists and records `digest` (read from
-// the headers only). A --report file records none; it must exist.
+// Whether every output of the job exists and records the digest it would
+// get from the job's `digest` (read from the headers only). A --report file
+// records none; it must exist.
 bool up_to_date(const Program& prog, const std::string& digest)
 {
     if (digest.empty())
