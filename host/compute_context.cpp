@@ -6,9 +6,9 @@
 #include <fstream>
 #include <sstream>
 
+#include "binary_cache.h"
 #include "errors.h"
 #include "kernel_sources.h"
-#include "binary_cache.h"
 #include "opencl_context.h"
 #include "plan_cache.h"
 #include "setup_times.h"

@@ -2,14 +2,13 @@
 // plan time; it is confined to this file.
 #include "fft_plan.h"
 
-#include "setup_times.h"
-
 #define VKFFT_BACKEND 3
 #include <vkFFT.h>
 
 #include <string>
 
 #include "errors.h"
+#include "setup_times.h"
 
 namespace relief::host {
 

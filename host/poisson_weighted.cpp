@@ -5,7 +5,6 @@
 // weights give the unmasked answer and the answer moves continuously with
 // the weights.
 #include <cmath>
-#include <optional>
 #include <vector>
 
 #include "dct_plan.h"

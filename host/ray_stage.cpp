@@ -9,8 +9,8 @@
 #include "errors.h"
 #include "fft_plan.h"
 #include "field_ops.h"
-#include "plan_cache.h"
 #include "opencl_context.h"
+#include "plan_cache.h"
 
 namespace relief::host {
 
