@@ -74,15 +74,15 @@ void prepare_height(ComputeContext& ctx, int width, int height)
     if (width < 1 || height < 1)
         return;
     auto& c = ctx.impl();
-    for (const char* file : {"ddm.cl", "poisson.cl"})
-        c.program(file);
     // as the Poisson stage lays the map out: a one-texel-wide map transposed
     const std::size_t n0 = width == 1 ? height : width, n1 = width == 1 ? 1 : height;
-    if (n0 < 2 || !c.plans->keeps(n0, n1))
-        return;  // a plan too large to keep would be built twice
-    // The DCT plan (free boundary) holds the FFT plan (periodic) of the
-    // same size: planning it prepares both.
-    c.plans->dct(c, n0, n1);
+    // The plan first: it is what the height waits for (its kernels come
+    // from the disk cache in milliseconds, when the stage needs them).
+    // The DCT plan (free boundary) holds the FFT plan (periodic) of the same
+    // size: planning it prepares both.
+    if (n0 >= 2 && c.plans->keeps(n0, n1))
+        c.plans->dct(c, n0, n1);
+    c.program("poisson.cl");
 }
 
 } // namespace relief::host
