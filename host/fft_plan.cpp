@@ -2,13 +2,95 @@
 // plan time; it is confined to this file.
 #include "fft_plan.h"
 
-#define VKFFT_BACKEND 3
-#include <vkFFT.h>
-
+#include <cstring>
+#include <map>
+#include <optional>
 #include <string>
+#include <vector>
 
+#include "binary_cache.h"
 #include "errors.h"
 #include "setup_times.h"
+
+// VkFFT builds its kernels from source at every plan, and on PoCL every
+// clBuildProgram from source runs Clang's preprocessor (about 0.02 s each,
+// four per 2-D plan) even when PoCL's own cache holds the result; VkFFT's
+// own saveApplicationToString cannot help (1.2.26 writes the binaries with
+// sprintf("%s"), and PoCL's hold NUL bytes). So, in this file only, VkFFT's
+// program creation and build go through these two functions, which keep the
+// binaries in relief's BinaryCache like relief's own programs: a plan of a
+// size met before builds from binaries.
+namespace {
+
+// Per thread: initializeVkFFT creates and builds its programs on the
+// thread that plans, and two threads may plan at once (relief::prepare).
+struct VkfftBuilds {
+    const std::string* identity = nullptr;          // the device's; null: no caching
+    bool load = true;                               // false: build from source, store anew
+    std::map<cl_program, std::string> from_source;  // -> the key to store its binary under
+    std::vector<std::string> from_cache;            // keys the plan being made loaded
+};
+thread_local VkfftBuilds vkfft_builds;
+
+cl_program relief_vkfft_create_program(cl_context context, cl_uint count, const char** strings,
+                                       const size_t* lengths, cl_int* err)
+{
+    std::string key;
+    if (vkfft_builds.identity) {
+        std::string source;
+        for (cl_uint i = 0; i < count; ++i)
+            source.append(strings[i], lengths && lengths[i] ? lengths[i] : std::strlen(strings[i]));
+        key = relief::host::BinaryCache::key({"vkfft", *vkfft_builds.identity, source});
+        cl_device_id device = nullptr;
+        if (const std::optional<std::string> binary =
+                vkfft_builds.load ? relief::host::BinaryCache::load(key) : std::nullopt;
+            binary && clGetContextInfo(context, CL_CONTEXT_DEVICES, sizeof device, &device, nullptr) == CL_SUCCESS) {
+            const size_t size = binary->size();
+            const auto* bytes = reinterpret_cast<const unsigned char*>(binary->data());
+            cl_int status = CL_SUCCESS;
+            cl_program program = clCreateProgramWithBinary(context, 1, &device, &size, &bytes, nullptr, &status);
+            if (status == CL_SUCCESS) {
+                vkfft_builds.from_cache.push_back(key);
+                if (err)
+                    *err = status;
+                return program;
+            }
+        }
+    }
+    cl_program program = clCreateProgramWithSource(context, count, strings, lengths, err);
+    if (program && !key.empty())
+        vkfft_builds.from_source[program] = key;
+    return program;
+}
+
+cl_int relief_vkfft_build_program(cl_program program, cl_uint devices, const cl_device_id* device_list,
+                                  const char* options, void(CL_CALLBACK* notify)(cl_program, void*), void* data)
+{
+    const cl_int status = clBuildProgram(program, devices, device_list, options, notify, data);
+    std::string key;
+    if (auto it = vkfft_builds.from_source.find(program); it != vkfft_builds.from_source.end()) {
+        key = it->second;
+        vkfft_builds.from_source.erase(it);
+    }
+    size_t size = 0;
+    if (status == CL_SUCCESS && !key.empty() &&
+        clGetProgramInfo(program, CL_PROGRAM_BINARY_SIZES, sizeof size, &size, nullptr) == CL_SUCCESS && size > 0) {
+        std::string binary(size, '\0');
+        unsigned char* bytes = reinterpret_cast<unsigned char*>(binary.data());
+        if (clGetProgramInfo(program, CL_PROGRAM_BINARIES, sizeof bytes, &bytes, nullptr) == CL_SUCCESS)
+            relief::host::BinaryCache::store(key, binary);
+    }
+    return status;
+}
+
+} // namespace
+
+#define VKFFT_BACKEND 3
+#define clCreateProgramWithSource relief_vkfft_create_program
+#define clBuildProgram relief_vkfft_build_program
+#include <vkFFT.h>
+#undef clCreateProgramWithSource
+#undef clBuildProgram
 
 namespace relief::host {
 
@@ -45,12 +127,29 @@ public:
         config.platform = &platform_;
         config.buffer = &buffer_;
         config.bufferSize = &size_;
-        VkFFTResult r = initializeVkFFT(&app_, config);
+        VkFFTResult r = plan(config, c.identity, true);
+        if (r != VKFFT_SUCCESS && !loaded_.empty())
+            r = plan(config, c.identity, false);  // a cached binary VkFFT could not use: replace them all
         if (r != VKFFT_SUCCESS)
             throw Error("VkFFT could not plan a transform of size " + std::to_string(n) +
                         " (VkFFT error " + std::to_string(int(r)) + ")");
     }
     ~Transform1d() { deleteVkFFT(&app_); }
+
+    // initializeVkFFT with its programs into the binary cache, and from it
+    // when `load`.
+    VkFFTResult plan(const VkFFTConfiguration& config, const std::string& identity, bool load)
+    {
+        vkfft_builds.identity = &identity;
+        vkfft_builds.load = load;
+        vkfft_builds.from_cache.clear();
+        vkfft_builds.from_source.clear();
+        app_ = {};
+        const VkFFTResult r = initializeVkFFT(&app_, config);
+        vkfft_builds.identity = nullptr;
+        loaded_ = vkfft_builds.from_cache;
+        return r;
+    }
     Transform1d(const Transform1d&) = delete;
     Transform1d& operator=(const Transform1d&) = delete;
 
@@ -68,6 +167,7 @@ public:
 
 private:
     VkFFTApplication app_ = {};
+    std::vector<std::string> loaded_;  // cache keys this plan's programs came from
     cl_device_id device_;
     cl_context context_;
     cl_platform_id platform_ = nullptr;

@@ -159,6 +159,78 @@ TEST_CASE("compiled programs are kept on disk and a damaged entry is rebuilt", "
     CHECK(bake_entry.size() > 0);
 }
 
+TEST_CASE("VkFFT's programs are kept on disk too, and an unusable entry falls back to source", "[host][cache]")
+{
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::path(RELIEF_TEST_TMP) / "vkfft_cache";
+    fs::remove_all(dir);
+    const char* before = std::getenv("RELIEF_CACHE_DIR");
+    const std::string saved = before ? before : "";
+    ::setenv("RELIEF_CACHE_DIR", dir.c_str(), 1);
+    const auto entries = [&] {
+        std::vector<fs::path> v;
+        if (fs::exists(dir))
+            for (const auto& e : fs::directory_iterator(dir))
+                v.push_back(e.path());
+        std::sort(v.begin(), v.end());
+        return v;
+    };
+    // A round trip of a ramp through a fresh context's 64 x 48 plan (VkFFT's
+    // 2-D path: its programs only); the transformed values, to compare bits.
+    const auto transform = [] {
+        ComputeContext ctx(choose_device("auto"));
+        auto& c = ctx.impl();
+        const std::size_t stride = FftPlan::row_stride(64);
+        std::vector<float> x(stride * 48, 0.0f), y(x.size());
+        for (std::size_t r = 0; r < 48; ++r)
+            for (std::size_t i = 0; i < 64; ++i)
+                x[r * stride + i] = float(std::sin(0.1 * double(i) + 0.3 * double(r)));
+        cl::Buffer buf(c.context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(float) * x.size(), x.data());
+        FftPlan plan(c, 64, 48, buf);
+        plan.forward(buf);
+        c.queue.enqueueReadBuffer(buf, CL_TRUE, 0, sizeof(float) * y.size(), y.data());
+        return y;
+    };
+    const std::vector<float> first = transform();
+    const std::vector<fs::path> vkfft = entries();
+    REQUIRE(vkfft.size() >= 2);  // forward and inverse, at least
+    std::vector<std::string> stamps;
+    for (const fs::path& p : vkfft)
+        stamps.push_back(relief::test::slurp(p));
+    CHECK(transform() == first);  // from the binaries: the same bits, nothing rebuilt
+    CHECK(entries() == vkfft);
+    for (std::size_t i = 0; i < vkfft.size(); ++i)
+        CHECK(relief::test::slurp(vkfft[i]) == stamps[i]);
+
+    // entries the driver refuses: built from source, stored anew
+    for (const fs::path& p : vkfft)
+        BinaryCache::store(p.stem().string(), "not a program binary");
+    CHECK(transform() == first);
+    for (const fs::path& p : vkfft)
+        CHECK(BinaryCache::load(p.stem().string()).value() != "not a program binary");
+    // entries the driver takes but VkFFT cannot use (another program's
+    // binary, with no VkFFT_main): dropped, planned from source
+    {
+        ComputeContext ctx(choose_device("auto"));
+        ctx.build_program("ddm.cl");
+    }
+    fs::path ddm;
+    for (const fs::path& p : entries())
+        if (std::find(vkfft.begin(), vkfft.end(), p) == vkfft.end())
+            ddm = p;
+    REQUIRE_FALSE(ddm.empty());
+    for (const fs::path& p : vkfft)
+        fs::copy_file(ddm, p, fs::copy_options::overwrite_existing);
+    CHECK(transform() == first);
+    CHECK(transform() == first);  // and the next plan from the entries stored anew
+    for (const fs::path& p : vkfft)
+        CHECK(relief::test::slurp(p) != relief::test::slurp(ddm));
+    if (before)
+        ::setenv("RELIEF_CACHE_DIR", saved.c_str(), 1);
+    else
+        ::unsetenv("RELIEF_CACHE_DIR");
+}
+
 TEST_CASE("plans are kept by kind and size, the least recently used dropped first", "[host][cache]")
 {
     auto ctx = ComputeContext::acquire("auto");
