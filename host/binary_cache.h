@@ -1,11 +1,12 @@
 #pragma once
-// Compiled OpenCL programs kept on disk between processes, so that a map
-// does not pay for compiling kernels that an earlier process compiled
-// (PoCL's own cache still runs Clang's preprocessor on every build; a
-// program made from a binary skips the compiler front end, and VkFFT skips
-// generating its code). One file per program, named by a hash of everything
-// the binary depends on: the device, its driver, the source and the build
-// options. A cache: every failure falls back to building from source.
+// Compiled OpenCL programs, relief's and VkFFT's (fft_plan.cpp), kept on
+// disk between processes, so that a map does not pay for compiling kernels
+// that an earlier process compiled (PoCL's own cache still runs Clang's
+// preprocessor on every build from source; a program made from a binary
+// skips the compiler front end). One file per program, named by a hash of
+// everything the binary depends on: the device, its driver, the source and
+// the build options. A cache: every failure falls back to building from
+// source.
 #include <optional>
 #include <string>
 #include <vector>
