@@ -60,7 +60,9 @@ std::string digest_of(const Program& prog)
 {
     Hasher h;
     h.text("relief job digest 1");
-    h.text(implementation_digest());
+    // The same for every job of the process (it hashes every kernel source).
+    static const std::string implementation = implementation_digest();
+    h.text(implementation);
     for (const Step& s : prog.steps) {
         switch (s.kind) {
         case Step::Kind::Read:

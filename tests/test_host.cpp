@@ -6,6 +6,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <string>
+#include <vector>
 
 #include "binary_cache.h"
 #include "compute_context.h"
@@ -86,20 +88,53 @@ TEST_CASE("maps past the kernels' 32-bit indices are refused before any work", "
                       Catch::Contains("correct: a 46340x46340 map"));
 }
 
+namespace {
+
+// RELIEF_CACHE_DIR for one test case, put back as it was at its end (also
+// when a REQUIRE ends it early).
+class CacheDirForTest {
+public:
+    explicit CacheDirForTest(const std::string& value)
+    {
+        if (const char* v = std::getenv("RELIEF_CACHE_DIR"))
+            saved_ = v;
+        had_ = std::getenv("RELIEF_CACHE_DIR") != nullptr;
+        set(value);
+    }
+    ~CacheDirForTest()
+    {
+        if (had_)
+            ::setenv("RELIEF_CACHE_DIR", saved_.c_str(), 1);
+        else
+            ::unsetenv("RELIEF_CACHE_DIR");
+    }
+    void set(const std::string& value) { ::setenv("RELIEF_CACHE_DIR", value.c_str(), 1); }
+
+private:
+    std::string saved_;
+    bool had_ = false;
+};
+
+// The files of `dir`, sorted; none when it does not exist.
+std::vector<std::filesystem::path> files_in(const std::filesystem::path& dir)
+{
+    std::vector<std::filesystem::path> v;
+    if (std::filesystem::exists(dir))
+        for (const auto& e : std::filesystem::directory_iterator(dir))
+            v.push_back(e.path());
+    std::sort(v.begin(), v.end());
+    return v;
+}
+
+} // namespace
+
 TEST_CASE("compiled programs are kept on disk and a damaged entry is rebuilt", "[host][cache]")
 {
     namespace fs = std::filesystem;
     const fs::path dir = fs::path(RELIEF_TEST_TMP) / "binary_cache";
     fs::remove_all(dir);
-    const char* before = std::getenv("RELIEF_CACHE_DIR");
-    const std::string saved = before ? before : "";
-    ::setenv("RELIEF_CACHE_DIR", dir.c_str(), 1);
-    const auto entries = [&] {
-        std::vector<fs::path> v;
-        for (const auto& e : fs::directory_iterator(dir))
-            v.push_back(e.path());
-        return v;
-    };
+    CacheDirForTest cache(dir.string());
+    const auto entries = [&] { return files_in(dir); };
     const auto kernels = [](ComputeContext& ctx, const char* file) {
         return ctx.impl().program(file).getInfo<CL_PROGRAM_KERNEL_NAMES>();
     };
@@ -146,16 +181,12 @@ TEST_CASE("compiled programs are kept on disk and a damaged entry is rebuilt", "
 
     // off: nothing stored
     fs::remove_all(dir);
-    ::setenv("RELIEF_CACHE_DIR", "off", 1);
+    cache.set("off");
     {
         ComputeContext ctx(choose_device("auto"));
         ctx.build_program("ddm.cl");
     }
     CHECK_FALSE(fs::exists(dir));
-    if (before)
-        ::setenv("RELIEF_CACHE_DIR", saved.c_str(), 1);
-    else
-        ::unsetenv("RELIEF_CACHE_DIR");
     CHECK(bake_entry.size() > 0);
 }
 
@@ -164,17 +195,8 @@ TEST_CASE("VkFFT's programs are kept on disk too, and an unusable entry falls ba
     namespace fs = std::filesystem;
     const fs::path dir = fs::path(RELIEF_TEST_TMP) / "vkfft_cache";
     fs::remove_all(dir);
-    const char* before = std::getenv("RELIEF_CACHE_DIR");
-    const std::string saved = before ? before : "";
-    ::setenv("RELIEF_CACHE_DIR", dir.c_str(), 1);
-    const auto entries = [&] {
-        std::vector<fs::path> v;
-        if (fs::exists(dir))
-            for (const auto& e : fs::directory_iterator(dir))
-                v.push_back(e.path());
-        std::sort(v.begin(), v.end());
-        return v;
-    };
+    CacheDirForTest cache(dir.string());
+    const auto entries = [&] { return files_in(dir); };
     // A round trip of a ramp through a fresh context's 64 x 48 plan (VkFFT's
     // 2-D path: its programs only); the transformed values, to compare bits.
     const auto transform = [] {
@@ -225,10 +247,6 @@ TEST_CASE("VkFFT's programs are kept on disk too, and an unusable entry falls ba
     CHECK(transform() == first);  // and the next plan from the entries stored anew
     for (const fs::path& p : vkfft)
         CHECK(relief::test::slurp(p) != relief::test::slurp(ddm));
-    if (before)
-        ::setenv("RELIEF_CACHE_DIR", saved.c_str(), 1);
-    else
-        ::unsetenv("RELIEF_CACHE_DIR");
 }
 
 TEST_CASE("plans are kept by kind and size, the least recently used dropped first", "[host][cache]")
