@@ -303,6 +303,8 @@ Program parse_command_line(const std::vector<std::string>& args, bool check_inpu
         s.bake.exec.device = prog.device;
         s.slopes.exec.device = prog.device;
         s.height.exec.device = prog.device;
+        s.normals.exec.device = prog.device;
+        s.tessellation.exec.device = prog.device;
     }
     return prog;
 }

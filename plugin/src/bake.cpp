@@ -60,6 +60,8 @@ BakeKind resolve_kind(const BakeOptions& o, const ImageBuf& tex, const std::vect
     const std::string method = tex.spec().get_string_attribute("relief:method");
     if (method == "rays" || method == "poisson")
         return BakeKind::Height;
+    if (method == "normals")
+        return BakeKind::Normal;
     if (nch == 1 && name_has(tex.name(), {"height", "disp", "bump", "depth"}))
         return BakeKind::Height;
     if (name_has(tex.name(), {"normal", "nrm"}) || looks_like_normals(px, nch))

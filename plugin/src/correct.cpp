@@ -10,6 +10,7 @@
 #include "compute_context.h"
 #include "correct_stage.h"
 #include "normal_stage.h"
+#include "seams.h"
 #include "operation_table.h"
 
 namespace relief {
@@ -35,41 +36,6 @@ void validate(const CorrectOptions& o)
         throw std::invalid_argument("give a fixation mask or a height tent, not both");
 }
 
-// Periodic when, along both axes, the height jump across the wrap seam is
-// at most twice the mean jump between neighbours.
-bool seams_continuous(const std::vector<float>& h, int w, int ht, double& ratio_x, double& ratio_y)
-{
-    auto at = [&](int x, int y) { return double(h[std::size_t(y) * w + x]); };
-    double seam_x = 0, in_x = 0, seam_y = 0, in_y = 0;
-    for (int y = 0; y < ht; ++y) {
-        seam_x += std::abs(at(0, y) - at(w - 1, y));
-        for (int x = 0; x + 1 < w; ++x)
-            in_x += std::abs(at(x + 1, y) - at(x, y));
-    }
-    for (int x = 0; x < w; ++x) {
-        seam_y += std::abs(at(x, 0) - at(x, ht - 1));
-        for (int y = 0; y + 1 < ht; ++y)
-            in_y += std::abs(at(x, y + 1) - at(x, y));
-    }
-    seam_x /= ht;
-    seam_y /= w;
-    in_x /= std::max(1, (w - 1) * ht);
-    in_y /= std::max(1, (ht - 1) * w);
-    ratio_x = in_x > 0 ? seam_x / in_x : (seam_x > 0 ? INFINITY : 1.0);
-    ratio_y = in_y > 0 ? seam_y / in_y : (seam_y > 0 ? INFINITY : 1.0);
-    return ratio_x <= 2.0 && ratio_y <= 2.0;
-}
-
-std::vector<float> channel0(const ImageBuf& img, ROI roi, const char* what)
-{
-    std::vector<float> v(std::size_t(roi.width()) * roi.height());
-    ROI r = roi;
-    r.chbegin = 0;
-    r.chend = 1;
-    if (!img.get_pixels(r, TypeDesc::FLOAT, v.data()))
-        throw std::runtime_error(std::string("cannot read the ") + what + "'s pixels: " + img.geterror());
-    return v;
-}
 
 } // namespace
 
@@ -114,15 +80,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         validate(options);
         roi = detail::resolve_roi(height, roi);
         const int w = roi.width(), h = roi.height();
-        if (height.nchannels() > 1)
-            detail::say(options.exec, Severity::Info,
-                        "correct: the height map has " + std::to_string(height.nchannels()) +
-                            " channels; using channel 0");
-        const std::vector<float> heights = channel0(height, roi, "height map");
-        for (std::size_t i = 0; i < heights.size(); ++i)
-            if (!std::isfinite(heights[i]))
-                throw std::runtime_error("the height map has a NaN or infinite value at texel (" +
-                                         std::to_string(i % w) + ", " + std::to_string(i / w) + ")");
+        const std::vector<float> heights = detail::height_channel(height, roi, options.exec, "correct");
 
         host::CorrectParams p;
         p.scale = options.scale;
@@ -137,7 +95,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         p.corner_nodes = options.nodes == CorrectNodes::Corner;
         double rx = 0, ry = 0;
         if (options.boundary == CorrectBoundary::Auto) {
-            p.periodic = w > 1 && h > 1 && seams_continuous(heights, w, h, rx, ry);
+            p.periodic = w > 1 && h > 1 && detail::seams_continuous(heights, w, h, rx, ry);
             detail::say(options.exec, Severity::Notice,
                         std::string("correct: boundary ") + (p.periodic ? "periodic" : "fixed") +
                             " (height jump across the wrap seam / mean jump between neighbours: x " +
@@ -153,7 +111,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
                 throw std::runtime_error("the fixation mask is " + std::to_string(m.spec().width) + "x" +
                                          std::to_string(m.spec().height) + ", the height map " +
                                          std::to_string(w) + "x" + std::to_string(h));
-            fix = channel0(m, m.roi(), "fixation mask");
+            fix = detail::channel0(m, m.roi(), "fixation mask");
             for (float v : fix)
                 if (!(v >= 0.0f) || !std::isfinite(v))
                     throw std::runtime_error("fixation weights must be finite and >= 0");

@@ -253,7 +253,23 @@ bool write_image(const ImageBuf& image, const std::string& path, const WriteOpti
     ImageBuf mapped;
     const ImageBuf* out = &image;
     const bool integer = format.basetype == TypeDesc::UINT8 || format.basetype == TypeDesc::UINT16;
-    if (integer && !image.spec().get_string_attribute("relief:method").empty()) {
+    const std::string method = image.spec().get_string_attribute("relief:method");
+    if (integer && (method == "normals" || method == "tessellation")) {
+        // Unit normals as (v + 1)/2, the usual encoding; levels as the code itself.
+        const ImageSpec& spec = image.spec();
+        std::vector<float> px(spec.image_pixels() * spec.nchannels);
+        if (!image.get_pixels(image.roi(), TypeDesc::FLOAT, px.data())) {
+            detail::set_error("cannot write '" + path + "': its pixels cannot be read: " +
+                              image.geterror());
+            return false;
+        }
+        const double top = format.basetype == TypeDesc::UINT8 ? 255.0 : 65535.0;
+        for (float& v : px)
+            v = method == "normals" ? 0.5f * (v + 1.0f) : float(double(v) / top);
+        mapped.reset(spec);
+        mapped.set_pixels(mapped.roi(), TypeDesc::FLOAT, px.data());
+        out = &mapped;
+    } else if (integer && !method.empty()) {
         const ImageSpec& spec = image.spec();
         std::vector<float> px(spec.image_pixels() * spec.nchannels);
         if (!image.get_pixels(image.roi(), TypeDesc::FLOAT, px.data())) {

@@ -530,11 +530,75 @@ Operation bake_operation()
     return op;
 }
 
+const ImageSlot kHeight{"height", 1, 4096, "displacement in texels; channel 0 is used"};
+
+Operation normals_operation()
+{
+    Operation op;
+    op.info = {"normals",
+               "height map -> its normal map (3 channels, unit vectors; float files hold [-1, 1], "
+               "integer files (v + 1)/2): the inverse of the slopes, by central differences",
+               {kHeight},
+               {{"normals", 3, 3, "tangent-space normal map in the chosen green convention"}},
+               {}};
+    auto n = [](auto& c) -> auto& { return c.normals; };
+    op.modifiers = {
+        choice("normal", [n](auto& c) -> auto& { return n(c).convention; },
+               std::vector<std::pair<std::string, NormalConvention>>{
+                   {"opengl", NormalConvention::OpenGL}, {"directx", NormalConvention::DirectX}},
+               "", "green convention to store: opengl (Y+, G = -n_y) or directx (Y-, G = +n_y)"),
+        number("scale", ModifierType::Number, [n](auto& c) -> auto& { return n(c).scale; }, 0, true,
+               1e9, false, "S", "", "", "the height (texels) is multiplied by S first"),
+        choice("boundary", [n](auto& c) -> auto& { return n(c).boundary; },
+               std::vector<std::pair<std::string, Boundary>>{{"auto", Boundary::Auto},
+                                                            {"periodic", Boundary::Periodic},
+                                                            {"free", Boundary::Free}},
+               "",
+               "periodic: differences wrap; free: one-sided at the edges; auto: the height's own "
+               "(relief:parameters), else periodic when it is continuous across the wrap seams"),
+    };
+    op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
+        return relief::normals(dst, *in[0], c.normals);
+    };
+    return op;
+}
+
+// patch, error, scale: shared by --tessellation and --mesh.
+template <class F>
+std::vector<Modifier> tessellation_modifiers(F t)
+{
+    return {
+        number("patch", ModifierType::Integer, [t](auto& c) -> auto& { return t(c).patch; }, 1, false,
+               4096, false, "P", "texels", "", "patch size: one level per P x P texels"),
+        number("error", ModifierType::Number, [t](auto& c) -> auto& { return t(c).error; }, 0, true,
+               1e9, false, "E", "texels x S", "",
+               "the largest deviation of the tessellated surface from S x height at a texel centre"),
+        number("scale", ModifierType::Number, [t](auto& c) -> auto& { return t(c).scale; }, 0, true,
+               1e9, false, "S", "", "", "the surface is S x height (texels)"),
+    };
+}
+
+Operation tessellation_operation()
+{
+    Operation op;
+    op.info = {"tessellation",
+               "height map -> tessellation levels (1 channel, ceil(W/P) x ceil(H/P)): per patch the "
+               "lowest level 1..64 whose L x L quads stay within E of the surface; flat patches 1",
+               {kHeight},
+               {{"levels", 1, 1, "level per patch, 1..64"}},
+               {}};
+    op.modifiers = tessellation_modifiers([](auto& c) -> auto& { return c.tessellation; });
+    op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
+        return relief::tessellation(dst, *in[0], c.tessellation);
+    };
+    return op;
+}
+
 const std::vector<Operation>& table()
 {
     static const std::vector<Operation> ops = [] {
         std::vector<Operation> v = {slopes_operation(), height_operation(), correct_operation(),
-                                    bake_operation()};
+                                    bake_operation(), normals_operation(), tessellation_operation()};
         const OperationCall defaults;
         for (Operation& op : v)
             for (Modifier& m : op.modifiers) {
@@ -778,6 +842,7 @@ bool run_operation(ImageBuf& dst, const OperationCall& call,
                                             "' is missing (null)");
         OperationCall c = call;
         c.slopes.exec = c.height.exec = c.correct.exec = c.bake.exec = exec;
+        c.normals.exec = c.tessellation.exec = exec;
         return op.run(dst, c, inputs);
     } catch (const std::exception& e) {
         detail::set_error(e.what());

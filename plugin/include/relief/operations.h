@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "relief/bake.h"
+#include "relief/check.h"
 #include "relief/correct.h"
 #include "relief/export.h"
 #include "relief/height.h"
@@ -72,6 +73,8 @@ struct OperationCall {
     HeightOptions height;
     CorrectOptions correct;
     BakeOptions bake;
+    NormalsOptions normals;
+    TessellationOptions tessellation;
     std::string mask_file;  // height: mask=FILE, read by run_operation() unless height.mask is set
     std::string fix_file;   // correct: fix=FILE, read by run_operation() unless correct.fix_mask is set
 };

@@ -5,6 +5,7 @@
 #include "relief/devices.h"
 #include "relief/errors.h"
 #include "relief/bake.h"
+#include "relief/check.h"
 #include "relief/correct.h"
 #include "relief/height.h"
 #include "relief/imageio.h"

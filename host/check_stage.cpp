@@ -1,0 +1,145 @@
+#include "check_stage.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "errors.h"
+#include "opencl_context.h"
+
+namespace relief::host {
+
+namespace {
+
+std::size_t texels(int w, int ht)
+{
+    if (w < 1 || ht < 1)
+        throw Error("checking a result needs a non-empty height map");
+    check_index_range(w, ht, "the check stage");
+    return std::size_t(w) * std::size_t(ht);
+}
+
+Error opencl_error(const cl::Error& e)
+{
+    return Error(std::string("OpenCL error in the check stage: ") + e.what() + " (" +
+                 std::to_string(e.err()) + ")");
+}
+
+} // namespace
+
+void height_normals(ComputeContext& ctx, const float* h, int w, int ht, bool periodic, float scale,
+                    bool directx, float* out)
+{
+    const std::size_t n = texels(w, ht);
+    auto& c = ctx.impl();
+    std::lock_guard<std::mutex> lock(c.mutex);
+    try {
+        cl::Buffer in = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n,
+                                 "the normals", h);
+        cl::Buffer normals = c.buffer(CL_MEM_WRITE_ONLY, 3 * sizeof(float) * n, "the normals");
+        cl::Kernel k(c.program("check.cl"), "height_normals");
+        k.setArg(0, in);
+        k.setArg(1, cl_int(w));
+        k.setArg(2, cl_int(ht));
+        k.setArg(3, cl_int(periodic));
+        k.setArg(4, cl_float(scale));
+        k.setArg(5, cl_float(directx ? 1.0f : -1.0f));
+        k.setArg(6, normals);
+        c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(n)), cl::NDRange(kGroupSize));
+        c.queue.enqueueReadBuffer(normals, CL_TRUE, 0, 3 * sizeof(float) * n, out);
+    } catch (const cl::Error& e) {
+        throw opencl_error(e);
+    }
+}
+
+RoundTrip round_trip(ComputeContext& ctx, const DeviceSlopes& slopes, const float* h, bool periodic,
+                     bool keep_angles)
+{
+    const int w = slopes.width(), ht = slopes.height();
+    const std::size_t n = texels(w, ht);
+    std::vector<float> angle(n), residual(2 * n);
+    {
+        auto& c = ctx.impl();
+        std::lock_guard<std::mutex> lock(c.mutex);
+        try {
+            cl::Buffer in = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n,
+                                     "the round trip", h);
+            cl::Buffer a = c.buffer(CL_MEM_WRITE_ONLY, sizeof(float) * n, "the round trip");
+            cl::Buffer r = c.buffer(CL_MEM_WRITE_ONLY, 2 * sizeof(float) * n, "the round trip");
+            cl::Kernel k(c.program("check.cl"), "round_trip");
+            k.setArg(0, slopes.impl().buffer);
+            k.setArg(1, in);
+            k.setArg(2, cl_int(w));
+            k.setArg(3, cl_int(ht));
+            k.setArg(4, cl_int(periodic));
+            k.setArg(5, a);
+            k.setArg(6, r);
+            c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(n)), cl::NDRange(kGroupSize));
+            c.queue.enqueueReadBuffer(a, CL_TRUE, 0, sizeof(float) * n, angle.data());
+            c.queue.enqueueReadBuffer(r, CL_TRUE, 0, 2 * sizeof(float) * n, residual.data());
+        } catch (const cl::Error& e) {
+            throw opencl_error(e);
+        }
+    }
+    RoundTrip t;
+    double sum = 0.0, misfit = 0.0, energy = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+        sum += angle[i];
+        t.max_deg = std::max(t.max_deg, double(angle[i]));
+        misfit += residual[2 * i];
+        energy += residual[2 * i + 1];
+    }
+    t.mean_deg = sum / double(n);
+    t.residual_share = energy > 0.0 ? misfit / energy : 0.0;
+    if (keep_angles)
+        t.angle_deg = angle;
+    // The 95th percentile: the value of rank ceil(0.95 n) (nearest rank).
+    const std::size_t rank = std::size_t(std::ceil(0.95 * double(n))) - 1;
+    std::nth_element(angle.begin(), angle.begin() + std::ptrdiff_t(rank), angle.end());
+    t.p95_deg = angle[rank];
+    return t;
+}
+
+std::vector<std::uint8_t> tessellation_levels(ComputeContext& ctx, const float* h, int w, int ht,
+                                              int patch, float error, float scale)
+{
+    const std::size_t n = texels(w, ht);
+    if (patch < 1)
+        throw Error("the tessellation patch must be at least 1 texel");
+    const int px = (w + patch - 1) / patch, py = (ht + patch - 1) / patch;
+    const std::size_t patches = std::size_t(px) * std::size_t(py);
+    std::vector<std::uint8_t> pass(patches * kMaxTessellationLevel);
+    auto& c = ctx.impl();
+    {
+        std::lock_guard<std::mutex> lock(c.mutex);
+        try {
+            cl::Buffer in = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n,
+                                     "the tessellation levels", h);
+            cl::Buffer out = c.buffer(CL_MEM_WRITE_ONLY, pass.size(), "the tessellation levels");
+            cl::Kernel k(c.program("check.cl"), "tessellation_pass");
+            k.setArg(0, in);
+            k.setArg(1, cl_int(w));
+            k.setArg(2, cl_int(ht));
+            k.setArg(3, cl_int(patch));
+            k.setArg(4, cl_float(error));
+            k.setArg(5, cl_float(scale));
+            k.setArg(6, cl_int(px));
+            k.setArg(7, cl_int(patches));
+            k.setArg(8, out);
+            c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(pass.size())),
+                                         cl::NDRange(kGroupSize));
+            c.queue.enqueueReadBuffer(out, CL_TRUE, 0, pass.size(), pass.data());
+        } catch (const cl::Error& e) {
+            throw opencl_error(e);
+        }
+    }
+    std::vector<std::uint8_t> levels(patches, 0);
+    for (std::size_t p = 0; p < patches; ++p)
+        for (int L = 1; L <= kMaxTessellationLevel; ++L)
+            if (pass[p * kMaxTessellationLevel + std::size_t(L - 1)]) {
+                levels[p] = std::uint8_t(L);
+                break;
+            }
+    return levels;
+}
+
+} // namespace relief::host

@@ -1,0 +1,122 @@
+// relief::normals and relief::tessellation — checking a height (DESIGN §9).
+#include "relief/check.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <vector>
+
+#include "check_stage.h"
+#include "compute_context.h"
+#include "normal_stage.h"
+#include "operation_table.h"
+#include "seams.h"
+
+namespace relief {
+
+using OIIO::ImageBuf;
+using OIIO::ROI;
+using OIIO::TypeDesc;
+
+bool normals(ImageBuf& dst, const ImageBuf& height, const NormalsOptions& options, ROI roi, int)
+{
+    try {
+        OperationCall call;
+        call.normals = options;
+        detail::check_modifier_values("normals", call);
+        roi = detail::resolve_roi(height, roi);
+        const int w = roi.width(), ht = roi.height();
+        const std::vector<float> h = detail::height_channel(height, roi, options.exec, "normals");
+        const bool periodic =
+            detail::height_is_periodic(height, h, w, ht, options.boundary, options.exec, "normals");
+        auto ctx = host::ComputeContext::acquire(options.exec.device);
+        std::vector<float> n(3 * h.size());
+        const bool directx = options.convention == NormalConvention::DirectX;
+        host::height_normals(*ctx, h.data(), w, ht, periodic, options.scale, directx, n.data());
+
+        OIIO::ImageSpec spec(w, ht, 3, TypeDesc::FLOAT);
+        spec.x = roi.xbegin;
+        spec.y = roi.ybegin;
+        spec.channelnames = {"R", "G", "B"};
+        spec.attribute("relief:method", "normals");
+        spec.attribute("relief:normal_convention", directx ? "directx" : "opengl");
+        spec.attribute("relief:parameters",
+                       std::string("normal=") + (directx ? "directx" : "opengl") +
+                           " scale=" + detail::format_double("%.9g", options.scale) +
+                           " boundary=" + (periodic ? "periodic" : "free"));
+        dst.reset(spec);
+        dst.set_pixels(dst.roi(), TypeDesc::FLOAT, n.data());
+        return true;
+    } catch (const std::exception& e) {
+        return detail::fail(dst, "normals", e);
+    }
+}
+
+ImageBuf normals(const ImageBuf& height, const NormalsOptions& options, ROI roi, int nthreads)
+{
+    ImageBuf dst;
+    normals(dst, height, options, roi, nthreads);
+    return dst;
+}
+
+bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptions& options, ROI roi,
+                  int)
+{
+    try {
+        OperationCall call;
+        call.tessellation = options;
+        detail::check_modifier_values("tessellation", call);
+        roi = detail::resolve_roi(height, roi);
+        const int w = roi.width(), ht = roi.height();
+        const std::vector<float> h = detail::height_channel(height, roi, options.exec, "tessellation");
+        auto ctx = host::ComputeContext::acquire(options.exec.device);
+        std::vector<std::uint8_t> levels = host::tessellation_levels(
+            *ctx, h.data(), w, ht, options.patch, options.error, options.scale);
+        const int px = (w + options.patch - 1) / options.patch, py = (ht + options.patch - 1) / options.patch;
+
+        // The share of patches per level, and those no level brings within E.
+        std::vector<std::size_t> count(host::kMaxTessellationLevel + 1, 0);
+        for (std::uint8_t L : levels)
+            ++count[L];
+        std::vector<float> pixels(levels.size());
+        for (std::size_t i = 0; i < levels.size(); ++i)
+            pixels[i] = levels[i] ? float(levels[i]) : float(host::kMaxTessellationLevel);
+        if (count[0] > 0)
+            detail::say(options.exec, Severity::Warning,
+                        "tessellation: " + std::to_string(count[0]) + " of " +
+                            std::to_string(levels.size()) + " patch(es) exceed error=" +
+                            detail::format_double("%g", options.error) +
+                            " even at level 64; they get 64 (use a smaller patch)");
+        std::string shares;
+        for (int L = 1; L <= host::kMaxTessellationLevel; ++L)
+            if (count[L] > 0)
+                shares += (shares.empty() ? "" : ", ") + std::string("level ") + std::to_string(L) + " " +
+                          detail::format_double("%.1f%%", 100.0 * double(count[L]) / double(levels.size()));
+        detail::say(options.exec, Severity::Info,
+                    "tessellation: " + std::to_string(px) + "x" + std::to_string(py) + " patches of " +
+                        std::to_string(options.patch) + " texels: " + shares);
+
+        OIIO::ImageSpec spec(px, py, 1, TypeDesc::FLOAT);
+        spec.channelnames = {"L"};
+        spec.attribute("relief:method", "tessellation");
+        spec.attribute("relief:patch", options.patch);
+        spec.attribute("relief:error", options.error);
+        spec.attribute("relief:scale", options.scale);
+        spec.attribute("relief:parameters", "patch=" + std::to_string(options.patch) +
+                                                " error=" + detail::format_double("%.9g", options.error) +
+                                                " scale=" + detail::format_double("%.9g", options.scale));
+        dst.reset(spec);
+        dst.set_pixels(dst.roi(), TypeDesc::FLOAT, pixels.data());
+        return true;
+    } catch (const std::exception& e) {
+        return detail::fail(dst, "tessellation", e);
+    }
+}
+
+ImageBuf tessellation(const ImageBuf& height, const TessellationOptions& options, ROI roi, int nthreads)
+{
+    ImageBuf dst;
+    tessellation(dst, height, options, roi, nthreads);
+    return dst;
+}
+
+} // namespace relief

@@ -1,0 +1,85 @@
+#include "seams.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <stdexcept>
+
+#include "normal_stage.h"
+
+namespace relief::detail {
+
+std::vector<float> channel0(const OIIO::ImageBuf& img, OIIO::ROI roi, const char* what)
+{
+    std::vector<float> v(std::size_t(roi.width()) * roi.height());
+    OIIO::ROI r = roi;
+    r.chbegin = 0;
+    r.chend = 1;
+    if (!img.get_pixels(r, OIIO::TypeDesc::FLOAT, v.data()))
+        throw std::runtime_error(std::string("cannot read the ") + what + "'s pixels: " + img.geterror());
+    return v;
+}
+
+std::vector<float> height_channel(const OIIO::ImageBuf& height, OIIO::ROI roi, const Execution& exec,
+                                  const std::string& operation)
+{
+    if (height.nchannels() > 1)
+        say(exec, Severity::Info,
+            operation + ": the height map has " + std::to_string(height.nchannels()) +
+                " channels; using channel 0");
+    std::vector<float> h = channel0(height, roi, "height map");
+    const int w = roi.width();
+    for (std::size_t i = 0; i < h.size(); ++i)
+        if (!std::isfinite(h[i]))
+            throw std::runtime_error("the height map has a NaN or infinite value at texel (" +
+                                     std::to_string(i % w) + ", " + std::to_string(i / w) + ")");
+    return h;
+}
+
+// Periodic when, along both axes, the height jump across the wrap seam is
+// at most twice the mean jump between neighbours.
+bool seams_continuous(const std::vector<float>& h, int w, int ht, double& ratio_x, double& ratio_y)
+{
+    auto at = [&](int x, int y) { return double(h[std::size_t(y) * w + x]); };
+    double seam_x = 0, in_x = 0, seam_y = 0, in_y = 0;
+    for (int y = 0; y < ht; ++y) {
+        seam_x += std::abs(at(0, y) - at(w - 1, y));
+        for (int x = 0; x + 1 < w; ++x)
+            in_x += std::abs(at(x + 1, y) - at(x, y));
+    }
+    for (int x = 0; x < w; ++x) {
+        seam_y += std::abs(at(x, 0) - at(x, ht - 1));
+        for (int y = 0; y + 1 < ht; ++y)
+            in_y += std::abs(at(x, y + 1) - at(x, y));
+    }
+    seam_x /= ht;
+    seam_y /= w;
+    in_x /= std::max(1, (w - 1) * ht);
+    in_y /= std::max(1, (ht - 1) * w);
+    ratio_x = in_x > 0 ? seam_x / in_x : (seam_x > 0 ? INFINITY : 1.0);
+    ratio_y = in_y > 0 ? seam_y / in_y : (seam_y > 0 ? INFINITY : 1.0);
+    return ratio_x <= 2.0 && ratio_y <= 2.0;
+}
+
+bool height_is_periodic(const OIIO::ImageBuf& height, const std::vector<float>& h, int w, int ht,
+                        Boundary requested, const Execution& exec, const std::string& operation)
+{
+    if (requested != Boundary::Auto)
+        return requested == Boundary::Periodic;
+    const std::string parameters = height.spec().get_string_attribute("relief:parameters");
+    for (const char* b : {"periodic", "free", "clip"})
+        if (parameters.find(std::string("boundary=") + b) != std::string::npos) {
+            say(exec, Severity::Info,
+                operation + ": boundary " + (b[0] == 'p' ? "periodic" : "free") +
+                    " (the height was integrated with boundary=" + b + ")");
+            return b[0] == 'p';
+        }
+    double rx = 0.0, ry = 0.0;
+    const bool periodic = w > 1 && ht > 1 && seams_continuous(h, w, ht, rx, ry);
+    say(exec, Severity::Notice,
+        operation + ": boundary " + (periodic ? "periodic" : "free") +
+            " (height jump across the wrap seam / mean jump between neighbours: x " +
+            format_double("%.2f", rx) + ", y " + format_double("%.2f", ry) + "; periodic when both <= 2)");
+    return periodic;
+}
+
+} // namespace relief::detail

@@ -1,0 +1,35 @@
+#pragma once
+// Whether a height map tiles: its jumps across the wrap seams against those
+// between neighbours. correct's boundary=auto and the checks of a height
+// (normals, preview, tessellation) share it.
+#include <OpenImageIO/imagebuf.h>
+
+#include <string>
+#include <vector>
+
+#include "relief/height.h"
+#include "relief/options.h"
+
+namespace relief::detail {
+
+// Channel 0 of `img` over `roi` as floats; throws naming `what` ("the
+// height map") when the pixels cannot be read.
+std::vector<float> channel0(const OIIO::ImageBuf& img, OIIO::ROI roi, const char* what);
+
+// A height map's channel 0 over `roi` (saying so, as `operation`'s Info,
+// when it has more channels); throws at the first NaN or infinite value.
+std::vector<float> height_channel(const OIIO::ImageBuf& height, OIIO::ROI roi, const Execution& exec,
+                                  const std::string& operation);
+
+// Periodic when, along both axes, the height jump across the wrap seam is
+// at most twice the mean jump between neighbours; the two ratios are returned.
+bool seams_continuous(const std::vector<float>& h, int w, int ht, double& ratio_x, double& ratio_y);
+
+// The boundary a check applies to `height` (its pixels h, w x ht):
+// `requested` unless Auto; then the boundary relief:parameters records (the
+// one the height was integrated with), else the seam test. Says which, and
+// why, as `operation`'s Notice.
+bool height_is_periodic(const OIIO::ImageBuf& height, const std::vector<float>& h, int w, int ht,
+                        Boundary requested, const Execution& exec, const std::string& operation);
+
+} // namespace relief::detail

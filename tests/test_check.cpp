@@ -1,0 +1,193 @@
+// Checking a result: --normals (height -> normal map), the round trip of
+// --height, tessellation levels, the displaced mesh and the preview sheet,
+// against the golden model of tests/reference/check_reference and
+// independent computations.
+#include <catch2/catch.hpp>
+
+#include <OpenImageIO/imagebuf.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <random>
+
+#include "reference/check_reference.h"
+#include "relief/check.h"
+#include "relief/errors.h"
+#include "relief/height.h"
+#include "relief/imageio.h"
+#include "support/fields.h"
+#include "support/images.h"
+#include "support/run_cli.h"
+
+using namespace relief;
+namespace fs = std::filesystem;
+using relief::test::run_cli;
+
+namespace {
+
+const std::string kNormalMap = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
+
+std::vector<float> random_heights(int w, int ht, unsigned seed, float amp)
+{
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-amp, amp);
+    std::vector<float> v(std::size_t(w) * ht);
+    for (float& x : v)
+        x = u(rng);
+    return v;
+}
+
+std::vector<double> as_double(const std::vector<float>& v)
+{
+    return std::vector<double>(v.begin(), v.end());
+}
+
+} // namespace
+
+TEST_CASE("normals: the device equals the golden model", "[check]")
+{
+    // Odd sizes, 1- and 2-texel lines: the edges and wraps of every case.
+    for (auto [w, ht] : {std::pair{37, 23}, std::pair{1, 9}, std::pair{2, 5}, std::pair{64, 64}})
+        for (bool periodic : {true, false})
+            for (bool directx : {false, true}) {
+                const std::vector<float> h = random_heights(w, ht, unsigned(w * 7 + ht), 3.0f);
+                NormalsOptions o;
+                o.boundary = periodic ? Boundary::Periodic : Boundary::Free;
+                o.convention = directx ? NormalConvention::DirectX : NormalConvention::OpenGL;
+                o.scale = 0.7f;
+                OIIO::ImageBuf out = relief::normals(test::image(w, ht, 1, h), o);
+                REQUIRE(out.initialized());
+                REQUIRE(out.nchannels() == 3);
+                const auto want = reference::height_normals(as_double(h), w, ht, periodic, 0.7, directx);
+                INFO(w << "x" << ht << " periodic " << periodic << " directx " << directx);
+                CHECK(test::max_abs_diff(test::pixels(out), want) < 1e-5);
+            }
+}
+
+TEST_CASE("normals: a tilted plane gives its own normal, one-sided at free edges", "[check]")
+{
+    // h = 0.5 x - 2 y: every difference, central or one-sided, is exact.
+    const int w = 9, ht = 7;
+    std::vector<float> h(w * ht);
+    for (int y = 0; y < ht; ++y)
+        for (int x = 0; x < w; ++x)
+            h[y * w + x] = 0.5f * x - 2.0f * y;
+    NormalsOptions o;
+    o.boundary = Boundary::Free;
+    const std::vector<float> n = test::pixels(relief::normals(test::image(w, ht, 1, h), o));
+    const double len = std::sqrt(0.25 + 4.0 + 1.0);
+    for (std::size_t t = 0; t < h.size(); ++t) {
+        CHECK(n[3 * t] == Approx(-0.5 / len).margin(1e-6));
+        CHECK(n[3 * t + 1] == Approx(-(2.0 / len)).margin(1e-6));  // OpenGL: G = -n_y, n_y = 2/len
+        CHECK(n[3 * t + 2] == Approx(1.0 / len).margin(1e-6));
+    }
+}
+
+TEST_CASE("normals: auto takes the boundary the height was integrated with", "[check]")
+{
+    // A ramp jumps across the seam: the seam test alone says free.
+    const int w = 16, ht = 16;
+    std::vector<float> h(w * ht);
+    for (int i = 0; i < w * ht; ++i)
+        h[i] = float(i % w);
+    OIIO::ImageBuf img = test::image(w, ht, 1, h);
+    NormalsOptions free_o, periodic_o, auto_o;
+    free_o.boundary = Boundary::Free;
+    periodic_o.boundary = Boundary::Periodic;
+    const auto f = test::pixels(relief::normals(img, free_o));
+    const auto p = test::pixels(relief::normals(img, periodic_o));
+    CHECK(test::max_abs_diff(test::pixels(relief::normals(img, auto_o)), f) == 0.0);
+    img.specmod().attribute("relief:parameters", "method=poisson boundary=periodic highpass=0");
+    CHECK(test::max_abs_diff(test::pixels(relief::normals(img, auto_o)), p) == 0.0);
+    CHECK(test::max_abs_diff(f, p) > 0.1);
+}
+
+TEST_CASE("normals: refuses NaN heights and directx/opengl only", "[check]")
+{
+    std::vector<float> h(16, 0.0f);
+    h[5] = NAN;
+    OIIO::ImageBuf out;
+    CHECK_FALSE(relief::normals(out, test::image(4, 4, 1, h)));
+    CHECK_THAT(geterror(), Catch::Contains("NaN or infinite value at texel (1, 1)"));
+    NormalsOptions o;
+    o.convention = NormalConvention::Auto;
+    CHECK_FALSE(relief::normals(out, test::image(4, 4, 1, std::vector<float>(16, 0.0f)), o));
+}
+
+TEST_CASE("normals: the command line writes (v + 1)/2 in integer files and the decoded height round-trips", "[check][cli]")
+{
+    const fs::path d = test::scratch("check_normals_cli");
+    const auto r = run_cli("'" + kNormalMap + "' --height:normal=opengl -o '" + (d / "h.exr").string() +
+                           "' --normals:normal=directx -o '" + (d / "n.exr").string() + "' -d uint16 -o '" +
+                           (d / "n.png").string() + "'");
+    REQUIRE(r.rc == 0);
+    const auto f = test::file_pixels(d / "n.exr"), u = test::file_pixels(d / "n.png");
+    REQUIRE(f.size() == u.size());
+    std::vector<float> decoded(u.size());
+    for (std::size_t i = 0; i < u.size(); ++i)
+        decoded[i] = 2.0f * u[i] - 1.0f;
+    CHECK(test::max_abs_diff(f, decoded) < 2.0 / 65535.0);
+    // The float file against the golden model of the height just written.
+    const auto h = test::file_pixels(d / "h.exr");
+    const auto want = reference::height_normals(as_double(h), 512, 512, true, 1.0, true);
+    CHECK(test::max_abs_diff(f, want) < 1e-5);
+}
+
+TEST_CASE("tessellation: the device's levels are the golden model's", "[check]")
+{
+    for (auto [w, ht, patch] : {std::tuple{70, 45, 16}, std::tuple{64, 64, 32}, std::tuple{33, 17, 8}}) {
+        const std::vector<float> hf = test::waves(w, ht, 6.0, unsigned(w));
+        const auto err = reference::tessellation_errors(as_double(hf), w, ht, patch, 2.0);
+        for (float e : {0.05f, 0.5f}) {
+            TessellationOptions o;
+            o.patch = patch;
+            o.error = e;
+            o.scale = 2.0f;
+            OIIO::ImageBuf lv = relief::tessellation(test::image(w, ht, 1, hf), o);
+            REQUIRE(lv.spec().width == (w + patch - 1) / patch);
+            REQUIRE(lv.spec().height == (ht + patch - 1) / patch);
+            const auto got = test::pixels(lv);
+            for (std::size_t p = 0; p < got.size(); ++p) {
+                int want = 64;
+                for (int L = 64; L >= 1; --L)
+                    if (err[p * 64 + L - 1] <= e)
+                        want = L;
+                // float against double: only a level whose error is within
+                // 1e-4 of E may come out the other way.
+                bool borderline = false;
+                for (int L = 1; L <= 64; ++L)
+                    borderline |= std::abs(err[p * 64 + L - 1] - e) < 1e-4;
+                INFO(w << "x" << ht << " patch " << patch << " E " << e << " p " << p);
+                if (!borderline)
+                    CHECK(got[p] == want);
+            }
+        }
+    }
+}
+
+TEST_CASE("tessellation: flat patches get level 1, detail more", "[check]")
+{
+    // A 512^2 map whose left half is flat.
+    const int w = 512, ht = 512;
+    std::vector<float> h = test::waves(w, ht, 20.0, 3);
+    for (int y = 0; y < ht; ++y)
+        for (int x = 0; x < w / 2; ++x)
+            h[std::size_t(y) * w + x] = 1.5f;
+    TessellationOptions o;
+    o.patch = 32;
+    o.error = 0.5f;
+    const auto lv = test::pixels(relief::tessellation(test::image(w, ht, 1, h), o));
+    REQUIRE(lv.size() == 16 * 16);
+    int raised = 0;
+    for (int py = 0; py < 16; ++py)
+        for (int px = 0; px < 16; ++px) {
+            INFO(px << ", " << py);
+            if (px < 8)
+                CHECK(lv[py * 16 + px] == 1.0f);
+            else
+                raised += lv[py * 16 + px] > 1.0f;
+        }
+    // Waves of amplitude 20 bend more than 0.5 texel over most 32-texel patches.
+    CHECK(raised > 100);
+}
