@@ -83,8 +83,8 @@ inline float check_bilinear(global const float* h, int w, int ht, float x, float
 // the patch centre (the main diagonal when the quad is in the top-left or
 // bottom-right quarter), so a patch corner is always a diagonal's end and no
 // triangle of a patch with L >= 2 has two edges on the patch border: the
-// mesh's stitching relies on that. One work-item per (patch, level); the
-// host takes the lowest level that passes.
+// mesh's stitching relies on that. A flat patch passes at level 1. One
+// work-item per (patch, level); the host takes the lowest level that passes.
 kernel void tessellation_pass(global const float* h, int w, int ht, int patch, float error,
                               float scale, int patches_x, int patch_count, global uchar* pass)
 {
@@ -96,6 +96,19 @@ kernel void tessellation_pass(global const float* h, int w, int ht, int patch, f
     const int x1 = min(x0 + patch, w), y1 = min(y0 + patch, ht);
     const float sx = (float)(x1 - x0) / (float)L, sy = (float)(y1 - y0) / (float)L;
     uchar ok = 1;
+    if (L == 1) {
+        // A flat patch (every texel the same height) is level 1 whatever
+        // its corners read from the neighbours: nothing to tessellate.
+        const float h0 = h[y0 * w + x0];
+        uchar flat = 1;
+        for (int j = y0; j < y1 && flat; ++j)
+            for (int i = x0; i < x1; ++i)
+                flat &= h[j * w + i] == h0;
+        if (flat) {
+            pass[gid] = 1;
+            return;
+        }
+    }
     for (int j = y0; j < y1 && ok; ++j) {
         const float v = ((float)j + 0.5f - (float)y0) / sy;
         const int b = min((int)v, L - 1);

@@ -118,7 +118,11 @@ std::vector<double> tessellation_errors(const std::vector<double>& h, int w, int
                                                (1 - fu) * z(a, b + 1);
                     worst = std::max(worst, std::abs(s - scale * h[std::size_t(j) * w + i]));
                 }
-            err[std::size_t(p) * 64 + std::size_t(L - 1)] = worst;
+            bool flat = true;
+            for (int j = y0; j < y1; ++j)
+                for (int i = x0; i < x1; ++i)
+                    flat &= h[std::size_t(j) * w + i] == h[std::size_t(y0) * w + x0];
+            err[std::size_t(p) * 64 + std::size_t(L - 1)] = L == 1 && flat ? 0.0 : worst;
         }
     }
     return err;

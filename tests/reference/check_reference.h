@@ -22,7 +22,8 @@ RoundTrip round_trip(const std::vector<double>& g, const std::vector<double>& h,
 
 // Per patch (row-major) and level L = 1..64: the largest |surface - s h| at
 // the patch's texel centres, the surface being the patch split into L x L
-// quads (diagonal away from the patch centre), vertices bilinear in s h.
+// quads (diagonal away from the patch centre), vertices bilinear in s h;
+// 0 at level 1 for a flat patch (all its texels equal).
 std::vector<double> tessellation_errors(const std::vector<double>& h, int w, int ht, int patch,
                                         double scale);
 

@@ -47,7 +47,7 @@ struct TessellationOptions {
 // centre) with vertex heights sampled bilinearly from S*h (texel (i, j) at
 // (i + 0.5, j + 0.5), clamped at the edges) keeps the surface within E of
 // S*h at every texel centre of the patch; 64 where no level does (counted
-// and reported). Flat patches are level 1. Integer files store the level
+// and reported). Flat patches (all texels equal) are level 1. Integer files store the level
 // itself as the code. Metadata: relief:method "tessellation",
 // relief:patch, relief:error, relief:scale.
 RELIEF_API OIIO::ImageBuf tessellation(const OIIO::ImageBuf& height,
