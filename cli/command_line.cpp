@@ -109,8 +109,14 @@ Arguments are read left to right over a stack of images, like oiiotool:
                         EXR (float heights barely compress), else the
                         format's own
 )") + operations_help() + R"(Options:
-  --report FILE.json    write the --correct step's report: energy, iterations,
-                        anisotropy and area ratio before/after, time
+  --report FILE.json    write a JSON report, {"height": {...}, "correct": {...}}:
+                        for --height what it chose and the round trip
+                        (angular error mean/p95/max in degrees between the
+                        input normals and the height's, residual share); for
+                        --correct energy, iterations, anisotropy and area
+                        ratio before/after; times. Written when the job ends
+  --dup                 push a copy of the top image (keep the normals
+                        under a --height, for --preview)
   --device DEV          auto (default: a GPU if any, else the CPU), gpu, cpu,
                         or PLATFORM:DEVICE as --list-devices numbers them
   --list-devices        list the OpenCL devices and exit
@@ -261,6 +267,10 @@ Program parse_command_line(const std::vector<std::string>& args, bool check_inpu
             compression = value_of(i);
             if (compression.empty())
                 throw UsageError("--compression needs a name (e.g. zip, piz, none)");
+        } else if (a == "--dup") {
+            need(a, 1);
+            prog.steps.push_back(make_step(Step::Kind::Dup, a));
+            ++depth;
         } else if (a == "-o") {
             const std::string& path = value_of(i);
             need(a, 1);
@@ -293,11 +303,15 @@ Program parse_command_line(const std::vector<std::string>& args, bool check_inpu
         throw UsageError("--shard takes a share of --batch's jobs; give --batch JOBS.txt");
     if (!prog.batch.empty() && !prog.report.empty())
         throw UsageError("--report names one file: give it in the job's line of the --batch file");
-    int corrections = 0;
-    for (const Step& s : prog.steps)
+    // The report holds one object per reporting operation, keyed by its name.
+    int heights = 0, corrections = 0;
+    for (const Step& s : prog.steps) {
+        heights += s.kind == Step::Kind::Operation && s.operation == "height";
         corrections += s.kind == Step::Kind::Operation && s.operation == "correct";
-    if (!prog.report.empty() && corrections != 1)
-        throw UsageError("--report needs exactly one --correct, there are " + std::to_string(corrections));
+    }
+    if (!prog.report.empty() && (heights + corrections == 0 || heights > 1 || corrections > 1))
+        throw UsageError("--report needs one --height or --correct, at most one of each; there are " +
+                         std::to_string(heights) + " --height and " + std::to_string(corrections) + " --correct");
     for (Step& s : prog.steps) {
         s.correct.exec.device = prog.device;
         s.bake.exec.device = prog.device;

@@ -22,7 +22,7 @@ struct UsageError : std::runtime_error {
 // operation table's: `operation` names one, and its options are parsed into
 // the OperationCall this derives from.
 struct Step : OperationCall {
-    enum class Kind { Read, Operation, Write } kind;
+    enum class Kind { Read, Operation, Write, Dup } kind;  // Dup: --dup, push a copy of the top
     std::string text;             // the argument as typed, for messages
     std::string path;             // Read, Write
     OIIO::TypeDesc format;        // Write
@@ -33,7 +33,7 @@ struct Step : OperationCall {
 struct Program {
     std::vector<Step> steps;
     std::string device = "auto";
-    std::string report;  // --report FILE.json: the --correct step's report
+    std::string report;  // --report FILE.json: the --height and --correct steps' reports
     bool verbose = false;
     bool help = false;
     bool version = false;

@@ -83,6 +83,9 @@ std::string digest_of(const Program& prog)
                 }
             break;
         }
+        case Step::Kind::Dup:
+            h.text("dup");
+            break;
         case Step::Kind::Write:
             h.text("write");
             h.text(std::string(s.format.c_str()) + (s.format_given ? " given" : " default"));

@@ -15,6 +15,7 @@
 #include <fstream>
 #include <future>
 #include <iostream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -96,6 +97,14 @@ public:
                 std::fprintf(stderr, "relief: %s%s: %.3f s\n", prog_.label.c_str(),
                              s.kind == Step::Kind::Read ? ("read " + s.path).c_str() : s.text.c_str(), sec);
         }
+        if (!prog_.report.empty()) {
+            // One object per reporting operation, in the order they ran.
+            std::string json = "{";
+            for (const auto& [key, object] : report_order())
+                json += std::string(json.size() > 1 ? ",\n" : "\n") + "  \"" + key + "\": " +
+                        indented(object);
+            relief::cli::write_text_atomically(prog_.report, json + "\n}\n", "the report");
+        }
         if (prog_.verbose && ahead_.valid()) {
             ahead_.wait();
             std::fprintf(stderr, "relief: %sset up ahead, beside the read: %.3f s\n", prog_.label.c_str(),
@@ -110,8 +119,11 @@ private:
     void prepare_ahead()
     {
         const auto& st = prog_.steps;
-        if (st.size() < 2 || st[0].kind != Step::Kind::Read || st[1].kind != Step::Kind::Operation ||
-            st[1].operation != "height" || st[1].height.method == relief::HeightMethod::Rays)
+        std::size_t first = 1;  // the first operation (a --dup before it changes nothing)
+        while (first < st.size() && st[first].kind == Step::Kind::Dup)
+            ++first;
+        if (first >= st.size() || st[0].kind != Step::Kind::Read || st[first].kind != Step::Kind::Operation ||
+            st[first].operation != "height" || st[first].height.method == relief::HeightMethod::Rays)
             return;
         int width = 0, height = 0;
         {
@@ -199,8 +211,10 @@ private:
                     throw RuntimeError("fix: " + relief::geterror());
                 call.correct.fix_mask = &fix;
             }
-            relief::CorrectReport report;
-            call.correct.report = &report;
+            call.correct.report = &correct_report_;
+            // The round trip costs a pass: only when it is reported or shown.
+            if (!prog_.report.empty() || prog_.verbose)
+                call.height.report = &height_report_;
             if (prog_.verbose && s.operation == "height")
                 message(Severity::Info, "height: " + relief::describe(call.height));
             // The inputs are the top of the stack, the first input deepest.
@@ -213,9 +227,18 @@ private:
             OIIO::ImageBuf out;
             if (!relief::run_operation(out, call, inputs, execution(s)))
                 throw RuntimeError(relief::geterror());
-            if (s.operation == "correct" && !prog_.report.empty())
-                relief::cli::write_text_atomically(prog_.report, report.to_json(), "the report");
+            if (s.operation == "correct")
+                report_["correct"] = correct_report_.to_json();
+            if (s.operation == "height" && call.height.report)
+                report_["height"] = height_report_.to_json();
             stack_.push_back(std::move(out));
+            break;
+        }
+        case Step::Kind::Dup: {
+            OIIO::ImageBuf copy;
+            if (!copy.copy(stack_.back()))
+                throw RuntimeError("--dup: " + copy.geterror());
+            stack_.push_back(std::move(copy));
             break;
         }
         case Step::Kind::Write: {
@@ -249,8 +272,35 @@ private:
         }
     }
 
+    // report_'s entries in the order of the program's steps.
+    std::vector<std::pair<std::string, std::string>> report_order() const
+    {
+        std::vector<std::pair<std::string, std::string>> v;
+        for (const Step& s : prog_.steps)
+            if (s.kind == Step::Kind::Operation && report_.count(s.operation))
+                v.emplace_back(s.operation, report_.at(s.operation));
+        return v;
+    }
+
+    // A JSON object's text indented one level (after its first line), without its last newline.
+    static std::string indented(std::string object)
+    {
+        while (!object.empty() && object.back() == '\n')
+            object.pop_back();
+        std::string out;
+        for (char c : object) {
+            out += c;
+            if (c == '\n')
+                out += "  ";
+        }
+        return out;
+    }
+
     const Program& prog_;
     const std::string digest_;
+    relief::CorrectReport correct_report_;
+    relief::HeightReport height_report_;
+    std::map<std::string, std::string> report_;  // operation -> its report's JSON object
     int outputs_ = 0;          // -o steps run so far
     std::future<void> ahead_;  // prepare_ahead(); its destructor waits for it
     std::vector<OIIO::ImageBuf> stack_;

@@ -26,6 +26,7 @@
 
 using namespace relief;
 namespace fs = std::filesystem;
+using relief::test::json_number;
 using relief::test::run_cli;
 
 namespace {
@@ -514,14 +515,6 @@ TEST_CASE("cli: a baked 8-bit normal map keeps its type and the golden direction
 }
 
 namespace {
-
-// The number after "key": in a JSON text (the first occurrence).
-double json_number(const std::string& json, const std::string& key)
-{
-    const std::size_t at = json.find("\"" + key + "\": ");
-    REQUIRE(at != std::string::npos);
-    return std::strtod(json.c_str() + at + key.size() + 4, nullptr);
-}
 
 OIIO::ImageBuf read(const std::string& path)
 {

@@ -12,6 +12,7 @@
 #include <random>
 
 #include "reference/check_reference.h"
+#include "reference/ddm_reference.h"
 #include "relief/check.h"
 #include "relief/errors.h"
 #include "relief/height.h"
@@ -22,6 +23,7 @@
 
 using namespace relief;
 namespace fs = std::filesystem;
+using relief::test::json_number;
 using relief::test::run_cli;
 
 namespace {
@@ -190,4 +192,59 @@ TEST_CASE("tessellation: flat patches get level 1, detail more", "[check]")
         }
     // Waves of amplitude 20 bend more than 0.5 texel over most 32-texel patches.
     CHECK(raised > 100);
+}
+
+TEST_CASE("round trip: --report's height object matches an independent computation", "[check][cli]")
+{
+    const fs::path d = test::scratch("check_round_trip");
+    // The golden DDM of the input (8-bit OpenGL/DirectX codes, the default 85 degree clamp).
+    const std::vector<float> codes = test::file_pixels(kNormalMap);
+    for (const char* method : {"poisson:boundary=free", "rays:radius=16:boundary=periodic"}) {
+        const bool periodic = std::string(method).find("periodic") != std::string::npos;
+        const auto r = run_cli("'" + kNormalMap + "' --height:normal=directx:method=" + method + " -o '" +
+                               (d / "h.exr").string() + "' --report '" + (d / "r.json").string() + "' -v");
+        INFO(method << ": " << r.err);
+        REQUIRE(r.rc == 0);
+        const std::string json = test::slurp(d / "r.json");
+        REQUIRE(json.find("\"height\": {") != std::string::npos);
+        CHECK(json.find("\"correct\"") == std::string::npos);
+        CHECK(json.find(std::string("\"method\": \"") + (periodic ? "rays" : "poisson") + "\"") != std::string::npos);
+        CHECK(json.find("\"normal_convention\": \"directx\"") != std::string::npos);
+        CHECK(json.find(std::string("\"boundary\": \"") + (periodic ? "periodic" : "free") + "\"") != std::string::npos);
+        const auto h = test::file_pixels(d / "h.exr");
+        const auto g = reference::ddm(codes, 3, 2.0, -1.0, +1.0, 85.0, 1.001 / 255.0).slopes;
+        const auto want = reference::round_trip(g, as_double(h), 512, 512, periodic);
+        CHECK(json_number(json, "mean") == Approx(want.mean).epsilon(1e-3));
+        CHECK(json_number(json, "p95") == Approx(want.p95).epsilon(1e-3));
+        CHECK(json_number(json, "max") == Approx(want.max).epsilon(1e-3));
+        CHECK(json_number(json, "residual_share") == Approx(want.residual_share).epsilon(1e-3));
+        CHECK(want.mean > 0.05);
+        // -v prints the same.
+        CHECK(r.err.find("round trip: angular error mean") != std::string::npos);
+    }
+}
+
+TEST_CASE("round trip: --report holds height and correct, written only when the job ends", "[check][cli]")
+{
+    const fs::path d = test::scratch("check_report_both");
+    auto r = run_cli("'" + kNormalMap + "' --dup --height -o '" + (d / "h.exr").string() +
+                     "' --correct --report '" + (d / "r.json").string() + "' -o '" + (d / "o.exr").string() + "'");
+    INFO(r.err);
+    REQUIRE(r.rc == 0);
+    const std::string json = test::slurp(d / "r.json");
+    const std::size_t hgt = json.find("\"height\": {"), cor = json.find("\"correct\": {");
+    REQUIRE(hgt != std::string::npos);
+    REQUIRE(cor != std::string::npos);
+    CHECK(hgt < cor);
+    CHECK(json_number(json, "energy_after", cor) < json_number(json, "energy_before", cor));
+    CHECK(std::isnan(json_number(json, "energy_after", 0)) == false);
+    CHECK(json_number(json, "mean", hgt) > 0.0);
+    // A job that fails after its --height (a fixation mask of the wrong
+    // size) leaves no report.
+    fs::remove(d / "r.json");
+    REQUIRE(write_image(test::image(4, 4, 1, std::vector<float>(16, 1.0f)), (d / "fix.exr").string()));
+    r = run_cli("'" + kNormalMap + "' --height --report '" + (d / "r.json").string() + "' -o '" +
+                (d / "h2.exr").string() + "' --correct:fix=" + (d / "fix.exr").string() + " -o '" + (d / "o2.exr").string() + "'");
+    CHECK(r.rc == 1);
+    CHECK_FALSE(fs::exists(d / "r.json"));
 }

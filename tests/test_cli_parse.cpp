@@ -314,12 +314,14 @@ TEST_CASE("parse: nonsense is a usage error naming the argument", "[cli][parse][
         {{kIn, kIn, "--bake:wrap=mirror"}, "wrap=mirror"},
         {{kIn, "-d", "int16", "-o", "x.exr"}, "int16"},
         {{kIn, "--compression", "", "-o", "x.exr"}, "needs a name"},
-        {{kIn, "--report", "r.json", "--height"}, "exactly one --correct"},
+        {{kIn, "--report", "r.json", "--slopes"}, "--report needs one --height or --correct, at most one of each; there are 0 --height and 0 --correct"},
+        {{kIn, "--dup", "--height", "--report", "r.json", "--dup", "--height"}, "there are 2 --height and 0 --correct"},
+        {{"--dup", kIn}, "--dup needs 1 image(s) on the stack, has 0"},
         {{"-o", "x.exr"}, "needs 1 image(s)"},
         {{kIn, "--device"}, "needs a value"},
         {{kIn, "--correct", "--report", "/nonexistent-folder/r.json"}, "its folder must exist"},
         {{kIn, "--correct", "--report", "."}, "not a writable file path"},
-        {{kIn, "--correct", "--correct", "--report", "r.json"}, "exactly one --correct, there are 2"},
+        {{kIn, "--correct", "--correct", "--report", "r.json"}, "there are 0 --height and 2 --correct"},
     };
     for (const auto& [args, message] : bad) {
         std::string joined;

@@ -1,12 +1,14 @@
 // relief::height — the integration family (normal map -> displacement).
 #include "relief/height.h"
 
+#include <chrono>
 #include <cmath>
 #include <exception>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
 
+#include "check_stage.h"
 #include "normal_stage.h"
 #include "operation_table.h"
 #include "poisson_stage.h"
@@ -114,6 +116,20 @@ std::vector<float> mask_weights(const HeightOptions& o, const ImageBuf& normals,
 
 } // namespace
 
+std::string HeightReport::to_json() const
+{
+    std::ostringstream s;
+    s.precision(9);
+    s << "{\n  \"width\": " << width << ", \"height\": " << height << ",\n";
+    s << "  \"method\": \"" << method << "\", \"normal_convention\": \"" << normal_convention
+      << "\", \"boundary\": \"" << boundary << "\",\n";
+    s << "  \"round_trip\": {\"angular_error_deg\": {\"mean\": " << angular_error_mean
+      << ", \"p95\": " << angular_error_p95 << ", \"max\": " << angular_error_max
+      << "}, \"residual_share\": " << residual_share << "},\n";
+    s << "  \"seconds\": " << seconds << "\n}\n";
+    return s.str();
+}
+
 std::string describe(const HeightOptions& o)
 {
     std::ostringstream ss;
@@ -137,6 +153,7 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
             int /*nthreads*/)
 {
     try {
+        const auto t0 = std::chrono::steady_clock::now();
         validate(options);
         roi = detail::resolve_roi(normals, roi);
         auto derived = detail::derive_slopes(normals, roi, options.normals, options.exec);
@@ -196,8 +213,29 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
                                 " conjugate-gradient iterations, relative residual " +
                                 detail::format_double("%.2g", report.residual));
         }
+        if (HeightReport* r = options.report) {
+            const bool periodic = chosen.boundary == Boundary::Periodic;
+            const host::RoundTrip t = host::round_trip(*derived.context, derived.slopes, h.data(), periodic);
+            r->method = rays ? "rays" : "poisson";
+            r->normal_convention = detail::convention_name(derived.stats.chosen);
+            r->boundary = name(chosen.boundary, rays);
+            r->width = roi.width();
+            r->height = roi.height();
+            r->angular_error_mean = t.mean_deg;
+            r->angular_error_p95 = t.p95_deg;
+            r->angular_error_max = t.max_deg;
+            r->residual_share = t.residual_share;
+            detail::say(options.exec, Severity::Info,
+                        "height: round trip: angular error mean " + detail::format_double("%.3g", t.mean_deg) +
+                            " deg, p95 " + detail::format_double("%.3g", t.p95_deg) + ", max " +
+                            detail::format_double("%.3g", t.max_deg) + "; residual share " +
+                            detail::format_double("%.3g", t.residual_share) +
+                            " (the part of the slopes the height does not reproduce)");
+        }
         detail::publish_result(dst, roi, {"Y"}, rays ? "rays" : "poisson", derived.stats, h.data(),
                                describe(chosen));
+        if (options.report)
+            options.report->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         return true;
     } catch (const std::exception& e) {
         return detail::fail(dst, "height", e);

@@ -3,6 +3,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -23,6 +24,14 @@ inline std::string slurp(const std::filesystem::path& p)
     std::ostringstream ss;
     ss << in.rdbuf();
     return ss.str();
+}
+
+// The number after "key": in a JSON text, searched from `from` (the first
+// occurrence); NaN when the key is not there.
+inline double json_number(const std::string& json, const std::string& key, std::size_t from = 0)
+{
+    const std::size_t at = json.find("\"" + key + "\": ", from);
+    return at == std::string::npos ? NAN : std::strtod(json.c_str() + at + key.size() + 4, nullptr);
 }
 
 // `env` is prepended to the command ("VAR=value ..."); `args` is shell text.

@@ -2,6 +2,8 @@
 // Integration: tangent-space normal map -> displacement (height) map.
 #include <OpenImageIO/imagebuf.h>
 
+#include <string>
+
 #include "options.h"
 
 #include "relief/export.h"
@@ -21,6 +23,28 @@ enum class RayDirections { Rational, Exact };
 // edges, Neumann). Auto: periodic when the slopes are as continuous across
 // the wrap seams as inside the texture, else free; the choice is reported.
 enum class Boundary { Auto, Periodic, Free };
+
+// What height() chose and how well its result reproduces the normals it
+// came from (the round trip). Filled when HeightOptions::report is set, at
+// the cost of one more pass over the map.
+struct HeightReport {
+    std::string method;             // "poisson" or "rays"
+    std::string normal_convention;  // "opengl" or "directx", as decoded
+    std::string boundary;           // "periodic", "free" (poisson) or "clip" (rays)
+    int width = 0, height = 0;
+    // The angle (degrees) between the decoded input normals (after the
+    // grazing clamp) and the normals re-derived from the height with
+    // normals()'s central differences under the same boundary: mean, 95th
+    // percentile (nearest rank) and maximum over the texels.
+    double angular_error_mean = 0.0, angular_error_p95 = 0.0, angular_error_max = 0.0;
+    // sum |g - grad h|^2 / sum |g|^2 with the same differences (0 for flat
+    // input): for least squares the part of the slopes no height can
+    // reproduce (curl), for rays also what the rays' high-pass removed.
+    double residual_share = 0.0;
+    double seconds = 0.0;  // the whole height() call
+
+    RELIEF_API std::string to_json() const;  // the "height" object of --report
+};
 
 struct HeightOptions {
     NormalDecoding normals;
@@ -46,6 +70,7 @@ struct HeightOptions {
     // conjugate gradients; an all-ones mask changes nothing.
     const OIIO::ImageBuf* mask = nullptr;
     bool mask_alpha = false;
+    HeightReport* report = nullptr;  // filled when set (not owned)
     Execution exec;
 };
 
