@@ -130,6 +130,9 @@ double check_value(const ModifierInfo& m, const std::string& text)
                                         (m.choices.empty() ? "" : " or " + joined(m.choices, "|")));
         return v;
     }
+    case ModifierType::Output:
+    case ModifierType::Text:
+        return 0.0;  // checked by the modifier's set()
     case ModifierType::File: {
         for (const auto& w : m.choices) {
             const std::string p = word_prefix(w);
@@ -594,11 +597,47 @@ Operation tessellation_operation()
     return op;
 }
 
+Operation mesh_operation()
+{
+    Operation op;
+    op.info = {"mesh",
+               "height map -> a file holding the displaced surface, tessellated per patch at its "
+               "level and stitched without cracks (OBJ, PLY, glTF .gltf/.glb by extension; x, y in "
+               "texels, z = S x height); the height stays on the stack",
+               {kHeight},
+               {{"height", 1, 4096, "the input, unchanged"}},
+               {}};
+    auto k = [](auto& c) -> auto& { return c.mesh; };
+    op.modifiers = tessellation_modifiers([k](auto& c) -> auto& { return k(c).tessellation; });
+    Modifier out;
+    out.info.name = "out";
+    out.info.type = ModifierType::Output;
+    out.info.placeholder = "FILE";
+    out.info.meaning = "the mesh file: .obj, .ply, .gltf or .glb (required)";
+    out.set = [k](OperationCall& c, const std::string& text, double) {
+        const std::string problem = mesh_path_problem(text);
+        if (!problem.empty())
+            throw std::invalid_argument("out=" + text + ": " + problem);
+        k(c).out = text;
+    };
+    out.get = [k](const OperationCall& c) { return k(c).out.empty() ? std::string("none") : k(c).out; };
+    op.modifiers.push_back(out);
+    op.finish = [k](OperationCall& c, const std::map<std::string, std::string>&, const std::vector<Modifier>&) {
+        if (k(c).out.empty())
+            throw std::invalid_argument("give the mesh file: out=FILE.obj|.ply|.gltf|.glb");
+    };
+    op.run = [k](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
+        return relief::mesh(dst, *in[0], k(c));
+    };
+    return op;
+}
+
 const std::vector<Operation>& table()
 {
     static const std::vector<Operation> ops = [] {
         std::vector<Operation> v = {slopes_operation(), height_operation(), correct_operation(),
-                                    bake_operation(), normals_operation(), tessellation_operation()};
+                                    bake_operation(), normals_operation(), tessellation_operation(),
+                                    mesh_operation()};
         const OperationCall defaults;
         for (Operation& op : v)
             for (Modifier& m : op.modifiers) {
@@ -709,6 +748,8 @@ const char* type_name(ModifierType t)
     case ModifierType::Integer: return "integer";
     case ModifierType::Number: return "number";
     case ModifierType::File: return "file";
+    case ModifierType::Output: return "output";
+    case ModifierType::Text: return "text";
     }
     return "?";
 }
@@ -842,7 +883,7 @@ bool run_operation(ImageBuf& dst, const OperationCall& call,
                                             "' is missing (null)");
         OperationCall c = call;
         c.slopes.exec = c.height.exec = c.correct.exec = c.bake.exec = exec;
-        c.normals.exec = c.tessellation.exec = exec;
+        c.normals.exec = c.tessellation.exec = c.mesh.tessellation.exec = exec;
         return op.run(dst, c, inputs);
     } catch (const std::exception& e) {
         detail::set_error(e.what());
@@ -871,8 +912,8 @@ std::string implementation_digest()
 void detail::check_modifier_values(const std::string& operation, const OperationCall& call)
 {
     for (const Modifier& m : find_or_throw(operation).modifiers) {
-        if (m.info.type == ModifierType::File)
-            continue;  // images come as pointers here; fix's tent is checked by correct()
+        if (m.info.type == ModifierType::File || m.info.type == ModifierType::Output)
+            continue;  // images come as pointers here; fix's tent is checked by correct(), paths by their writers
         check_value(m.info, m.get(call));
     }
 }

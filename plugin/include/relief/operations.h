@@ -11,6 +11,7 @@
 
 #include "relief/bake.h"
 #include "relief/check.h"
+#include "relief/mesh.h"
 #include "relief/correct.h"
 #include "relief/export.h"
 #include "relief/height.h"
@@ -22,7 +23,9 @@ namespace relief {
 // Choice: one of `choices`. Integer, Number: a value in [min, max] (an end
 // is excluded when its *_open flag is set), or one of `choices` (words such
 // as "auto"). File: a path to an image, or one of `choices` ("alpha").
-enum class ModifierType { Choice, Integer, Number, File };
+// Output: a path the operation writes (its folder must exist). Text: a value
+// with a syntax of its own, given by `placeholder` ("AZ,EL").
+enum class ModifierType { Choice, Integer, Number, File, Output, Text };
 
 struct ModifierInfo {
     std::string name;
@@ -75,6 +78,7 @@ struct OperationCall {
     BakeOptions bake;
     NormalsOptions normals;
     TessellationOptions tessellation;
+    MeshOptions mesh;
     std::string mask_file;  // height: mask=FILE, read by run_operation() unless height.mask is set
     std::string fix_file;   // correct: fix=FILE, read by run_operation() unless correct.fix_mask is set
 };
