@@ -211,6 +211,8 @@ private:
                     throw RuntimeError("fix: " + relief::geterror());
                 call.correct.fix_mask = &fix;
             }
+            if (s.operation == "mesh")
+                call.mesh.digest = relief::cli::output_digest(digest_, outputs_++);
             call.correct.report = &correct_report_;
             // The round trip costs a pass: only when it is reported or shown.
             if (!prog_.report.empty() || prog_.verbose)
@@ -301,7 +303,7 @@ private:
     relief::CorrectReport correct_report_;
     relief::HeightReport height_report_;
     std::map<std::string, std::string> report_;  // operation -> its report's JSON object
-    int outputs_ = 0;          // -o steps run so far
+    int outputs_ = 0;          // outputs (-o images, --mesh files) written so far
     std::future<void> ahead_;  // prepare_ahead(); its destructor waits for it
     std::vector<OIIO::ImageBuf> stack_;
 };
@@ -334,6 +336,20 @@ std::string json_line(const JobRecord& r)
            "\", \"seconds\": " + seconds + ", \"message\": " + relief::cli::json_quote(r.message) + "}";
 }
 
+// The files a job writes besides its report, in step order: -o images and
+// --mesh files. Output k records output_digest(job digest, k).
+std::vector<std::string> output_files(const Program& prog)
+{
+    std::vector<std::string> v;
+    for (const Step& s : prog.steps) {
+        if (s.kind == Step::Kind::Write)
+            v.push_back(s.path);
+        if (s.kind == Step::Kind::Operation && s.operation == "mesh")
+            v.push_back(s.mesh.out);
+    }
+    return v;
+}
+
 // Whether every output of the job exists and records the digest it would
 // get from the job's `digest` (read from the headers only). A --report file
 // records none; it must exist.
@@ -342,9 +358,8 @@ bool up_to_date(const Program& prog, const std::string& digest)
     if (digest.empty())
         return false;
     int output = 0;
-    for (const Step& s : prog.steps)
-        if (s.kind == Step::Kind::Write &&
-            relief::recorded_digest(s.path) != relief::cli::output_digest(digest, output++))
+    for (const std::string& path : output_files(prog))
+        if (relief::recorded_digest(path) != relief::cli::output_digest(digest, output++))
             return false;
     std::error_code ec;
     return prog.report.empty() || std::filesystem::is_regular_file(prog.report, ec);
@@ -357,13 +372,12 @@ void run_job(const Program& prog, JobRecord& rec)
     for (const Step& s : prog.steps) {
         if (s.kind == Step::Kind::Read)
             rec.inputs.push_back(s.path);
-        if (s.kind == Step::Kind::Write)
-            rec.outputs.push_back(s.path);
         if (!s.mask_file.empty())
             rec.inputs.push_back(s.mask_file);
         if (!s.fix_file.empty())
             rec.inputs.push_back(s.fix_file);
     }
+    rec.outputs = output_files(prog);
     if (!prog.report.empty())
         rec.outputs.push_back(prog.report);
     try {

@@ -5,10 +5,15 @@
 #include <catch2/catch.hpp>
 
 #include <OpenImageIO/imagebuf.h>
+#include <tiny_gltf.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
 #include <random>
 
 #include "reference/check_reference.h"
@@ -17,6 +22,7 @@
 #include "relief/errors.h"
 #include "relief/height.h"
 #include "relief/imageio.h"
+#include "relief/mesh.h"
 #include "support/fields.h"
 #include "support/images.h"
 #include "support/run_cli.h"
@@ -43,6 +49,151 @@ std::vector<float> random_heights(int w, int ht, unsigned seed, float amp)
 std::vector<double> as_double(const std::vector<float>& v)
 {
     return std::vector<double>(v.begin(), v.end());
+}
+
+// A triangle mesh as read back from a file: x, y, z and indices.
+struct MeshFile {
+    std::vector<double> v;         // 3 per vertex
+    std::vector<double> uv;        // 2 per vertex
+    std::vector<std::uint32_t> f;  // 3 per triangle
+};
+
+MeshFile read_obj(const fs::path& p)
+{
+    MeshFile m;
+    std::ifstream in(p);
+    std::string line;
+    while (std::getline(in, line)) {
+        std::istringstream ss(line);
+        std::string tag;
+        ss >> tag;
+        if (tag == "v") {
+            double x, y, z;
+            ss >> x >> y >> z;
+            m.v.insert(m.v.end(), {x, y, z});
+        } else if (tag == "vt") {
+            double a, b;
+            ss >> a >> b;
+            m.uv.insert(m.uv.end(), {a, b});
+        } else if (tag == "f") {
+            std::string t;
+            while (ss >> t)
+                m.f.push_back(std::uint32_t(std::stoul(t.substr(0, t.find('/'))) - 1));
+        }
+    }
+    return m;
+}
+
+MeshFile read_ply(const fs::path& p)
+{
+    MeshFile m;
+    std::ifstream in(p, std::ios::binary);
+    std::string line;
+    std::size_t nv = 0, nf = 0;
+    while (std::getline(in, line) && line != "end_header") {
+        if (line.rfind("element vertex ", 0) == 0)
+            nv = std::stoul(line.substr(15));
+        if (line.rfind("element face ", 0) == 0)
+            nf = std::stoul(line.substr(13));
+    }
+    for (std::size_t i = 0; i < nv; ++i) {
+        float rec[8];
+        in.read(reinterpret_cast<char*>(rec), sizeof rec);
+        m.v.insert(m.v.end(), {rec[0], rec[1], rec[2]});
+        m.uv.insert(m.uv.end(), {rec[6], rec[7]});
+    }
+    for (std::size_t t = 0; t < nf; ++t) {
+        unsigned char n = 0;
+        std::uint32_t idx[3];
+        in.read(reinterpret_cast<char*>(&n), 1);
+        in.read(reinterpret_cast<char*>(idx), sizeof idx);
+        REQUIRE(n == 3);
+        m.f.insert(m.f.end(), idx, idx + 3);
+    }
+    REQUIRE(in.good());
+    return m;
+}
+
+MeshFile read_gltf(const fs::path& p)
+{
+    tinygltf::Model model;
+    tinygltf::TinyGLTF loader;
+    std::string err, warn;
+    const bool ok = p.extension() == ".glb" ? loader.LoadBinaryFromFile(&model, &err, &warn, p.string())
+                                            : loader.LoadASCIIFromFile(&model, &err, &warn, p.string());
+    INFO(err << warn);
+    REQUIRE(ok);
+    const tinygltf::Primitive& prim = model.meshes.at(0).primitives.at(0);
+    auto values = [&](int accessor, auto type_tag) {
+        using T = decltype(type_tag);
+        const tinygltf::Accessor& a = model.accessors.at(std::size_t(accessor));
+        const tinygltf::BufferView& view = model.bufferViews.at(std::size_t(a.bufferView));
+        const auto* data = reinterpret_cast<const T*>(model.buffers.at(0).data.data() + view.byteOffset + a.byteOffset);
+        return std::vector<T>(data, data + view.byteLength / sizeof(T));
+    };
+    MeshFile m;
+    for (float x : values(prim.attributes.at("POSITION"), float()))
+        m.v.push_back(x);
+    for (float x : values(prim.attributes.at("TEXCOORD_0"), float()))
+        m.uv.push_back(x);
+    m.f = values(prim.indices, std::uint32_t());
+    return m;
+}
+
+struct MeshCheck {
+    double max_error = 0.0;  // |surface - height| over the texel centres
+    std::size_t uncovered = 0, bad_edges = 0, open_edges = 0, flipped = 0;
+};
+
+// Independently of relief's own measure: every texel centre's deviation
+// (by barycentric interpolation over each triangle covering it), edges used
+// by more than two triangles or open away from the border, and triangles
+// wound clockwise from +z.
+MeshCheck check_mesh(const MeshFile& m, const std::vector<float>& h, int w, int ht)
+{
+    MeshCheck c;
+    std::map<std::pair<std::uint32_t, std::uint32_t>, int> edges;
+    std::vector<double> err(h.size(), -1.0);
+    for (std::size_t t = 0; t < m.f.size(); t += 3) {
+        double x[3], y[3], z[3];
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t a = m.f[t + k], b = m.f[t + (k + 1) % 3];
+            ++edges[{std::min(a, b), std::max(a, b)}];
+            x[k] = m.v[3 * a];
+            y[k] = m.v[3 * a + 1];
+            z[k] = m.v[3 * a + 2];
+        }
+        const double d = (x[1] - x[0]) * (y[2] - y[0]) - (y[1] - y[0]) * (x[2] - x[0]);
+        if (d <= 0) {
+            ++c.flipped;
+            continue;
+        }
+        for (int j = std::max(0, int(std::ceil(std::min({y[0], y[1], y[2]}) - 0.5)));
+             j <= std::min(ht - 1, int(std::floor(std::max({y[0], y[1], y[2]}) - 0.5))); ++j)
+            for (int i = std::max(0, int(std::ceil(std::min({x[0], x[1], x[2]}) - 0.5)));
+                 i <= std::min(w - 1, int(std::floor(std::max({x[0], x[1], x[2]}) - 0.5))); ++i) {
+                const double px = i + 0.5, py = j + 0.5;
+                const double l0 = ((x[1] - px) * (y[2] - py) - (y[1] - py) * (x[2] - px)) / d;
+                const double l1 = ((x[2] - px) * (y[0] - py) - (y[2] - py) * (x[0] - px)) / d;
+                const double l2 = 1.0 - l0 - l1;
+                if (l0 < -1e-9 || l1 < -1e-9 || l2 < -1e-9)
+                    continue;
+                const double e = std::abs(l0 * z[0] + l1 * z[1] + l2 * z[2] - h[std::size_t(j) * w + i]);
+                err[std::size_t(j) * w + i] = std::max(err[std::size_t(j) * w + i], e);
+            }
+    }
+    for (double e : err) {
+        c.uncovered += e < 0;
+        c.max_error = std::max(c.max_error, e);
+    }
+    for (const auto& [e, n] : edges) {
+        const double x1 = m.v[3 * e.first], y1 = m.v[3 * e.first + 1];
+        const double x2 = m.v[3 * e.second], y2 = m.v[3 * e.second + 1];
+        const bool border = (x1 == x2 && (x1 == 0 || x1 == w)) || (y1 == y2 && (y1 == 0 || y1 == ht));
+        c.open_edges += n == 1;
+        c.bad_edges += n > 2 || (n == 1 && !border);
+    }
+    return c;
 }
 
 } // namespace
@@ -247,4 +398,105 @@ TEST_CASE("round trip: --report holds height and correct, written only when the 
                 (d / "h2.exr").string() + "' --correct:fix=" + (d / "fix.exr").string() + " -o '" + (d / "o2.exr").string() + "'");
     CHECK(r.rc == 1);
     CHECK_FALSE(fs::exists(d / "r.json"));
+}
+
+TEST_CASE("mesh: within E at every texel centre, no cracks, fewer triangles, on a real map", "[check][mesh][cli]")
+{
+    const fs::path d = test::scratch("check_mesh");
+    // --mesh leaves the height on the stack for the next command.
+    const auto r = run_cli("'" + kNormalMap + "' --height -o '" + (d / "h.exr").string() +
+                           "' --mesh:patch=32:error=0.5:out='" + (d / "m.obj").string() + "' --mesh:patch=32:error=0.5:out='" +
+                           (d / "m.ply").string() + "' --mesh:patch=32:error=0.5:out='" + (d / "m.glb").string() +
+                           "' --mesh:patch=32:error=0.5:out='" + (d / "m.gltf").string() +
+                           "' --tessellation:patch=32:error=0.5 -o '" + (d / "levels.exr").string() + "' -v");
+    INFO(r.err);
+    REQUIRE(r.rc == 0);
+    CHECK(r.err.find("patches of 32 texels: level") != std::string::npos);
+    OIIO::ImageBuf levels((d / "levels.exr").string());
+    REQUIRE(levels.read());
+    CHECK(levels.spec().width == 16);
+    CHECK(levels.spec().height == 16);
+    const auto h = test::file_pixels(d / "h.exr");
+    const MeshFile obj = read_obj(d / "m.obj");
+    const MeshCheck c = check_mesh(obj, h, 512, 512);
+    CHECK(c.max_error <= 0.5);
+    CHECK(c.uncovered == 0);
+    CHECK(c.bad_edges == 0);
+    CHECK(c.flipped == 0);
+    CHECK(c.open_edges >= 4);
+    CHECK(obj.f.size() / 3 <= 512 * 512);  // at most half of the full grid's 2 x 512^2
+    // Texture coordinates (x/W, 1 - y/H).
+    for (std::size_t i = 0; i < obj.v.size() / 3; i += 97) {
+        CHECK(obj.uv[2 * i] == Approx(obj.v[3 * i] / 512).margin(1e-6));
+        CHECK(obj.uv[2 * i + 1] == Approx(1.0 - obj.v[3 * i + 1] / 512).margin(1e-6));
+    }
+    // The other formats hold the same mesh (glTF's v from the top).
+    for (const char* name : {"m.ply", "m.glb", "m.gltf"}) {
+        INFO(name);
+        const MeshFile other = fs::path(name).extension() == ".ply" ? read_ply(d / name) : read_gltf(d / name);
+        REQUIRE(other.f == obj.f);
+        CHECK(test::max_abs_diff(other.v, obj.v) < 1e-5);
+        std::vector<double> uv = other.uv;
+        if (std::string(name) != "m.ply")
+            for (std::size_t i = 1; i < uv.size(); i += 2)
+                uv[i] = 1.0 - uv[i];
+        CHECK(test::max_abs_diff(uv, obj.uv) < 1e-6);
+    }
+}
+
+TEST_CASE("mesh: stitched sides between a flat half and waves, scale and odd sizes", "[check][mesh]")
+{
+    for (auto [w, ht, patch, scale, error] :
+         {std::tuple{200, 130, 32, 1.0f, 0.5f}, std::tuple{97, 61, 16, 3.0f, 0.25f}, std::tuple{64, 64, 7, 1.0f, 0.1f}}) {
+        std::vector<float> h = test::waves(w, ht, 12.0, unsigned(w));
+        for (int y = 0; y < ht; ++y)
+            for (int x = 0; x < w / 2; ++x)
+                h[std::size_t(y) * w + x] = 0.25f;
+        TessellationOptions o;
+        o.patch = patch;
+        o.scale = scale;
+        o.error = error;
+        Mesh m;
+        REQUIRE(displaced_mesh(m, test::image(w, ht, 1, h), o));
+        MeshFile f;
+        f.v.assign(m.positions.begin(), m.positions.end());
+        f.f = m.triangles;
+        std::vector<float> sh = h;
+        for (float& v : sh)
+            v *= scale;
+        const MeshCheck c = check_mesh(f, sh, w, ht);
+        INFO(w << "x" << ht << " patch " << patch << " scale " << scale << " E " << error);
+        CHECK(c.max_error <= error);
+        CHECK(c.uncovered == 0);
+        CHECK(c.bad_edges == 0);
+        CHECK(c.flipped == 0);
+        // The mesh's levels start from the level map's and only rise.
+        const auto lv = test::pixels(relief::tessellation(test::image(w, ht, 1, h), o));
+        REQUIRE(lv.size() == m.levels.size());
+        for (std::size_t p = 0; p < lv.size(); ++p)
+            CHECK(m.levels[p] >= int(lv[p]));
+        CHECK(m.levels[0] == 1);  // flat, away from the waves
+    }
+}
+
+TEST_CASE("mesh: bad out= values are refused before anything runs, failures leave no file", "[check][mesh][cli][errors]")
+{
+    const fs::path d = test::scratch("check_mesh_errors");
+    for (const std::string& mods : {std::string("out=") + (d / "m.stl").string(), std::string("out=/nonexistent-folder/m.obj"),
+                                    std::string("patch=32"), std::string("out=") + d.string() + ".obj:patch=0"}) {
+        const auto r = run_cli("'" + kNormalMap + "' --height --mesh:" + mods + " -o '" + (d / "h.exr").string() + "'");
+        INFO(mods << ": " << r.err);
+        CHECK(r.rc == 2);
+        CHECK(r.err.find("relief: error: --mesh") != std::string::npos);
+    }
+    // A NaN height fails the mesh; nothing is written.
+    std::vector<float> h(64, 0.0f);
+    h[9] = NAN;
+    REQUIRE(write_image(test::image(8, 8, 1, h), (d / "nan.exr").string()));
+    const auto r = run_cli("'" + (d / "nan.exr").string() + "' --mesh:out='" + (d / "m.obj").string() + "'");
+    CHECK(r.rc == 1);
+    CHECK(r.err.find("NaN or infinite") != std::string::npos);
+    CHECK(fs::is_empty(d) == false);
+    for (const auto& e : fs::directory_iterator(d))
+        CHECK(e.path().filename() == "nan.exr");
 }

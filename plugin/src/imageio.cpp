@@ -10,7 +10,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <cctype>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <system_error>
 #include <unistd.h>
@@ -186,6 +188,25 @@ std::string write_file(const ImageBuf& image, const fs::path& path, TypeDesc for
 
 std::string recorded_digest(const std::string& path)
 {
+    // Meshes (--mesh) record it near their start: an OBJ or PLY comment
+    // "relief:digest=HEX", glTF's asset.extras "relief:digest":"HEX".
+    const std::string ext = lowercase(fs::path(path).extension().string());
+    if (ext == ".obj" || ext == ".ply" || ext == ".gltf" || ext == ".glb") {
+        std::ifstream f(path, std::ios::binary);
+        std::string head(1 << 16, '\0');
+        f.read(&head[0], std::streamsize(head.size()));
+        head.resize(std::size_t(f.gcount()));
+        std::size_t at = head.find("relief:digest");
+        if (at == std::string::npos)
+            return "";
+        at += 13;
+        while (at < head.size() && (head[at] == '=' || head[at] == '"' || head[at] == ':' || head[at] == ' '))
+            ++at;
+        std::size_t end = at;
+        while (end < head.size() && std::isxdigit(static_cast<unsigned char>(head[end])))
+            ++end;
+        return head.substr(at, end - at);
+    }
     auto in = OIIO::ImageInput::open(path);
     if (!in) {
         OIIO::geterror();  // consume it: a missing output just means "recompute"
