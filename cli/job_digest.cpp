@@ -70,15 +70,16 @@ std::string digest_of(const Program& prog)
             h.file(s.path);
             break;
         case Step::Kind::Operation: {
-            // mask and fix files count by their bytes, not their paths
+            // mask, fix and env files count by their bytes, not their paths
             OperationCall call = s;
             call.mask_file.clear();
             call.fix_file.clear();
+            call.preview.env.clear();
             h.text(s.operation);
             h.text(modifier_text(call));
-            for (const std::string* file : {&s.mask_file, &s.fix_file})
+            for (const std::string* file : {&s.mask_file, &s.fix_file, &s.preview.env})
                 if (!file->empty()) {
-                    h.text(file == &s.mask_file ? "mask file" : "fix file");
+                    h.text(file == &s.mask_file ? "mask file" : file == &s.fix_file ? "fix file" : "env file");
                     h.file(*file);
                 }
             break;

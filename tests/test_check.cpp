@@ -7,7 +7,10 @@
 #include <OpenImageIO/imagebuf.h>
 #include <tiny_gltf.h>
 
+#include <OpenImageIO/imagebufalgo.h>
+
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -23,6 +26,7 @@
 #include "relief/height.h"
 #include "relief/imageio.h"
 #include "relief/mesh.h"
+#include "relief/preview.h"
 #include "support/fields.h"
 #include "support/images.h"
 #include "support/run_cli.h"
@@ -499,4 +503,141 @@ TEST_CASE("mesh: bad out= values are refused before anything runs, failures leav
     CHECK(fs::is_empty(d) == false);
     for (const auto& e : fs::directory_iterator(d))
         CHECK(e.path().filename() == "nan.exr");
+}
+
+namespace {
+
+// The mean of channel c over panel (col, row) of a preview sheet whose
+// panels are pw x ph (the layout of plugin/src/preview.cpp).
+double panel_mean(const OIIO::ImageBuf& sheet, int col, int row, int pw, int ph, int c, int inset = 4)
+{
+    const int x0 = 16 + col * (pw + 16), y0 = 16 + row * (34 + ph + 52 + 16) + 34;
+    double sum = 0.0;
+    int n = 0;
+    for (int y = y0 + inset; y < y0 + ph - inset; ++y)
+        for (int x = x0 + inset; x < x0 + pw - inset; ++x) {
+            float v[3];
+            sheet.getpixel(x, y, v);
+            sum += v[c];
+            ++n;
+        }
+    return sum / n;
+}
+
+} // namespace
+
+TEST_CASE("preview: spherical-harmonic irradiance of analytic environments", "[check][preview]")
+{
+    // A uniform environment of radiance 1 gives every normal pi.
+    OIIO::ImageBuf uniform(OIIO::ImageSpec(64, 32, 3, OIIO::TypeDesc::FLOAT));
+    const float one[3] = {1.0f, 1.0f, 1.0f};
+    OIIO::ImageBufAlgo::fill(uniform, one);
+    const SphericalHarmonics u = environment_harmonics(uniform);
+    for (const auto& n : {std::array<float, 3>{0, 0, 1}, std::array<float, 3>{1, 0, 0}, std::array<float, 3>{0, -0.6f, 0.8f}}) {
+        float e[3];
+        irradiance(u, n.data(), e);
+        CHECK(e[0] == Approx(M_PI).epsilon(0.01));
+    }
+    // The upper hemisphere alone (rows above the horizon): an upward normal
+    // receives pi, a horizontal one pi/2; a downward one about 0 (order-2
+    // harmonics ring slightly).
+    OIIO::ImageBuf sky(OIIO::ImageSpec(64, 32, 3, OIIO::TypeDesc::FLOAT));
+    OIIO::ImageBufAlgo::fill(sky, one, OIIO::ROI(0, 64, 0, 16));
+    const SphericalHarmonics hs = environment_harmonics(sky);
+    const float up[3] = {0, 0, 1}, side[3] = {0, 1, 0}, down[3] = {0, 0, -1};
+    float e_up[3], e_side[3], e_down[3];
+    irradiance(hs, up, e_up);
+    irradiance(hs, side, e_side);
+    irradiance(hs, down, e_down);
+    CHECK(e_up[1] == Approx(M_PI).epsilon(0.05));
+    CHECK(e_side[1] == Approx(M_PI / 2).epsilon(0.02));
+    CHECK(std::abs(e_down[1]) < 0.1 * M_PI);
+    // Light from the image's right (azimuth 0) lights normals tilted to +x.
+    OIIO::ImageBuf right(OIIO::ImageSpec(64, 32, 3, OIIO::TypeDesc::FLOAT));
+    OIIO::ImageBufAlgo::fill(right, one, OIIO::ROI(0, 8, 8, 16));  // around azimuth 0, above the horizon
+    const SphericalHarmonics r = environment_harmonics(right);
+    const float px[3] = {0.7f, 0, 0.71f}, nx[3] = {-0.7f, 0, 0.71f}, py[3] = {0, -0.7f, 0.71f};
+    float a[3], b[3], c[3];
+    irradiance(r, px, a);
+    irradiance(r, nx, b);
+    irradiance(r, py, c);
+    CHECK(a[0] > 2 * b[0]);
+    CHECK(c[0] > b[0]);  // azimuth 0..45 leans toward the top (-y) of the image
+}
+
+TEST_CASE("preview: the documented command writes an 8-bit sheet at least 1024 wide", "[check][preview][cli]")
+{
+    const fs::path d = test::scratch("check_preview");
+    const auto r = run_cli("'" + kNormalMap + "' --dup --height -o '" + (d / "h.exr").string() + "' --report '" +
+                           (d / "r.json").string() + "' --preview -o '" + (d / "sheet.png").string() + "'");
+    INFO(r.err);
+    REQUIRE(r.rc == 0);
+    auto in = OIIO::ImageInput::open((d / "sheet.png").string());
+    REQUIRE(in);
+    CHECK(in->spec().width >= 1024);
+    CHECK(in->spec().nchannels == 3);
+    CHECK(in->spec().format == OIIO::TypeDesc::UINT8);
+    CHECK(fs::exists(d / "r.json"));
+}
+
+TEST_CASE("preview: a height's own normals light as the height does, and the light comes from where it says", "[check][preview]")
+{
+    // A ramp rising to the right (free edges): its normals lean to -x.
+    const int w = 64, ht = 48;
+    std::vector<float> h(w * ht);
+    for (int y = 0; y < ht; ++y)
+        for (int x = 0; x < w; ++x)
+            h[y * w + x] = 0.6f * x + 2.0f * std::sin(0.3 * y);
+    OIIO::ImageBuf height = test::image(w, ht, 1, h);
+    NormalsOptions no;
+    no.boundary = Boundary::Free;
+    const OIIO::ImageBuf normals = relief::normals(height, no);  // OpenGL, float
+    PreviewOptions o;
+    o.normals.convention = NormalConvention::OpenGL;
+    o.boundary = Boundary::Free;
+    o.azimuth = 180.0f;  // from the left: the slope faces it
+    OIIO::ImageBuf from_left = relief::preview(normals, height, o);
+    REQUIRE_FALSE(from_left.has_error());
+    // 64 texels are shown 344 wide (nearest texels).
+    const int pw = 344, ph = int(std::lround(48 * 344.0 / 64));
+    CHECK(from_left.spec().width == 3 * pw + 4 * 16);
+    for (int c = 0; c < 3; ++c)
+        CHECK(std::abs(panel_mean(from_left, 0, 0, pw, ph, c) - panel_mean(from_left, 1, 0, pw, ph, c)) < 2.0 / 255);
+    o.azimuth = 0.0f;
+    OIIO::ImageBuf from_right = relief::preview(normals, height, o);
+    CHECK(panel_mean(from_left, 1, 0, pw, ph, 1) > panel_mean(from_right, 1, 0, pw, ph, 1) + 0.1);
+    // Emboss: the ramp rises toward a light on the right: brighter than mid-grey.
+    CHECK(panel_mean(from_right, 2, 0, pw, ph, 0) > 0.6);
+    CHECK(panel_mean(from_left, 2, 0, pw, ph, 0) < 0.4);
+}
+
+TEST_CASE("preview: refuses mismatched sizes, bad lights and environments", "[check][preview][errors]")
+{
+    const fs::path d = test::scratch("check_preview_errors");
+    const OIIO::ImageBuf height = test::image(8, 8, 1, std::vector<float>(64, 0.0f));
+    const OIIO::ImageBuf normals = relief::normals(height);
+    OIIO::ImageBuf out;
+    CHECK_FALSE(relief::preview(out, relief::normals(test::image(8, 6, 1, std::vector<float>(48, 0.0f))), height));
+    CHECK_THAT(geterror(), Catch::Contains("the normal map is 8x6, the height 8x8"));
+    PreviewOptions o;
+    o.elevation = 0.0f;
+    CHECK_FALSE(relief::preview(out, normals, height, o));
+    CHECK_THAT(geterror(), Catch::Contains("EL in (0, 90]"));
+    std::vector<float> bad(64 * 3, 1.0f);
+    bad[7] = NAN;
+    REQUIRE(write_image(test::image(8, 8, 3, bad), (d / "env.exr").string()));
+    o = PreviewOptions();
+    o.env = (d / "env.exr").string();
+    CHECK_FALSE(relief::preview(out, normals, height, o));
+    CHECK_THAT(geterror(), Catch::Contains("NaN"));
+    const std::string in = (d / "n.exr").string(), hf = (d / "h.exr").string();
+    REQUIRE(write_image(normals, in));
+    REQUIRE(write_image(height, hf));
+    for (const std::string& mods : {std::string("light=90"), std::string("light=90,0"), std::string("light=400,30"),
+                                    std::string("env=") + (d / "missing.exr").string()}) {
+        const auto r = run_cli("'" + in + "' '" + hf + "' --preview:" + mods + " -o '" + (d / "s.png").string() + "'");
+        INFO(mods << ": " << r.err);
+        CHECK(r.rc == 2);
+        CHECK_FALSE(fs::exists(d / "s.png"));
+    }
 }

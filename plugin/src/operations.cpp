@@ -632,12 +632,72 @@ Operation mesh_operation()
     return op;
 }
 
+Operation preview_operation()
+{
+    Operation op;
+    op.info = {"preview",
+               "normal map and height -> one labelled 8-bit RGB sheet: both lit under the same light, "
+               "an emboss view, the angular error (heat map, degrees) and the height (texels)",
+               {kNormals, kHeight},
+               {{"sheet", 3, 3, "sRGB preview sheet"}},
+               {}};
+    auto k = [](auto& c) -> auto& { return c.preview; };
+    op.modifiers = decoding_modifiers([k](auto& c) -> auto& { return k(c).normals; });
+    Modifier light;
+    light.info.name = "light";
+    light.info.type = ModifierType::Text;
+    light.info.placeholder = "AZ,EL";
+    light.info.unit = "degrees";
+    light.info.meaning = "key light: azimuth counter-clockwise from the image's right (90 = from the top), "
+                         "in [-360, 360]; elevation above the surface, in (0, 90]";
+    light.set = [k](OperationCall& c, const std::string& text, double) {
+        const std::size_t comma = text.find(',');
+        if (comma == std::string::npos)
+            throw std::invalid_argument("light=" + text + ": write light=AZ,EL (degrees, e.g. 135,45)");
+        ModifierInfo az, el;
+        az.name = "light azimuth";
+        el.name = "light elevation";
+        az.type = el.type = ModifierType::Number;
+        az.min = -360;
+        az.max = 360;
+        el.min = 0;
+        el.min_open = true;
+        el.max = 90;
+        az.unit = el.unit = "degrees";
+        k(c).azimuth = float(check_value(az, text.substr(0, comma)));
+        k(c).elevation = float(check_value(el, text.substr(comma + 1)));
+    };
+    light.get = [k](const OperationCall& c) {
+        return number_text(k(c).azimuth) + "," + number_text(k(c).elevation);
+    };
+    Modifier env;
+    env.info.name = "env";
+    env.info.type = ModifierType::File;
+    env.info.choices = {"sky"};
+    env.info.placeholder = "FILE";
+    env.info.meaning = "lat-long environment image for the diffuse light (its 9 spherical-harmonic "
+                       "irradiance coefficients; 8/16-bit files are sRGB); sky: a procedural sky";
+    env.set = [k](OperationCall& c, const std::string& text, double) { k(c).env = text == "sky" ? "" : text; };
+    env.get = [k](const OperationCall& c) { return k(c).env.empty() ? std::string("sky") : k(c).env; };
+    op.modifiers.push_back(light);
+    op.modifiers.push_back(env);
+    op.modifiers.push_back(choice("boundary", [k](auto& c) -> auto& { return k(c).boundary; },
+                                  std::vector<std::pair<std::string, Boundary>>{{"auto", Boundary::Auto},
+                                                                               {"periodic", Boundary::Periodic},
+                                                                               {"free", Boundary::Free}},
+                                  "", "of the height's differences, as --normals"));
+    op.run = [k](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
+        return relief::preview(dst, *in[0], *in[1], k(c));
+    };
+    return op;
+}
+
 const std::vector<Operation>& table()
 {
     static const std::vector<Operation> ops = [] {
         std::vector<Operation> v = {slopes_operation(), height_operation(), correct_operation(),
                                     bake_operation(), normals_operation(), tessellation_operation(),
-                                    mesh_operation()};
+                                    mesh_operation(), preview_operation()};
         const OperationCall defaults;
         for (Operation& op : v)
             for (Modifier& m : op.modifiers) {
@@ -883,7 +943,7 @@ bool run_operation(ImageBuf& dst, const OperationCall& call,
                                             "' is missing (null)");
         OperationCall c = call;
         c.slopes.exec = c.height.exec = c.correct.exec = c.bake.exec = exec;
-        c.normals.exec = c.tessellation.exec = c.mesh.tessellation.exec = exec;
+        c.normals.exec = c.tessellation.exec = c.mesh.tessellation.exec = c.preview.exec = exec;
         return op.run(dst, c, inputs);
     } catch (const std::exception& e) {
         detail::set_error(e.what());

@@ -12,6 +12,7 @@
 #include "relief/bake.h"
 #include "relief/check.h"
 #include "relief/mesh.h"
+#include "relief/preview.h"
 #include "relief/correct.h"
 #include "relief/export.h"
 #include "relief/height.h"
@@ -79,6 +80,7 @@ struct OperationCall {
     NormalsOptions normals;
     TessellationOptions tessellation;
     MeshOptions mesh;
+    PreviewOptions preview;
     std::string mask_file;  // height: mask=FILE, read by run_operation() unless height.mask is set
     std::string fix_file;   // correct: fix=FILE, read by run_operation() unless correct.fix_mask is set
 };
