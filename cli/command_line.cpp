@@ -101,9 +101,13 @@ Arguments are read left to right over a stack of images, like oiiotool:
   FILE                  push an image (read as raw data, no colour conversion)
   --OPERATION[:MODS]    pop the operation's inputs, push its result
   -o FILE               write the top of the stack (atomically)
+  --dup                 push a copy of the top image (oiiotool's): keep the
+                        normals under a --height for --preview
   -d TYPE               pixel type for the following -o: float (default),
-                        half, uint16, uint8; integer files store
-                        data = (value - 0.5) * scale, scale printed and stored
+                        half, uint16, uint8; integer files store heights
+                        as data = (value - 0.5) * scale (scale printed and
+                        stored), --normals as (v + 1)/2, --tessellation
+                        levels as the code itself
   --compression NAME    file compression for the following -o, by OIIO's
                         names (zip, piz, none...); default none for float
                         EXR (float heights barely compress), else the
@@ -115,8 +119,6 @@ Arguments are read left to right over a stack of images, like oiiotool:
                         input normals and the height's, residual share); for
                         --correct energy, iterations, anisotropy and area
                         ratio before/after; times. Written when the job ends
-  --dup                 push a copy of the top image (keep the normals
-                        under a --height, for --preview)
   --device DEV          auto (default: a GPU if any, else the CPU), gpu, cpu,
                         or PLATFORM:DEVICE as --list-devices numbers them
   --list-devices        list the OpenCL devices and exit
@@ -157,6 +159,9 @@ Examples:
   relief height.png --correct:scale=0.05:nodes=center -o offsets.exr
   relief albedo.png height.png --correct:scale=0.05 -o offsets.exr --bake -o albedo_fixed.png
   relief normal.png --height:normal=directx:rays=16:radius=32:boundary=clip -o height.exr
+  relief normal.png --dup --height -o h.exr --report r.json --preview -o sheet.png
+  relief h.exr --mesh:patch=32:error=0.5:out=h.glb --tessellation:patch=32 -o levels.exr
+  relief h.exr --normals:normal=directx -d uint8 -o normal_again.png
   relief 'in/n.<UDIM>.png' --height -o 'out/h.<UDIM>.exr' --update
   relief --batch jobs.txt --shard 0/4 --update --log task0.jsonl
   relief-slurm submit jobs.txt --tasks 4   (a Slurm job array; relief-slurm --help)

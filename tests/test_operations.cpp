@@ -22,6 +22,11 @@ namespace {
 
 const std::string kHeight = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
 
+bool same_tessellation(const TessellationOptions& a, const TessellationOptions& b)
+{
+    return a.patch == b.patch && a.error == b.error && a.scale == b.scale;
+}
+
 // Every option field the table can set, compared.
 bool same_options(const OperationCall& a, const OperationCall& b)
 {
@@ -42,7 +47,19 @@ bool same_options(const OperationCall& a, const OperationCall& b)
            c.iterations == d.iterations && c.tolerance == d.tolerance && c.levels == d.levels &&
            c.threshold == d.threshold && c.skip_tiles == d.skip_tiles &&
            a.bake.filter == b.bake.filter && a.bake.colorspace == b.bake.colorspace &&
-           a.bake.kind == b.bake.kind && a.bake.wrap == b.bake.wrap;
+           a.bake.kind == b.bake.kind && a.bake.wrap == b.bake.wrap &&
+           a.normals.convention == b.normals.convention && a.normals.scale == b.normals.scale &&
+           a.normals.boundary == b.normals.boundary && same_tessellation(a.tessellation, b.tessellation) &&
+           same_tessellation(a.mesh.tessellation, b.mesh.tessellation) && a.mesh.out == b.mesh.out &&
+           dec(a.preview.normals, b.preview.normals) && a.preview.azimuth == b.preview.azimuth &&
+           a.preview.elevation == b.preview.elevation && a.preview.env == b.preview.env &&
+           a.preview.boundary == b.preview.boundary;
+}
+
+// What an operation needs besides the modifier under test: --mesh its file.
+std::string required(const std::string& op)
+{
+    return op == "mesh" ? ":out=relief-test-mesh.obj" : "";
 }
 
 std::vector<float> wavy_normals(int w, int h)
@@ -67,7 +84,8 @@ TEST_CASE("operations: the table lists each operation with its slots and typed m
     std::vector<std::string> names;
     for (const OperationInfo& op : operations())
         names.push_back(op.name);
-    CHECK(names == std::vector<std::string>{"slopes", "height", "correct", "bake"});
+    CHECK(names == std::vector<std::string>{"slopes", "height", "correct", "bake", "normals", "tessellation",
+                                            "mesh", "preview"});
     const OperationInfo* h = find_operation("height");
     REQUIRE(h);
     CHECK(find_operation("frobnicate") == nullptr);
@@ -96,7 +114,8 @@ TEST_CASE("operations: defaults are the option structs' own, and each parses bac
             if (m.default_value == "none")
                 continue;  // files: nothing to give
             OperationCall parsed;
-            REQUIRE(parse_modifiers(parsed, op.name, m.name + "=" + m.default_value));
+            REQUIRE(parse_modifiers(parsed, op.name, m.name + "=" + m.default_value + required(op.name)));
+            parsed.mesh.out = base.mesh.out;
             if (op.name == "height" && m.applies_to == "method=rays") {
                 // a ray modifier selects method=rays; nothing else changes
                 CHECK(parsed.height.method == HeightMethod::Rays);
@@ -139,9 +158,17 @@ TEST_CASE("operations: modifier_text writes every modifier, and any change to on
                     values.push_back(m.type == ModifierType::Integer ? std::to_string(long(v)) : std::to_string(v));
             if (m.type == ModifierType::File)
                 values.push_back(kHeight);
+            if (m.type == ModifierType::Output)
+                values.push_back("relief-test-mesh.ply");
+            if (m.type == ModifierType::Text)
+                values.push_back("10,20");
             for (const std::string& v : values) {
-                OperationCall c;
-                if (v == m.default_value || !parse_modifiers(c, op.name, m.name + "=" + v) || same_options(c, OperationCall{}))
+                OperationCall c, none;
+                const std::string other = m.type == ModifierType::Output ? "" : required(op.name);
+                if (!other.empty())
+                    parse_modifiers(none, op.name, other.substr(1));
+                if (v == m.default_value || !parse_modifiers(c, op.name, m.name + "=" + v + other) ||
+                    same_options(c, none))
                     continue;  // needs another modifier with it, or an alias of the default (clip is free)
                 c.operation = op.name;
                 INFO(op.name << ":" << m.name << "=" << v << " -> " << relief::modifier_text(c));
@@ -222,7 +249,14 @@ TEST_CASE("operations: modifier strings parse as on the command line", "[operati
         {"correct", "iterations=2.5", "iterations=2.5 must be an integer in [1, 1000000] or auto"},
         {"correct", "scale=0", "scale=0 is out of range; it must be in (0, 1e+09] or auto"},
         {"bake", "colour=red", "unknown modifier 'colour' (known: filter, colorspace, kind, wrap)"},
-        {"warp", "", "unknown operation 'warp' (known: slopes, height, correct, bake)"},
+        {"warp", "", "unknown operation 'warp' (known: slopes, height, correct, bake, normals, tessellation, mesh, preview)"},
+        {"mesh", "patch=8", "give the mesh file: out=FILE.obj|.ply|.gltf|.glb"},
+        {"mesh", "out=m.stl", "unknown mesh format '.stl'"},
+        {"mesh", "out=/nonexistent-folder/m.obj", "the folder '/nonexistent-folder' does not exist"},
+        {"preview", "light=45", "write light=AZ,EL"},
+        {"preview", "light=45,0", "light elevation=0 is out of range; it must be in (0, 90] degrees"},
+        {"normals", "normal=auto", "normal=auto is not one of opengl|directx"},
+        {"tessellation", "patch=0", "patch=0 must be an integer in [1, 4096] texels"},
     };
     for (const auto& b : bad) {
         INFO(b.op << ":" << b.mods);
