@@ -605,6 +605,32 @@ TEST_CASE("preview: a height's own normals light as the height does, and the lig
         CHECK(std::abs(panel_mean(from_left, 0, 0, pw, ph, c) - panel_mean(from_left, 1, 0, pw, ph, c)) < 2.0 / 255);
     o.azimuth = 0.0f;
     OIIO::ImageBuf from_right = relief::preview(normals, height, o);
+    // The same ramp turned to rise down the image faces a light from the
+    // top of the image (azimuth 90).
+    std::vector<float> hy(w * ht);
+    for (int y = 0; y < ht; ++y)
+        for (int x = 0; x < w; ++x)
+            hy[y * w + x] = 0.6f * y + 2.0f * std::sin(0.3 * x);
+    const OIIO::ImageBuf height_y = test::image(w, ht, 1, hy);
+    const OIIO::ImageBuf normals_y = relief::normals(height_y, no);
+    o.azimuth = 90.0f;
+    const double from_top = panel_mean(relief::preview(normals_y, height_y, o), 1, 0, pw, ph, 1);
+    o.azimuth = 270.0f;
+    const double from_bottom = panel_mean(relief::preview(normals_y, height_y, o), 1, 0, pw, ph, 1);
+    CHECK(from_top > from_bottom + 0.1);
+    // A red environment lights the panels red; the sky, blue.
+    const fs::path d = test::scratch("check_preview_env");
+    OIIO::ImageBuf red(OIIO::ImageSpec(32, 16, 3, OIIO::TypeDesc::FLOAT));
+    const float r[3] = {1.0f, 0.05f, 0.05f};
+    OIIO::ImageBufAlgo::fill(red, r);
+    REQUIRE(write_image(red, (d / "red.exr").string()));
+    o.azimuth = 0.0f;
+    o.elevation = 5.0f;  // a grazing key light leaves the colour to the environment
+    CHECK(panel_mean(from_left, 0, 0, pw, ph, 2) > panel_mean(from_left, 0, 0, pw, ph, 0));
+    o.env = (d / "red.exr").string();
+    const OIIO::ImageBuf lit_red = relief::preview(normals, height, o);
+    CHECK(panel_mean(lit_red, 0, 0, pw, ph, 0) > panel_mean(lit_red, 0, 0, pw, ph, 2) + 0.2);
+    o.env.clear();
     CHECK(panel_mean(from_left, 1, 0, pw, ph, 1) > panel_mean(from_right, 1, 0, pw, ph, 1) + 0.1);
     // Emboss: the ramp rises toward a light on the right: brighter than mid-grey.
     CHECK(panel_mean(from_right, 2, 0, pw, ph, 0) > 0.6);
@@ -640,4 +666,38 @@ TEST_CASE("preview: refuses mismatched sizes, bad lights and environments", "[ch
         CHECK(r.rc == 2);
         CHECK_FALSE(fs::exists(d / "s.png"));
     }
+}
+
+TEST_CASE("mesh and tessellation outputs: --update skips an unchanged mesh, integer files hold the level", "[check][mesh][cli]")
+{
+    const fs::path d = test::scratch("check_mesh_update");
+    const std::string h = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
+    const std::string log = (d / "log.jsonl").string();
+    auto run = [&](const std::string& error) {
+        return run_cli("--update --log '" + log + "' '" + h + "' --mesh:error=" + error + ":out='" + (d / "m.ply").string() +
+                       "' --tessellation:error=" + error + " -d uint8 -o '" + (d / "levels.png").string() + "'");
+    };
+    REQUIRE(run("0.02").rc == 0);
+    CHECK(test::slurp(log).find("\"status\": \"ok\"") != std::string::npos);
+    REQUIRE(run("0.02").rc == 0);
+    CHECK(test::slurp(log).find("\"status\": \"skipped\"") != std::string::npos);
+    CHECK(recorded_digest((d / "m.ply").string()).size() == 32);
+    // Another error recomputes; the mesh alone gone recomputes too.
+    REQUIRE(run("0.03").rc == 0);
+    CHECK(test::slurp(log).find("\"status\": \"ok\"") != std::string::npos);
+    fs::remove(d / "m.ply");
+    REQUIRE(run("0.03").rc == 0);
+    CHECK(test::slurp(log).find("\"status\": \"ok\"") != std::string::npos);
+    CHECK(fs::exists(d / "m.ply"));
+    // The 8-bit level map holds the levels as codes (values k/255).
+    const auto codes = test::file_pixels(d / "levels.png");
+    OIIO::ImageBuf img;
+    REQUIRE(read_image(img, h));
+    TessellationOptions o;
+    o.error = 0.03f;
+    const auto levels = test::pixels(relief::tessellation(img, o));
+    REQUIRE(codes.size() == levels.size());
+    for (std::size_t i = 0; i < codes.size(); ++i)
+        CHECK(std::lround(codes[i] * 255.0f) == std::lround(levels[i]));
+    CHECK(*std::max_element(levels.begin(), levels.end()) > 2.0f);
 }
