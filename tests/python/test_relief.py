@@ -113,6 +113,26 @@ class Doors(unittest.TestCase):
             self.assertEqual(f.read(), before)
         self.assertEqual(sorted(os.listdir(self.tmp.name)).count("x.unknownformat"), 0)
 
+    def test_checks_of_a_height_equal_the_cli(self):
+        h = relief.height(self.normals, normal="opengl", boundary="free")
+        hpath = self.path("h.exr")
+        relief.write(hpath, h)
+        n = relief.normals(h, normal="directx", scale=2)
+        self.assertEqual(n.shape, (344, 403, 3))
+        np.testing.assert_array_equal(n, self.cli_result(hpath, "--normals:normal=directx:scale=2"))
+        levels = relief.tessellation(h, patch=16, error=0.25)
+        self.assertEqual(levels.shape, (22, 26, 1))
+        np.testing.assert_array_equal(levels, self.cli_result(hpath, "--tessellation:patch=16:error=0.25"))
+        mesh = self.path("m.obj")
+        kept = relief.mesh(h, out=mesh)
+        np.testing.assert_array_equal(kept, h)
+        self.assertTrue(open(mesh).readline().startswith("# relief"))
+        sheet = relief.preview(self.normals, h, normal="opengl", light="90,30")
+        self.assertEqual(sheet.shape[2], 3)
+        self.assertGreaterEqual(sheet.shape[1], 1024)
+        with self.assertRaises(ValueError):
+            relief.mesh(h, out=self.path("m.stl"))
+
 
 class Refusals(unittest.TestCase):
     def setUp(self):
@@ -156,26 +176,6 @@ class Table(unittest.TestCase):
         rays = {m["name"]: m for m in ops["height"]["modifiers"]}["rays"]
         self.assertEqual((rays["type"], rays["min"], rays["max"], rays["default"]), ("integer", 1, 4096, "32"))
         self.assertEqual([s["name"] for s in ops["bake"]["inputs"]], ["texture", "offsets"])
-
-    def test_checks_of_a_height_equal_the_cli(self):
-        h = relief.height(self.normals, normal="opengl", boundary="free")
-        hpath = self.path("h.exr")
-        relief.write(hpath, h)
-        n = relief.normals(h, normal="directx", scale=2)
-        self.assertEqual(n.shape, (344, 403, 3))
-        np.testing.assert_array_equal(n, self.cli_result(hpath, "--normals:normal=directx:scale=2"))
-        levels = relief.tessellation(h, patch=16, error=0.25)
-        self.assertEqual(levels.shape, (22, 26, 1))
-        np.testing.assert_array_equal(levels, self.cli_result(hpath, "--tessellation:patch=16:error=0.25"))
-        mesh = self.path("m.obj")
-        kept = relief.mesh(h, out=mesh)
-        np.testing.assert_array_equal(kept, h)
-        self.assertTrue(open(mesh).readline().startswith("# relief"))
-        sheet = relief.preview(self.normals, h, normal="opengl", light="90,30")
-        self.assertEqual(sheet.shape[2], 3)
-        self.assertGreaterEqual(sheet.shape[1], 1024)
-        with self.assertRaises(ValueError):
-            relief.mesh(h, out=self.path("m.stl"))
 
     def test_every_default_is_accepted_and_changes_nothing(self):
         n = np.full((16, 16, 3), 128, np.uint8)
