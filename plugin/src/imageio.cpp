@@ -270,13 +270,14 @@ bool write_image(const ImageBuf& image, const std::string& path, const WriteOpti
             "'" + path + "': " + ext + " has no float pixels; writing " + format.c_str());
     }
 
-    // Signed results in an integer file: map [-m, m] to [0, 1] around 0.5.
+    // relief's results in an integer file: signed data maps [-m, m] to
+    // [0, 1] around 0.5; unit normals are (v + 1)/2, the usual encoding;
+    // tessellation levels are the code itself.
     ImageBuf mapped;
     const ImageBuf* out = &image;
     const bool integer = format.basetype == TypeDesc::UINT8 || format.basetype == TypeDesc::UINT16;
     const std::string method = image.spec().get_string_attribute("relief:method");
-    if (integer && (method == "normals" || method == "tessellation")) {
-        // Unit normals as (v + 1)/2, the usual encoding; levels as the code itself.
+    if (integer && !method.empty()) {
         const ImageSpec& spec = image.spec();
         std::vector<float> px(spec.image_pixels() * spec.nchannels);
         if (!image.get_pixels(image.roi(), TypeDesc::FLOAT, px.data())) {
@@ -284,48 +285,40 @@ bool write_image(const ImageBuf& image, const std::string& path, const WriteOpti
                               image.geterror());
             return false;
         }
-        const double top = format.basetype == TypeDesc::UINT8 ? 255.0 : 65535.0;
-        for (float& v : px)
-            v = method == "normals" ? 0.5f * (v + 1.0f) : float(double(v) / top);
-        mapped.reset(spec);
-        mapped.set_pixels(mapped.roi(), TypeDesc::FLOAT, px.data());
-        out = &mapped;
-    } else if (integer && !method.empty()) {
-        const ImageSpec& spec = image.spec();
-        std::vector<float> px(spec.image_pixels() * spec.nchannels);
-        if (!image.get_pixels(image.roi(), TypeDesc::FLOAT, px.data())) {
-            detail::set_error("cannot write '" + path + "': its pixels cannot be read: " +
-                              image.geterror());
-            return false;
-        }
-        double m = 0.0;
-        for (float v : px)
-            m = std::max(m, double(std::abs(v)));
-        const double scale = m > 0.0 ? 2.0 * m : 1.0;
-        const double mid = 0.5;
-        for (float& v : px)
-            v = float(mid + v / scale);
         ImageSpec s = spec;
-        // As text: PNG and TIFF keep only string metadata.
-        char text[32];
-        std::snprintf(text, sizeof text, "%.9g", scale);
-        s.attribute("relief:height_scale", text);
-        std::snprintf(text, sizeof text, "%.9g", mid);
-        s.attribute("relief:height_midlevel", text);
-        // TIFF drops custom attributes but keeps the standard description.
-        std::snprintf(text, sizeof text, "%.9g", scale);
-        s.attribute("ImageDescription",
-                    std::string("relief: data = (value - 0.5) * ") + text + " " +
-                        std::string(spec.get_string_attribute("relief:height_unit", "units")));
+        if (method == "normals" || method == "tessellation") {
+            const double top = format.basetype == TypeDesc::UINT8 ? 255.0 : 65535.0;
+            for (float& v : px)
+                v = method == "normals" ? 0.5f * (v + 1.0f) : float(double(v) / top);
+        } else {
+            double m = 0.0;
+            for (float v : px)
+                m = std::max(m, double(std::abs(v)));
+            const double scale = m > 0.0 ? 2.0 * m : 1.0;
+            const double mid = 0.5;
+            for (float& v : px)
+                v = float(mid + v / scale);
+            // As text: PNG and TIFF keep only string metadata.
+            char text[32];
+            std::snprintf(text, sizeof text, "%.9g", scale);
+            s.attribute("relief:height_scale", text);
+            std::snprintf(text, sizeof text, "%.9g", mid);
+            s.attribute("relief:height_midlevel", text);
+            // TIFF drops custom attributes but keeps the standard description.
+            std::snprintf(text, sizeof text, "%.9g", scale);
+            s.attribute("ImageDescription",
+                        std::string("relief: data = (value - 0.5) * ") + text + " " +
+                            std::string(spec.get_string_attribute("relief:height_unit", "units")));
+            char msg[256];
+            std::snprintf(msg, sizeof msg,
+                          "'%s': %s values v hold data = (v - %.1f) * %.9g (scale %.9g %s, mid-level %.1f)",
+                          path.c_str(), format.c_str(), mid, scale, scale,
+                          spec.get_string_attribute("relief:height_unit", "units").c_str(), mid);
+            say(options, Severity::Info, msg);
+        }
         mapped.reset(s);
         mapped.set_pixels(mapped.roi(), TypeDesc::FLOAT, px.data());
         out = &mapped;
-        char msg[256];
-        std::snprintf(msg, sizeof msg,
-                      "'%s': %s values v hold data = (v - %.1f) * %.9g (scale %.9g %s, mid-level %.1f)",
-                      path.c_str(), format.c_str(), mid, scale, scale,
-                      spec.get_string_attribute("relief:height_unit", "units").c_str(), mid);
-        say(options, Severity::Info, msg);
     }
 
     std::string compression = options.compression;
