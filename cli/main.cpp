@@ -376,6 +376,8 @@ void run_job(const Program& prog, JobRecord& rec)
             rec.inputs.push_back(s.mask_file);
         if (!s.fix_file.empty())
             rec.inputs.push_back(s.fix_file);
+        if (s.kind == Step::Kind::Operation && !s.preview.env.empty())
+            rec.inputs.push_back(s.preview.env);
     }
     rec.outputs = output_files(prog);
     if (!prog.report.empty())

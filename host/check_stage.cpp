@@ -1,6 +1,7 @@
 #include "check_stage.h"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 
 #include "errors.h"
@@ -107,6 +108,11 @@ std::vector<std::uint8_t> tessellation_levels(ComputeContext& ctx, const float* 
         throw Error("the tessellation patch must be at least 1 texel");
     const int px = (w + patch - 1) / patch, py = (ht + patch - 1) / patch;
     const std::size_t patches = std::size_t(px) * std::size_t(py);
+    // One work-item per patch and level, indexed by a 32-bit int.
+    if (patches * kMaxTessellationLevel > std::size_t(INT_MAX))
+        throw Error("tessellation: " + std::to_string(patches) + " patches of " + std::to_string(patch) +
+                    " texels are more than this version handles (" +
+                    std::to_string(INT_MAX / kMaxTessellationLevel) + "); use a larger patch");
     std::vector<std::uint8_t> pass(patches * kMaxTessellationLevel);
     auto& c = ctx.impl();
     {

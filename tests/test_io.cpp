@@ -122,6 +122,44 @@ TEST_CASE("io: (child) write 4 KiB of text to $RELIEF_TEST_CHILD_ARG", "[.][io-c
     }
 }
 
+TEST_CASE("io: (child) write a mesh to $RELIEF_TEST_CHILD_ARG", "[.][io-child]")
+{
+    const char* path = child_arg();
+    if (!path)
+        return;
+    // About 1 MB in every format; no device needed.
+    relief::Mesh m;
+    for (int i = 0; i < 30000; ++i) {
+        m.positions.insert(m.positions.end(), {float(i), float(i % 7), 0.5f});
+        m.normals.insert(m.normals.end(), {0.0f, 0.0f, 1.0f});
+        m.texcoords.insert(m.texcoords.end(), {0.25f, 0.75f});
+    }
+    for (std::uint32_t t = 0; t + 2 < 30000; ++t)
+        m.triangles.insert(m.triangles.end(), {t, t + 1, t + 2});
+    if (relief::write_mesh(m, path))
+        std::_Exit(1);
+    std::_Exit(relief::geterror().find("cannot write '" + std::string(path) + "'") == 0 ? 0 : 5);
+}
+
+TEST_CASE("io: a full disk during a mesh write keeps the old file, in every format", "[io][errors][mesh]")
+{
+    const auto dir = relief::test::scratch("io/mesh");
+    const std::string child = "io: (child) write a mesh to $RELIEF_TEST_CHILD_ARG";
+    for (const char* name : {"m.obj", "m.ply", "m.gltf", "m.glb"}) {
+        INFO(name);
+        const fs::path target = dir / name;
+        const std::string old = "precious\n";
+        std::ofstream(target, std::ios::binary) << old;
+        CHECK(with_size_limit(64 * 1024, child, target.string()) == 0);
+        CHECK(slurp(target) == old);
+        CHECK(others(dir, name).empty());
+        CHECK(with_size_limit(RLIM_INFINITY, child, target.string()) == 1);
+        CHECK(slurp(target).size() > 500000);
+        CHECK(others(dir, name).empty());
+        fs::remove(target);
+    }
+}
+
 TEST_CASE("io: the --report writer keeps the old file when the disk is full", "[io][errors]")
 {
     const auto dir = relief::test::scratch("io/text");

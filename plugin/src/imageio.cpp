@@ -81,6 +81,14 @@ bool read_image(ImageBuf& dst, const std::string& path)
         else
             spec.attribute("ImageDescription", description);
     }
+    // An integer file of normals or levels holds them encoded ((v + 1)/2,
+    // the level as the code): read back, they are plain data, and writing
+    // them again must not encode them twice.
+    const std::string method = spec.get_string_attribute("relief:method");
+    const TypeDesc stored = dst.nativespec().format;
+    if ((method == "normals" || method == "tessellation") &&
+        (stored.basetype == TypeDesc::UINT8 || stored.basetype == TypeDesc::UINT16))
+        spec.erase_attribute("relief:method");
     return true;
 }
 

@@ -1,6 +1,6 @@
 // relief::write_mesh — OBJ, PLY (binary) and glTF 2.0 (.gltf with its buffer
 // embedded, or .glb) through TinyGLTF; every file written to a temporary
-// name in its folder and renamed when complete.
+// name in its folder, checked, synced and renamed when complete.
 #include "relief/mesh.h"
 
 #include <tiny_gltf.h>
@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <sstream>
 #include <stdexcept>
 
 #include "error_state.h"
@@ -117,7 +118,9 @@ int add_accessor(tinygltf::Model& model, const std::vector<T>& data, int compone
     return int(model.accessors.size()) - 1;
 }
 
-void write_gltf(const Mesh& m, const std::string& path, bool binary, const std::string& digest)
+// The whole file in memory (buffers embedded), written by write_mesh's
+// checked writer: TinyGLTF's own file writer does not report a short write.
+std::string gltf_bytes(const Mesh& m, bool binary, const std::string& digest)
 {
     tinygltf::Model model;
     model.asset.version = "2.0";
@@ -154,8 +157,10 @@ void write_gltf(const Mesh& m, const std::string& path, bool binary, const std::
     model.scenes.push_back(scene);
     model.defaultScene = 0;
     tinygltf::TinyGLTF writer;
-    if (!writer.WriteGltfSceneToFile(&model, path, false, true, !binary, binary))
+    std::ostringstream bytes;
+    if (!writer.WriteGltfSceneToStream(&model, bytes, !binary, binary))
         throw std::runtime_error("the glTF writer failed");
+    return bytes.str();
 }
 
 } // namespace
@@ -192,25 +197,22 @@ bool write_mesh(const Mesh& m, const std::string& path, const std::string& diges
     const std::string e = extension(path);
     std::error_code ec;
     try {
-        if (e == ".gltf" || e == ".glb") {
-            write_gltf(m, tmp.string(), e == ".glb", digest);
-            // The glTF writer closes its file: sync it before the rename.
-            std::FILE* f = std::fopen(tmp.c_str(), "rb");
-            if (!f || ::fsync(::fileno(f)) != 0 || std::fclose(f) != 0)
-                throw std::runtime_error("cannot sync the file");
-        } else {
-            std::FILE* f = std::fopen(tmp.c_str(), "wb");
-            if (!f)
-                throw std::runtime_error(std::strerror(errno));
-            std::setvbuf(f, nullptr, _IOFBF, 1 << 20);
-            if (e == ".obj")
-                write_obj(m, f, digest);
-            else
-                write_ply(m, f, digest);
-            const bool ok = !std::ferror(f) && std::fflush(f) == 0 && ::fsync(::fileno(f)) == 0;
-            if (std::fclose(f) != 0 || !ok)
-                throw std::runtime_error("write error (is the disk full?)");
+        std::FILE* f = std::fopen(tmp.c_str(), "wb");
+        if (!f)
+            throw std::runtime_error(std::strerror(errno));
+        std::setvbuf(f, nullptr, _IOFBF, 1 << 20);
+        if (e == ".obj")
+            write_obj(m, f, digest);
+        else if (e == ".ply")
+            write_ply(m, f, digest);
+        else {
+            const std::string bytes = gltf_bytes(m, e == ".glb", digest);
+            std::fwrite(bytes.data(), 1, bytes.size(), f);
         }
+        // Every write, the flush and the sync checked: a full disk fails here.
+        const bool ok = !std::ferror(f) && std::fflush(f) == 0 && ::fsync(::fileno(f)) == 0;
+        if (std::fclose(f) != 0 || !ok)
+            throw std::runtime_error("write error (is the disk full?)");
         fs::rename(tmp, target, ec);
         if (ec)
             throw std::runtime_error("rename failed: " + ec.message());

@@ -1,5 +1,6 @@
 #include "seams.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <stdexcept>
@@ -80,6 +81,16 @@ bool height_is_periodic(const OIIO::ImageBuf& height, const std::vector<float>& 
             " (height jump across the wrap seam / mean jump between neighbours: x " +
             format_double("%.2f", rx) + ", y " + format_double("%.2f", ry) + "; periodic when both <= 2)");
     return periodic;
+}
+
+void check_scaled(const std::vector<float>& h, float scale, const std::string& operation)
+{
+    float top = 0.0f;
+    for (float v : h)
+        top = std::max(top, std::abs(v));
+    if (!std::isfinite(top * scale))
+        throw std::runtime_error(operation + ": scale=" + format_double("%g", scale) + " times the height's largest |value| " +
+                                 format_double("%g", top) + " overflows single precision");
 }
 
 } // namespace relief::detail

@@ -32,4 +32,8 @@ bool seams_continuous(const std::vector<float>& h, int w, int ht, double& ratio_
 bool height_is_periodic(const OIIO::ImageBuf& height, const std::vector<float>& h, int w, int ht,
                         Boundary requested, const Execution& exec, const std::string& operation);
 
+// Throws when scale x the largest |h| is not a finite float (a surface the
+// checks cannot measure), naming `operation`.
+void check_scaled(const std::vector<float>& h, float scale, const std::string& operation);
+
 } // namespace relief::detail

@@ -36,7 +36,8 @@ struct PreviewOptions {
 // light minus the height; (d) the angular error between (a) and (b)'s
 // normals (degrees, heat map and colour bar); (e) the height (texels,
 // colour bar). A sixth cell states the light, the convention and the
-// round-trip numbers. `normals` and `height` must have the same size.
+// round-trip numbers. (Panels of maps over about 6 times taller than wide
+// are narrower: they are kept under 2048 texels tall.) `normals` and `height` must have the same size.
 // Metadata: relief:native_format "uint8" (the command line writes 8 bits).
 RELIEF_API OIIO::ImageBuf preview(const OIIO::ImageBuf& normals, const OIIO::ImageBuf& height,
                                   const PreviewOptions& options = {});
