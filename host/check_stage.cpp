@@ -1,7 +1,6 @@
 #include "check_stage.h"
 
 #include <algorithm>
-#include <climits>
 #include <cmath>
 
 #include "errors.h"
@@ -107,44 +106,30 @@ std::vector<std::uint8_t> tessellation_levels(ComputeContext& ctx, const float* 
     if (patch < 1)
         throw Error("the tessellation patch must be at least 1 texel");
     const int px = (w + patch - 1) / patch, py = (ht + patch - 1) / patch;
+    // At most w x h patches, which texels() keeps under 2^31 for the kernel.
     const std::size_t patches = std::size_t(px) * std::size_t(py);
-    // One work-item per patch and level, indexed by a 32-bit int.
-    if (patches * kMaxTessellationLevel > std::size_t(INT_MAX))
-        throw Error("tessellation: " + std::to_string(patches) + " patches of " + std::to_string(patch) +
-                    " texels are more than this version handles (" +
-                    std::to_string(INT_MAX / kMaxTessellationLevel) + "); use a larger patch");
-    std::vector<std::uint8_t> pass(patches * kMaxTessellationLevel);
+    std::vector<std::uint8_t> levels(patches);
     auto& c = ctx.impl();
-    {
-        std::lock_guard<std::mutex> lock(c.mutex);
-        try {
-            cl::Buffer in = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n,
-                                     "the tessellation levels", h);
-            cl::Buffer out = c.buffer(CL_MEM_WRITE_ONLY, pass.size(), "the tessellation levels");
-            cl::Kernel k(c.program("check.cl"), "tessellation_pass");
-            k.setArg(0, in);
-            k.setArg(1, cl_int(w));
-            k.setArg(2, cl_int(ht));
-            k.setArg(3, cl_int(patch));
-            k.setArg(4, cl_float(error));
-            k.setArg(5, cl_float(scale));
-            k.setArg(6, cl_int(px));
-            k.setArg(7, cl_int(patches));
-            k.setArg(8, out);
-            c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(pass.size())),
-                                         cl::NDRange(kGroupSize));
-            c.queue.enqueueReadBuffer(out, CL_TRUE, 0, pass.size(), pass.data());
-        } catch (const cl::Error& e) {
-            throw opencl_error(e);
-        }
+    std::lock_guard<std::mutex> lock(c.mutex);
+    try {
+        cl::Buffer in = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n,
+                                 "the tessellation levels", h);
+        cl::Buffer out = c.buffer(CL_MEM_WRITE_ONLY, patches, "the tessellation levels");
+        cl::Kernel k(c.program("check.cl"), "tessellation_levels");
+        k.setArg(0, in);
+        k.setArg(1, cl_int(w));
+        k.setArg(2, cl_int(ht));
+        k.setArg(3, cl_int(patch));
+        k.setArg(4, cl_float(error));
+        k.setArg(5, cl_float(scale));
+        k.setArg(6, cl_int(px));
+        k.setArg(7, cl_int(patches));
+        k.setArg(8, out);
+        c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(patches)), cl::NDRange(kGroupSize));
+        c.queue.enqueueReadBuffer(out, CL_TRUE, 0, patches, levels.data());
+    } catch (const cl::Error& e) {
+        throw opencl_error(e);
     }
-    std::vector<std::uint8_t> levels(patches, 0);
-    for (std::size_t p = 0; p < patches; ++p)
-        for (int L = 1; L <= kMaxTessellationLevel; ++L)
-            if (pass[p * kMaxTessellationLevel + std::size_t(L - 1)]) {
-                levels[p] = std::uint8_t(L);
-                break;
-            }
     return levels;
 }
 

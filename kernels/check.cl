@@ -75,54 +75,42 @@ inline float check_bilinear(global const float* h, int w, int ht, float x, float
     return mix(top, bottom, fy);
 }
 
-// Whether level L (1..64) of patch p keeps the displaced surface within
-// `error` of scale * h at every texel centre of the patch. The patch spans
-// [x0, x1] x [y0, y1] (texel corners; the last row and column of patches may
-// be narrower), split into L x L quads with vertex heights sampled bilinearly
-// from scale * h. Each quad is cut along the diagonal that points away from
-// the patch centre (the main diagonal when the quad is in the top-left or
-// bottom-right quarter), so a patch corner is always a diagonal's end and no
-// triangle of a patch with L >= 2 has two edges on the patch border: the
-// mesh's stitching relies on that. A flat patch passes at level 1. One
-// work-item per (patch, level); the host takes the lowest level that passes.
-kernel void tessellation_pass(global const float* h, int w, int ht, int patch, float error,
-                              float scale, int patches_x, int patch_count, global uchar* pass)
+// The largest level a patch can have.
+#define CHECK_MAX_LEVEL 64
+
+// Whether level L of the patch [x0, x1] x [y0, y1] (texel corners) keeps
+// the displaced surface within `error` of scale * h at every texel centre
+// of the patch: the patch split into L x L quads with vertex heights
+// sampled bilinearly from scale * h, each quad cut along the diagonal that
+// points away from the patch centre (the main diagonal in the top-left and
+// bottom-right quarters), so a patch corner is always a diagonal's end and
+// no triangle of a patch with L >= 2 has two edges on the patch border: the
+// mesh's stitching relies on that. Stops at the first texel off by more.
+inline int check_level_passes(global const float* h, int w, int ht, int x0, int y0, int x1, int y1,
+                              int L, float error, float scale)
 {
-    const int gid = get_global_id(0);
-    if (gid >= patch_count * 64)
-        return;
-    const int p = gid / 64, L = gid % 64 + 1;
-    const int x0 = (p % patches_x) * patch, y0 = (p / patches_x) * patch;
-    const int x1 = min(x0 + patch, w), y1 = min(y0 + patch, ht);
     const float sx = (float)(x1 - x0) / (float)L, sy = (float)(y1 - y0) / (float)L;
-    uchar ok = 1;
-    if (L == 1) {
-        // A flat patch (every texel the same height) is level 1 whatever
-        // its corners read from the neighbours: nothing to tessellate.
-        const float h0 = h[y0 * w + x0];
-        uchar flat = 1;
-        for (int j = y0; j < y1 && flat; ++j)
-            for (int i = x0; i < x1; ++i)
-                flat &= h[j * w + i] == h0;
-        if (flat) {
-            pass[gid] = 1;
-            return;
-        }
-    }
-    for (int j = y0; j < y1 && ok; ++j) {
+    for (int j = y0; j < y1; ++j) {
         const float v = ((float)j + 0.5f - (float)y0) / sy;
         const int b = min((int)v, L - 1);
         const float fv = v - (float)b;
         const float ya = (float)y0 + sy * (float)b, yb = (float)y0 + sy * (float)(b + 1);
+        // The corners of the current cell, fetched again only when the
+        // texels move into the next cell of the row.
+        int a = -1;
+        float z00 = 0.0f, z10 = 0.0f, z01 = 0.0f, z11 = 0.0f;
         for (int i = x0; i < x1; ++i) {
             const float u = ((float)i + 0.5f - (float)x0) / sx;
-            const int a = min((int)u, L - 1);
-            const float fu = u - (float)a;
-            const float xa = (float)x0 + sx * (float)a, xb = (float)x0 + sx * (float)(a + 1);
-            const float z00 = scale * check_bilinear(h, w, ht, xa, ya);
-            const float z10 = scale * check_bilinear(h, w, ht, xb, ya);
-            const float z01 = scale * check_bilinear(h, w, ht, xa, yb);
-            const float z11 = scale * check_bilinear(h, w, ht, xb, yb);
+            const int ai = min((int)u, L - 1);
+            const float fu = u - (float)ai;
+            if (ai != a) {
+                a = ai;
+                const float xa = (float)x0 + sx * (float)a, xb = (float)x0 + sx * (float)(a + 1);
+                z00 = scale * check_bilinear(h, w, ht, xa, ya);
+                z10 = scale * check_bilinear(h, w, ht, xb, ya);
+                z01 = scale * check_bilinear(h, w, ht, xa, yb);
+                z11 = scale * check_bilinear(h, w, ht, xb, yb);
+            }
             float z;
             if ((2 * a < L) == (2 * b < L))  // main diagonal, 00 - 11
                 z = fu >= fv ? z00 + fu * (z10 - z00) + fv * (z11 - z10)
@@ -130,11 +118,35 @@ kernel void tessellation_pass(global const float* h, int w, int ht, int patch, f
             else  // the other diagonal, 10 - 01
                 z = fu + fv <= 1.0f ? z00 + fu * (z10 - z00) + fv * (z01 - z00)
                                     : z11 + (1.0f - fu) * (z01 - z11) + (1.0f - fv) * (z10 - z11);
-            if (fabs(z - scale * h[j * w + i]) > error) {
-                ok = 0;
-                break;
-            }
+            if (fabs(z - scale * h[j * w + i]) > error)
+                return 0;
         }
     }
-    pass[gid] = ok;
+    return 1;
+}
+
+// Per patch of patch x patch texels (the last row and column of patches
+// may be narrower): the lowest level in 1..64 that passes, or 0 when none
+// does. A flat patch (every texel the same height) is level 1 whatever its
+// corners read from the neighbours: nothing to tessellate. One work-item
+// per patch, scanning the levels upward: a failing level usually stops
+// within a few texels, so the cost is about one full pass per patch.
+kernel void tessellation_levels(global const float* h, int w, int ht, int patch, float error,
+                                float scale, int patches_x, int patch_count, global uchar* level)
+{
+    const int p = get_global_id(0);
+    if (p >= patch_count)
+        return;
+    const int x0 = (p % patches_x) * patch, y0 = (p / patches_x) * patch;
+    const int x1 = min(x0 + patch, w), y1 = min(y0 + patch, ht);
+    const float h0 = h[y0 * w + x0];
+    int flat = 1;
+    for (int j = y0; j < y1 && flat; ++j)
+        for (int i = x0; i < x1; ++i)
+            flat &= h[j * w + i] == h0;
+    uchar found = flat ? 1 : 0;
+    for (int L = 1; L <= CHECK_MAX_LEVEL && !found; ++L)
+        if (check_level_passes(h, w, ht, x0, y0, x1, y1, L, error, scale))
+            found = (uchar)L;
+    level[p] = found;
 }

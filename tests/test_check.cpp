@@ -556,17 +556,28 @@ TEST_CASE("mesh files record the digest they are given, in every format", "[chec
     }
 }
 
-TEST_CASE("tessellation: more patches than the kernel can index are refused with the numbers", "[check][errors]")
+TEST_CASE("tessellation: patch=1 and patches larger than the map", "[check]")
 {
-    // 8192 x 4097 texels at patch=1: 33,562,624 patches x 64 levels pass 2^31.
-    OIIO::ImageBuf big(OIIO::ImageSpec(8192, 4097, 1, OIIO::TypeDesc::FLOAT));
-    OIIO::ImageBuf out;
+    // One level per texel: a single texel is flat, so level 1 everywhere.
+    const std::vector<float> h = test::waves(13, 9, 4.0, 4);
     TessellationOptions o;
     o.patch = 1;
-    CHECK_FALSE(relief::tessellation(out, big, o));
-    CHECK_THAT(geterror(), Catch::Contains("33562624 patches of 1 texels are more than this version handles (33554431)"));
-    o.patch = 2;
-    CHECK(relief::tessellation(out, big, o));
+    const OIIO::ImageBuf one = relief::tessellation(test::image(13, 9, 1, h), o);
+    REQUIRE(one.spec().width == 13);
+    REQUIRE(one.spec().height == 9);
+    for (float v : test::pixels(one))
+        CHECK(v == 1.0f);
+    // One patch over the whole map, as the golden model says.
+    o.patch = 64;
+    o.error = 0.05f;
+    const auto got = test::pixels(relief::tessellation(test::image(13, 9, 1, h), o));
+    REQUIRE(got.size() == 1);
+    const auto err = reference::tessellation_errors(as_double(h), 13, 9, 64, 1.0);
+    int want = 64;
+    for (int L = 64; L >= 1; --L)
+        if (err[std::size_t(L - 1)] <= 0.05)
+            want = L;
+    CHECK(got[0] == want);
 }
 
 TEST_CASE("normals and levels read back from integer files are plain data: writing them again keeps the codes", "[check][io]")

@@ -7,7 +7,7 @@
 // whatever their levels. A shared side carries the union of both patches'
 // points; a triangle with an edge on such a side is fanned from its third
 // vertex over the side's extra points (the diagonal rule of
-// tessellation_pass in kernels/check.cl guarantees one side per triangle
+// check_level_passes in kernels/check.cl guarantees one side per triangle
 // from level 2 on), and a level-1 patch with extra points becomes a fan
 // around its centre.
 #include "relief/mesh.h"
@@ -73,20 +73,44 @@ public:
 
     int patches() const { return px_ * py_; }
 
-    // The mesh at `levels` (one per patch), with each patch's largest error.
-    Mesh build(const std::vector<int>& levels)
+    // Sets the levels and (re)builds the patches listed (all, the first
+    // time); returns nothing, errors() has each patch's largest error.
+    // Vertices are kept across calls: they are keyed by exact position, so
+    // a rebuilt patch finds its neighbours' side vertices again.
+    void build(const std::vector<int>& levels, const std::vector<int>& which)
     {
         levels_ = levels;
-        mesh_ = Mesh();
-        index_.clear();
-        mesh_.levels = levels;
-        mesh_.errors.assign(std::size_t(patches()), 0.0);
-        for (int p = 0; p < patches(); ++p) {
-            const std::size_t first = mesh_.triangles.size();
+        tris_.resize(std::size_t(patches()));
+        errors_.resize(std::size_t(patches()));
+        for (int p : which) {
+            cur_ = &tris_[std::size_t(p)];
+            cur_->clear();
             add_patch(p);
-            mesh_.errors[std::size_t(p)] = patch_error(p, first);
+            errors_[std::size_t(p)] = patch_error(p);
         }
-        return std::move(mesh_);
+    }
+
+    const std::vector<double>& errors() const { return errors_; }
+
+    // The mesh: the patches' triangles in patch order, the vertices they
+    // use numbered in order of first use (the same mesh whatever was rebuilt).
+    Mesh finish() const
+    {
+        Mesh m;
+        std::vector<std::uint32_t> number(pos_.size() / 3, UINT32_MAX);
+        for (const auto& list : tris_)
+            for (std::uint32_t v : list) {
+                if (number[v] == UINT32_MAX) {
+                    number[v] = std::uint32_t(m.positions.size() / 3);
+                    m.positions.insert(m.positions.end(), &pos_[3 * std::size_t(v)], &pos_[3 * std::size_t(v)] + 3);
+                    m.normals.insert(m.normals.end(), &nrm_[3 * std::size_t(v)], &nrm_[3 * std::size_t(v)] + 3);
+                    m.texcoords.insert(m.texcoords.end(), &uv_[2 * std::size_t(v)], &uv_[2 * std::size_t(v)] + 2);
+                }
+                m.triangles.push_back(number[v]);
+            }
+        m.levels = levels_;
+        m.errors = errors_;
+        return m;
     }
 
 private:
@@ -157,7 +181,7 @@ private:
         const auto found = index_.find(k);
         if (found != index_.end())
             return found->second;
-        const std::uint32_t i = std::uint32_t(mesh_.positions.size() / 3);
+        const std::uint32_t i = std::uint32_t(pos_.size() / 3);
         if (i == UINT32_MAX)
             throw std::runtime_error("the mesh has more than 2^32 - 1 vertices; use a larger error or patch");
         index_.emplace(k, i);
@@ -165,21 +189,21 @@ private:
         const double dzdx = height_at(x + 0.5, y) - height_at(x - 0.5, y);
         const double dzdy = height_at(x, y + 0.5) - height_at(x, y - 0.5);
         const double len = std::sqrt(dzdx * dzdx + dzdy * dzdy + 1.0);
-        mesh_.positions.insert(mesh_.positions.end(), {float(x), float(y), float(height_at(x, y))});
-        mesh_.normals.insert(mesh_.normals.end(), {float(-dzdx / len), float(-dzdy / len), float(1.0 / len)});
-        mesh_.texcoords.insert(mesh_.texcoords.end(), {float(x / w_), float(1.0 - y / ht_)});
+        pos_.insert(pos_.end(), {float(x), float(y), float(height_at(x, y))});
+        nrm_.insert(nrm_.end(), {float(-dzdx / len), float(-dzdy / len), float(1.0 / len)});
+        uv_.insert(uv_.end(), {float(x / w_), float(1.0 - y / ht_)});
         return i;
     }
 
     // One triangle, wound counter-clockwise seen from +z.
     void triangle(std::uint32_t a, std::uint32_t b, std::uint32_t c)
     {
-        const float* P = mesh_.positions.data();
+        const float* P = pos_.data();
         const double cross = (double(P[3 * b]) - P[3 * a]) * (double(P[3 * c + 1]) - P[3 * a + 1]) -
                              (double(P[3 * b + 1]) - P[3 * a + 1]) * (double(P[3 * c]) - P[3 * a]);
         if (cross < 0)
             std::swap(b, c);
-        mesh_.triangles.insert(mesh_.triangles.end(), {a, b, c});
+        cur_->insert(cur_->end(), {a, b, c});
     }
 
     void add_patch(int p)
@@ -269,17 +293,18 @@ private:
     }
 
     // The largest |surface - S h| over the texel centres of patch p, whose
-    // triangles start at `first` (3 indices each); every centre must be covered.
-    double patch_error(int p, std::size_t first) const
+    // every centre must be covered by its triangles.
+    double patch_error(int p) const
     {
         const Bounds b = bounds(p);
         const int pw = b.x1 - b.x0;
         std::vector<double> err(std::size_t(pw) * std::size_t(b.y1 - b.y0), -1.0);
-        const float* P = mesh_.positions.data();
-        for (std::size_t t = first; t < mesh_.triangles.size(); t += 3) {
+        const float* P = pos_.data();
+        const std::vector<std::uint32_t>& tris = tris_[std::size_t(p)];
+        for (std::size_t t = 0; t < tris.size(); t += 3) {
             double x[3], y[3], z[3];
             for (int k = 0; k < 3; ++k) {
-                const std::uint32_t v = mesh_.triangles[t + std::size_t(k)];
+                const std::uint32_t v = tris[t + std::size_t(k)];
                 x[k] = P[3 * v];
                 y[k] = P[3 * v + 1];
                 z[k] = P[3 * v + 2];
@@ -320,7 +345,10 @@ private:
     const double scale_;
     const int px_, py_;
     std::vector<int> levels_;
-    Mesh mesh_;
+    std::vector<std::vector<std::uint32_t>> tris_;  // per patch, 3 per triangle
+    std::vector<std::uint32_t>* cur_ = nullptr;     // the patch being built
+    std::vector<double> errors_;                    // per patch
+    std::vector<float> pos_, nrm_, uv_;             // every vertex made so far
     std::unordered_map<Key, std::uint32_t, KeyHash> index_;
 };
 
@@ -343,6 +371,7 @@ bool displaced_mesh(Mesh& mesh, const OIIO::ImageBuf& height, const Tessellation
         for (std::size_t p = 0; p < first.size(); ++p)
             levels[p] = first[p] ? first[p] : host::kMaxTessellationLevel;
         const std::vector<int> start = levels;
+        const int px = (w + options.patch - 1) / options.patch, py = (ht + options.patch - 1) / options.patch;
 
         // The stitched mesh differs from each patch's uniform grid along its
         // sides: measure it, and raise a patch that is off by more than E.
@@ -350,19 +379,35 @@ bool displaced_mesh(Mesh& mesh, const OIIO::ImageBuf& height, const Tessellation
         // keeps their rounding from crossing E.
         Builder builder(h, w, ht, options);
         const double limit = double(options.error) * (1.0 - 1e-5);
+        std::vector<int> which(levels.size());
+        std::iota(which.begin(), which.end(), 0);
         for (;;) {
-            Mesh m = builder.build(levels);
-            bool raised = false;
+            builder.build(levels, which);
+            // A raised patch changes its own triangles and its neighbours'
+            // sides: those are rebuilt and measured again.
+            std::vector<char> dirty(levels.size(), 0);
             for (std::size_t p = 0; p < levels.size(); ++p)
-                if (m.errors[p] > limit && levels[p] < host::kMaxTessellationLevel) {
+                if (builder.errors()[p] > limit && levels[p] < host::kMaxTessellationLevel) {
                     ++levels[p];
-                    raised = true;
+                    const int x = int(p) % px, y = int(p) / px;
+                    dirty[p] = 1;
+                    if (x > 0)
+                        dirty[p - 1] = 1;
+                    if (x + 1 < px)
+                        dirty[p + 1] = 1;
+                    if (y > 0)
+                        dirty[p - std::size_t(px)] = 1;
+                    if (y + 1 < py)
+                        dirty[p + std::size_t(px)] = 1;
                 }
-            if (!raised) {
-                mesh = std::move(m);
+            which.clear();
+            for (std::size_t p = 0; p < levels.size(); ++p)
+                if (dirty[p])
+                    which.push_back(int(p));
+            if (which.empty())
                 break;
-            }
         }
+        mesh = builder.finish();
         mesh.raised = 0;
         int over = 0;
         double worst = 0.0;
