@@ -617,7 +617,7 @@ Operation mesh_operation()
     out.set = [k](OperationCall& c, const std::string& text, double) {
         const std::string problem = mesh_path_problem(text);
         if (!problem.empty())
-            throw std::invalid_argument("out=" + text + ": " + problem);
+            throw std::invalid_argument(problem);
         k(c).out = text;
     };
     out.get = [k](const OperationCall& c) { return k(c).out.empty() ? std::string("none") : k(c).out; };
