@@ -108,7 +108,7 @@ ImageBuf fit(const std::vector<float>& rgb, int w, int h, int pw, int ph)
     if (pw == w && ph == h)
         return src;
     ImageBuf dst(ImageSpec(pw, ph, 3, TypeDesc::FLOAT));
-    const bool ok = pw < w ? IBA::resize(dst, src) : IBA::resample(dst, src, false);
+    const bool ok = pw < w ? IBA::resize(dst, src, "box", 0.0f) : IBA::resample(dst, src, false);
     if (!ok)
         throw std::runtime_error("cannot resize a panel: " + dst.geterror());
     return dst;
