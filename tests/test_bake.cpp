@@ -27,6 +27,7 @@
 using namespace relief;
 namespace fs = std::filesystem;
 using relief::test::json_number;
+using relief::test::random_field;
 using relief::test::run_cli;
 
 namespace {
@@ -41,15 +42,6 @@ fs::path scratch(const std::string& name)
     return d;
 }
 
-std::vector<float> random_field(std::size_t n, unsigned seed, float lo, float hi)
-{
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<float> u(lo, hi);
-    std::vector<float> v(n);
-    for (float& x : v)
-        x = u(rng);
-    return v;
-}
 
 OIIO::ImageBuf image(int w, int h, int nch, const std::vector<float>& px)
 {

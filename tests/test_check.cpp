@@ -41,15 +41,6 @@ namespace {
 
 const std::string kNormalMap = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
 
-std::vector<float> random_heights(int w, int ht, unsigned seed, float amp)
-{
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<float> u(-amp, amp);
-    std::vector<float> v(std::size_t(w) * ht);
-    for (float& x : v)
-        x = u(rng);
-    return v;
-}
 
 std::vector<double> as_double(const std::vector<float>& v)
 {
@@ -209,7 +200,7 @@ TEST_CASE("normals: the device equals the golden model", "[check]")
     for (auto [w, ht] : {std::pair{37, 23}, std::pair{1, 9}, std::pair{2, 5}, std::pair{64, 64}})
         for (bool periodic : {true, false})
             for (bool directx : {false, true}) {
-                const std::vector<float> h = random_heights(w, ht, unsigned(w * 7 + ht), 3.0f);
+                const std::vector<float> h = test::random_field(std::size_t(w) * ht, unsigned(w * 7 + ht), -3.0f, 3.0f);
                 NormalsOptions o;
                 o.boundary = periodic ? Boundary::Periodic : Boundary::Free;
                 o.convention = directx ? NormalConvention::DirectX : NormalConvention::OpenGL;

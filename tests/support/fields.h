@@ -9,6 +9,17 @@
 
 namespace relief::test {
 
+// n values drawn uniformly from [lo, hi) (a fixed seed: the same every run).
+inline std::vector<float> random_field(std::size_t n, unsigned seed, float lo, float hi)
+{
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(lo, hi);
+    std::vector<float> v(n);
+    for (float& x : v)
+        x = u(rng);
+    return v;
+}
+
 struct Wave {
     int kx, ky;        // whole periods across the width / height (tiles)
     double amplitude;  // texels
