@@ -100,7 +100,8 @@ RoundTrip round_trip(ComputeContext& ctx, const DeviceSlopes& slopes, const floa
 }
 
 std::vector<std::uint8_t> tessellation_levels(ComputeContext& ctx, const float* h, int w, int ht,
-                                              int patch, float error, float scale)
+                                              int patch, float error, float scale,
+                                              TessellationLaunch launch)
 {
     const std::size_t n = texels(w, ht);
     if (patch < 1)
@@ -108,28 +109,43 @@ std::vector<std::uint8_t> tessellation_levels(ComputeContext& ctx, const float* 
     const int px = (w + patch - 1) / patch, py = (ht + patch - 1) / patch;
     // At most w x h patches, which texels() keeps under 2^31 for the kernel.
     const std::size_t patches = std::size_t(px) * std::size_t(py);
-    std::vector<std::uint8_t> levels(patches);
+    const bool per_patch = launch == TessellationLaunch::PerPatch ||
+                           (launch == TessellationLaunch::Auto && patches >= kPatchesForPerPatch);
+    // Few patches: 64 work-items each (patches x 64 stays far below 2^31).
+    const std::size_t items = per_patch ? patches : patches * kMaxTessellationLevel;
+    std::vector<std::uint8_t> out_bytes(items);
     auto& c = ctx.impl();
-    std::lock_guard<std::mutex> lock(c.mutex);
-    try {
-        cl::Buffer in = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n,
-                                 "the tessellation levels", h);
-        cl::Buffer out = c.buffer(CL_MEM_WRITE_ONLY, patches, "the tessellation levels");
-        cl::Kernel k(c.program("check.cl"), "tessellation_levels");
-        k.setArg(0, in);
-        k.setArg(1, cl_int(w));
-        k.setArg(2, cl_int(ht));
-        k.setArg(3, cl_int(patch));
-        k.setArg(4, cl_float(error));
-        k.setArg(5, cl_float(scale));
-        k.setArg(6, cl_int(px));
-        k.setArg(7, cl_int(patches));
-        k.setArg(8, out);
-        c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(patches)), cl::NDRange(kGroupSize));
-        c.queue.enqueueReadBuffer(out, CL_TRUE, 0, patches, levels.data());
-    } catch (const cl::Error& e) {
-        throw opencl_error(e);
+    {
+        std::lock_guard<std::mutex> lock(c.mutex);
+        try {
+            cl::Buffer in = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n,
+                                     "the tessellation levels", h);
+            cl::Buffer out = c.buffer(CL_MEM_WRITE_ONLY, items, "the tessellation levels");
+            cl::Kernel k(c.program("check.cl"), per_patch ? "tessellation_levels" : "tessellation_pass");
+            k.setArg(0, in);
+            k.setArg(1, cl_int(w));
+            k.setArg(2, cl_int(ht));
+            k.setArg(3, cl_int(patch));
+            k.setArg(4, cl_float(error));
+            k.setArg(5, cl_float(scale));
+            k.setArg(6, cl_int(px));
+            k.setArg(7, cl_int(patches));
+            k.setArg(8, out);
+            c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(items)), cl::NDRange(kGroupSize));
+            c.queue.enqueueReadBuffer(out, CL_TRUE, 0, items, out_bytes.data());
+        } catch (const cl::Error& e) {
+            throw opencl_error(e);
+        }
     }
+    if (per_patch)
+        return out_bytes;
+    std::vector<std::uint8_t> levels(patches, 0);
+    for (std::size_t p = 0; p < patches; ++p)
+        for (int L = 1; L <= kMaxTessellationLevel; ++L)
+            if (out_bytes[p * kMaxTessellationLevel + std::size_t(L - 1)]) {
+                levels[p] = std::uint8_t(L);
+                break;
+            }
     return levels;
 }
 

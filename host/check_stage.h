@@ -1,6 +1,7 @@
 #pragma once
 // Checking a result (DESIGN.md §9, kernels/check.cl): a height's normals,
 // its round trip against the slopes it came from, tessellation levels.
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -29,10 +30,18 @@ RoundTrip round_trip(ComputeContext& ctx, const DeviceSlopes& slopes, const floa
 
 constexpr int kMaxTessellationLevel = 64;
 
+// How tessellation_levels() spreads the work: one work-item per patch
+// (scanning the levels upward), or one per patch and level. Auto: per
+// patch when there are at least kPatchesForPerPatch patches (enough to fill
+// a device), else per patch and level. Both give the same levels.
+enum class TessellationLaunch { Auto, PerPatch, PerLevel };
+constexpr std::size_t kPatchesForPerPatch = 4096;
+
 // Per patch of patch x patch texels (row-major, ceil(w/patch) x
 // ceil(ht/patch)): the lowest level in 1..64 whose uniform tessellation of
 // scale*h stays within `error` at every texel centre, or 0 when none does.
 std::vector<std::uint8_t> tessellation_levels(ComputeContext& ctx, const float* h, int w, int ht,
-                                              int patch, float error, float scale);
+                                              int patch, float error, float scale,
+                                              TessellationLaunch launch = TessellationLaunch::Auto);
 
 } // namespace relief::host

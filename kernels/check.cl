@@ -125,12 +125,27 @@ inline int check_level_passes(global const float* h, int w, int ht, int x0, int 
     return 1;
 }
 
+// Whether every texel of the patch has the same height: such a patch is
+// level 1 whatever its corners read from the neighbours (nothing to
+// tessellate).
+inline int check_flat(global const float* h, int w, int x0, int y0, int x1, int y1)
+{
+    const float h0 = h[y0 * w + x0];
+    for (int j = y0; j < y1; ++j)
+        for (int i = x0; i < x1; ++i)
+            if (h[j * w + i] != h0)
+                return 0;
+    return 1;
+}
+
 // Per patch of patch x patch texels (the last row and column of patches
 // may be narrower): the lowest level in 1..64 that passes, or 0 when none
-// does. A flat patch (every texel the same height) is level 1 whatever its
-// corners read from the neighbours: nothing to tessellate. One work-item
-// per patch, scanning the levels upward: a failing level usually stops
-// within a few texels, so the cost is about one full pass per patch.
+// does; flat patches are level 1. Two launch shapes give the same levels:
+// tessellation_levels, one work-item per patch scanning the levels upward
+// (a failing level usually stops within a few texels: about one full pass
+// per patch), for maps with many patches; tessellation_pass, one work-item
+// per patch and level (the host takes the lowest that passes), for few
+// large patches, whose levels would otherwise run one after another.
 kernel void tessellation_levels(global const float* h, int w, int ht, int patch, float error,
                                 float scale, int patches_x, int patch_count, global uchar* level)
 {
@@ -139,14 +154,22 @@ kernel void tessellation_levels(global const float* h, int w, int ht, int patch,
         return;
     const int x0 = (p % patches_x) * patch, y0 = (p / patches_x) * patch;
     const int x1 = min(x0 + patch, w), y1 = min(y0 + patch, ht);
-    const float h0 = h[y0 * w + x0];
-    int flat = 1;
-    for (int j = y0; j < y1 && flat; ++j)
-        for (int i = x0; i < x1; ++i)
-            flat &= h[j * w + i] == h0;
-    uchar found = flat ? 1 : 0;
+    uchar found = check_flat(h, w, x0, y0, x1, y1) ? 1 : 0;
     for (int L = 1; L <= CHECK_MAX_LEVEL && !found; ++L)
         if (check_level_passes(h, w, ht, x0, y0, x1, y1, L, error, scale))
             found = (uchar)L;
     level[p] = found;
+}
+
+kernel void tessellation_pass(global const float* h, int w, int ht, int patch, float error,
+                              float scale, int patches_x, int patch_count, global uchar* pass)
+{
+    const int gid = get_global_id(0);
+    if (gid >= patch_count * CHECK_MAX_LEVEL)
+        return;
+    const int p = gid / CHECK_MAX_LEVEL, L = gid % CHECK_MAX_LEVEL + 1;
+    const int x0 = (p % patches_x) * patch, y0 = (p / patches_x) * patch;
+    const int x1 = min(x0 + patch, w), y1 = min(y0 + patch, ht);
+    pass[gid] = (L == 1 && check_flat(h, w, x0, y0, x1, y1)) ||
+                check_level_passes(h, w, ht, x0, y0, x1, y1, L, error, scale);
 }

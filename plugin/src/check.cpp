@@ -93,6 +93,9 @@ bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptio
             if (count[L] > 0)
                 shares += (shares.empty() ? "" : ", ") + std::string("level ") + std::to_string(L) + " " +
                           detail::format_double("%.1f%%", 100.0 * double(count[L]) / double(levels.size()));
+        if (count[0] > 0)
+            shares += (shares.empty() ? "" : ", ") + std::string("none within E (set to 64) ") +
+                      detail::format_double("%.1f%%", 100.0 * double(count[0]) / double(levels.size()));
         detail::say(options.exec, Severity::Info,
                     "tessellation: " + std::to_string(px) + "x" + std::to_string(py) + " patches of " +
                         std::to_string(options.patch) + " texels: " + shares);
