@@ -15,7 +15,6 @@
 #include <fstream>
 #include <future>
 #include <iostream>
-#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -100,7 +99,7 @@ public:
         if (!prog_.report.empty()) {
             // One object per reporting operation, in the order they ran.
             std::string json = "{";
-            for (const auto& [key, object] : report_order())
+            for (const auto& [key, object] : report_)
                 json += std::string(json.size() > 1 ? ",\n" : "\n") + "  \"" + key + "\": " +
                         indented(object);
             relief::cli::write_text_atomically(prog_.report, json + "\n}\n", "the report");
@@ -230,9 +229,9 @@ private:
             if (!relief::run_operation(out, call, inputs, execution(s)))
                 throw RuntimeError(relief::geterror());
             if (s.operation == "correct")
-                report_["correct"] = correct_report_.to_json();
+                report_.emplace_back("correct", correct_report_.to_json());
             if (s.operation == "height" && call.height.report)
-                report_["height"] = height_report_.to_json();
+                report_.emplace_back("height", height_report_.to_json());
             stack_.push_back(std::move(out));
             break;
         }
@@ -274,16 +273,6 @@ private:
         }
     }
 
-    // report_'s entries in the order of the program's steps.
-    std::vector<std::pair<std::string, std::string>> report_order() const
-    {
-        std::vector<std::pair<std::string, std::string>> v;
-        for (const Step& s : prog_.steps)
-            if (s.kind == Step::Kind::Operation && report_.count(s.operation))
-                v.emplace_back(s.operation, report_.at(s.operation));
-        return v;
-    }
-
     // A JSON object's text indented one level (after its first line), without its last newline.
     static std::string indented(std::string object)
     {
@@ -302,7 +291,9 @@ private:
     const std::string digest_;
     relief::CorrectReport correct_report_;
     relief::HeightReport height_report_;
-    std::map<std::string, std::string> report_;  // operation -> its report's JSON object
+    // (operation, its report's JSON object) in the order they ran; --report
+    // allows one --height and one --correct.
+    std::vector<std::pair<std::string, std::string>> report_;
     int outputs_ = 0;          // outputs (-o images, --mesh files) written so far
     std::future<void> ahead_;  // prepare_ahead(); its destructor waits for it
     std::vector<OIIO::ImageBuf> stack_;

@@ -25,8 +25,7 @@ bool normals(ImageBuf& dst, const ImageBuf& height, const NormalsOptions& option
         detail::check_modifier_values("normals", call);
         roi = detail::resolve_roi(height, roi);
         const int w = roi.width(), ht = roi.height();
-        const std::vector<float> h = detail::height_channel(height, roi, options.exec, "normals");
-        detail::check_scaled(h, options.scale, "normals");
+        const std::vector<float> h = detail::height_channel(height, roi, options.exec, "normals", options.scale);
         const bool periodic =
             detail::height_is_periodic(height, h, w, ht, options.boundary, options.exec, "normals");
         auto ctx = host::ComputeContext::acquire(options.exec.device);
@@ -68,8 +67,8 @@ bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptio
         detail::check_modifier_values("tessellation", call);
         roi = detail::resolve_roi(height, roi);
         const int w = roi.width(), ht = roi.height();
-        const std::vector<float> h = detail::height_channel(height, roi, options.exec, "tessellation");
-        detail::check_scaled(h, options.scale, "tessellation");
+        const std::vector<float> h =
+            detail::height_channel(height, roi, options.exec, "tessellation", options.scale);
         auto ctx = host::ComputeContext::acquire(options.exec.device);
         std::vector<std::uint8_t> levels = host::tessellation_levels(
             *ctx, h.data(), w, ht, options.patch, options.error, options.scale);

@@ -362,8 +362,7 @@ bool displaced_mesh(Mesh& mesh, const OIIO::ImageBuf& height, const Tessellation
         detail::check_modifier_values("tessellation", call);
         const OIIO::ROI roi = detail::resolve_roi(height, {});
         const int w = roi.width(), ht = roi.height();
-        const std::vector<float> h = detail::height_channel(height, roi, options.exec, "mesh");
-        detail::check_scaled(h, options.scale, "mesh");
+        const std::vector<float> h = detail::height_channel(height, roi, options.exec, "mesh", options.scale);
         auto ctx = host::ComputeContext::acquire(options.exec.device);
         const std::vector<std::uint8_t> first =
             host::tessellation_levels(*ctx, h.data(), w, ht, options.patch, options.error, options.scale);

@@ -21,7 +21,7 @@ std::vector<float> channel0(const OIIO::ImageBuf& img, OIIO::ROI roi, const char
 }
 
 std::vector<float> height_channel(const OIIO::ImageBuf& height, OIIO::ROI roi, const Execution& exec,
-                                  const std::string& operation)
+                                  const std::string& operation, float scale)
 {
     if (height.nchannels() > 1)
         say(exec, Severity::Info,
@@ -29,10 +29,16 @@ std::vector<float> height_channel(const OIIO::ImageBuf& height, OIIO::ROI roi, c
                 " channels; using channel 0");
     std::vector<float> h = channel0(height, roi, "height map");
     const int w = roi.width();
-    for (std::size_t i = 0; i < h.size(); ++i)
+    float top = 0.0f;
+    for (std::size_t i = 0; i < h.size(); ++i) {
         if (!std::isfinite(h[i]))
             throw std::runtime_error("the height map has a NaN or infinite value at texel (" +
                                      std::to_string(i % w) + ", " + std::to_string(i / w) + ")");
+        top = std::max(top, std::abs(h[i]));
+    }
+    if (!std::isfinite(top * scale))
+        throw std::runtime_error(operation + ": scale=" + format_double("%g", scale) + " times the height's largest |value| " +
+                                 format_double("%g", top) + " overflows single precision");
     return h;
 }
 
@@ -81,16 +87,6 @@ bool height_is_periodic(const OIIO::ImageBuf& height, const std::vector<float>& 
             " (height jump across the wrap seam / mean jump between neighbours: x " +
             format_double("%.2f", rx) + ", y " + format_double("%.2f", ry) + "; periodic when both <= 2)");
     return periodic;
-}
-
-void check_scaled(const std::vector<float>& h, float scale, const std::string& operation)
-{
-    float top = 0.0f;
-    for (float v : h)
-        top = std::max(top, std::abs(v));
-    if (!std::isfinite(top * scale))
-        throw std::runtime_error(operation + ": scale=" + format_double("%g", scale) + " times the height's largest |value| " +
-                                 format_double("%g", top) + " overflows single precision");
 }
 
 } // namespace relief::detail

@@ -17,9 +17,11 @@ namespace relief::detail {
 std::vector<float> channel0(const OIIO::ImageBuf& img, OIIO::ROI roi, const char* what);
 
 // A height map's channel 0 over `roi` (saying so, as `operation`'s Info,
-// when it has more channels); throws at the first NaN or infinite value.
+// when it has more channels); throws at the first NaN or infinite value,
+// and when `scale` x the largest |value| is not a finite float (a surface
+// the checks cannot measure).
 std::vector<float> height_channel(const OIIO::ImageBuf& height, OIIO::ROI roi, const Execution& exec,
-                                  const std::string& operation);
+                                  const std::string& operation, float scale = 1.0f);
 
 // Periodic when, along both axes, the height jump across the wrap seam is
 // at most twice the mean jump between neighbours; the two ratios are returned.
@@ -31,9 +33,5 @@ bool seams_continuous(const std::vector<float>& h, int w, int ht, double& ratio_
 // why, as `operation`'s Notice.
 bool height_is_periodic(const OIIO::ImageBuf& height, const std::vector<float>& h, int w, int ht,
                         Boundary requested, const Execution& exec, const std::string& operation);
-
-// Throws when scale x the largest |h| is not a finite float (a surface the
-// checks cannot measure), naming `operation`.
-void check_scaled(const std::vector<float>& h, float scale, const std::string& operation);
 
 } // namespace relief::detail
