@@ -5,10 +5,18 @@
 //    result at tolerance 1e-6), with and without coarse-to-fine;
 //  - time to convergence (relative energy change < 1e-5) with coarse-to-fine;
 //  - a before/after picture: anisotropy s1/s2 per texel before and after, and
-//    a checker baked through the offsets.
-// Usage: bench_correct [--sizes 512,1024] [--budget SECONDS] [--out DIR]
-// Heights: a synthetic terrain (bumps, ridges, a plateau) at every size;
-// scale 0.05, nodes=center, periodic, theta 5.
+//    a checker baked through the offsets;
+//  - on real maps (--maps): the time-to-energy curve of each line search
+//    (energy against seconds over a sweep of tolerances, in-process, warm),
+//    and, with --baseline, whole processes of this build's CLI against an
+//    older one (e.g. the first landed correction), medians of --runs,
+//    energies scored here from the written offset maps.
+// Usage: bench_correct [--sizes 512,1024|none] [--budget SECONDS] [--out DIR]
+//                      [--maps castell,... (folders of --data)] [--data DIR]
+//                      [--baseline OLD_RELIEF] [--runs 3] [--tolerances 1e-3,...]
+// Synthetic heights: a terrain (bumps, ridges, a plateau) at every size.
+// Everything runs at scale 0.05, nodes=center, theta 5 (synthetic: periodic;
+// real maps: boundary=auto, as the CLI decides).
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
 
@@ -18,12 +26,15 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
+#include <iterator>
 #include <random>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "relief/relief.h"
+#include "run_process.h"
 
 namespace {
 
@@ -121,30 +132,248 @@ std::vector<float> anisotropy(const OIIO::ImageBuf& h, const OIIO::ImageBuf* off
     return out;
 }
 
+
+std::vector<std::string> split(const std::string& list)
+{
+    std::vector<std::string> out;
+    std::stringstream ss(list);
+    for (std::string t; std::getline(ss, t, ',');)
+        if (!t.empty())
+            out.push_back(t);
+    return out;
+}
+
+struct Scored {
+    double energy = 0.0;
+    long long flipped = 0;
+};
+
+// The total energy of an offset map (centre nodes, texture units; each
+// node's two owned triangles [p, p+(1,0), p+(1,-1)] and [p, p+(1,-1),
+// p+(0,-1)], wrapping when periodic, else only those inside the map), in
+// double, written here from DESIGN.md §4.5 and independent of the library:
+// E = Q/(4 A3 Auv) ((A3^2 + Auv^2)/(A3 Auv))^theta.
+Scored score(const std::vector<float>& h, int w, int ht, const std::vector<float>& off, double scale,
+             double theta, bool periodic)
+{
+    Scored r;
+    auto at = [&](int x, int y) { return std::size_t((y + ht) % ht) * w + (x + w) % w; };
+    const int tri[2][2][2] = {{{1, 0}, {1, -1}}, {{1, -1}, {0, -1}}};
+    for (int y = 0; y < ht; ++y)
+        for (int x = 0; x < w; ++x) {
+            if (!periodic && (x + 1 >= w || y < 1))
+                continue;
+            const std::size_t p = at(x, y);
+            for (const auto& t : tri) {
+                double e[2][2], f[2][3];
+                for (int k = 0; k < 2; ++k) {
+                    const int dx = t[k][0], dy = t[k][1];
+                    const std::size_t q = at(x + dx, y + dy);
+                    e[k][0] = dx + (double(off[2 * q]) - off[2 * p]) * w;
+                    e[k][1] = dy + (double(off[2 * q + 1]) - off[2 * p + 1]) * ht;
+                    f[k][0] = dx;
+                    f[k][1] = dy;
+                    f[k][2] = (double(h[q]) - h[p]) * scale * w;
+                }
+                const double auv = 0.5 * (e[0][1] * e[1][0] - e[0][0] * e[1][1]);
+                if (!(auv > 0.0)) {
+                    ++r.flipped;
+                    continue;
+                }
+                const double cx = f[0][1] * f[1][2] - f[0][2] * f[1][1], cy = f[0][2] * f[1][0] - f[0][0] * f[1][2],
+                             cz = f[0][0] * f[1][1] - f[0][1] * f[1][0];
+                const double a3 = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+                auto d3 = [](const double* u, const double* v) { return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]; };
+                auto d2 = [](const double* u, const double* v) { return u[0] * v[0] + u[1] * v[1]; };
+                const double q = d3(f[0], f[0]) * d2(e[1], e[1]) - 2 * d3(f[0], f[1]) * d2(e[0], e[1]) +
+                                 d3(f[1], f[1]) * d2(e[0], e[0]);
+                r.energy += q / (4 * a3 * auv) * std::pow((a3 * a3 + auv * auv) / (a3 * auv), theta);
+            }
+        }
+    return r;
+}
+
+std::vector<float> channels(const std::string& path, int nch, int& w, int& h, std::string* boundary = nullptr)
+{
+    OIIO::ImageBuf b(path);
+    if (!b.read(0, 0, true, OIIO::TypeDesc::FLOAT)) {
+        std::fprintf(stderr, "bench_correct: cannot read %s\n", path.c_str());
+        std::exit(1);
+    }
+    w = b.spec().width;
+    h = b.spec().height;
+    if (boundary)
+        *boundary = b.spec().get_string_attribute("relief:boundary");
+    OIIO::ROI r = b.roi();
+    r.chend = nch;
+    std::vector<float> v(std::size_t(w) * h * nch);
+    b.get_pixels(r, OIIO::TypeDesc::FLOAT, v.data());
+    return v;
+}
+
+struct Variant {
+    const char* name;
+    relief::CorrectSearch search;
+    float relax;
+};
+const Variant kVariants[] = {{"ternary (first version)", relief::CorrectSearch::Ternary, 1.0f},
+                             {"golden, relax 1.5", relief::CorrectSearch::Golden, 1.5f},
+                             {"brent", relief::CorrectSearch::Brent, 1.0f},
+                             {"brent, relax 1.5 (default)", relief::CorrectSearch::Brent, 1.5f}};
+
+// Real maps: the time-to-energy curves, and the whole-process comparison
+// against --baseline.
+void real_maps(const std::vector<std::string>& names, const std::string& data, const std::string& baseline,
+               int runs, const std::vector<double>& tolerances, const std::string& out_dir)
+{
+    const std::string mods = "--correct:scale=0.05:theta=5:nodes=center";
+    const std::string work = out_dir + "/correct-work";
+    std::filesystem::create_directories(work);
+    std::ofstream curves(out_dir + "/correct_curves.csv");
+    curves << "map,variant,tolerance,seconds,energy,iterations\n";
+    std::ofstream md(out_dir + "/correct_maps.md"), csv(out_dir + "/correct_maps.csv");
+    md << "| map | size | boundary | baseline s | this build s | ratio | baseline energy | this build energy | "
+          "energy ratio | flipped (baseline, this) |\n|---|---|---|---|---|---|---|---|---|---|\n";
+    csv << "map,width,height,boundary,baseline_s,current_s,ratio,baseline_energy,current_energy,flipped_baseline,"
+           "flipped_current\n";
+    for (const std::string& name : names) {
+        const std::string path = name.find('/') != std::string::npos ? name : data + "/" + name + "/height.png";
+        int w = 0, h = 0;
+        const std::vector<float> hts = channels(path, 1, w, h);
+        OIIO::ImageBuf hb(OIIO::ImageSpec(w, h, 1, OIIO::TypeDesc::FLOAT));
+        hb.set_pixels(hb.roi(), OIIO::TypeDesc::FLOAT, hts.data());
+        for (const Variant& v : kVariants)
+            for (double tol : tolerances) {
+                relief::CorrectOptions o;
+                o.scale = 0.05f;
+                o.nodes = relief::CorrectNodes::Center;
+                o.search = v.search;
+                o.relax = v.relax;
+                o.tolerance = float(tol);
+                relief::CorrectReport rep;
+                o.report = &rep;
+                OIIO::ImageBuf off;
+                const auto t0 = std::chrono::steady_clock::now();
+                if (!relief::correct(off, hb, o)) {
+                    std::fprintf(stderr, "bench_correct: %s\n", relief::geterror().c_str());
+                    std::exit(1);
+                }
+                const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+                std::fprintf(stderr, "bench_correct: %s, %s, tolerance %g: %.2f s, energy %.9g\n", name.c_str(),
+                             v.name, tol, sec, rep.energy_after);
+                curves << name << ",\"" << v.name << "\"," << tol << ',' << sec << ',' << std::setprecision(10)
+                       << rep.energy_after << std::setprecision(6) << ',' << rep.iterations << '\n';
+                curves.flush();
+            }
+        if (baseline.empty())
+            continue;
+        // Whole processes, alternating, after one warm-up run each.
+        const std::string cur_out = work + "/current.exr", old_out = work + "/baseline.exr";
+        const std::string cli = RELIEF_CLI;
+        bench::run_process({cli, path, mods, "-o", cur_out}, work + "/current");
+        bench::run_process({baseline, path, mods, "-o", old_out}, work + "/baseline");
+        std::vector<double> tc, tb;
+        for (int k = 0; k < runs; ++k) {
+            tb.push_back(bench::run_process({baseline, path, mods, "-o", old_out}, work + "/baseline"));
+            tc.push_back(bench::run_process({cli, path, mods, "-o", cur_out}, work + "/current"));
+        }
+        int ow = 0, oh = 0;
+        std::string bc_old, bc_cur;
+        const auto off_old = channels(old_out, 2, ow, oh, &bc_old), off_cur = channels(cur_out, 2, ow, oh, &bc_cur);
+        const Scored so = score(hts, w, h, off_old, 0.05, 5.0, bc_old == "periodic");
+        const Scored sc = score(hts, w, h, off_cur, 0.05, 5.0, bc_cur == "periodic");
+        const double mb = bench::median(tb), mc = bench::median(tc);
+        std::printf("%s %dx%d (%s): baseline %.2f s, this build %.2f s (%.3fx); energy %.9g -> %.9g (%.5f); "
+                    "flipped %lld, %lld\n", name.c_str(), w, h, bc_cur.c_str(), mb, mc, mc / mb, so.energy,
+                    sc.energy, sc.energy / so.energy, so.flipped, sc.flipped);
+        std::fflush(stdout);
+        char line[512];
+        std::snprintf(line, sizeof line, "| %s | %d×%d | %s | %.2f | %.2f | %.3f× | %.7g | %.7g | %.5f | %lld, %lld |\n",
+                      name.c_str(), w, h, bc_cur.c_str(), mb, mc, mc / mb, so.energy, sc.energy,
+                      sc.energy / so.energy, so.flipped, sc.flipped);
+        md << line;
+        md.flush();
+        csv << name << ',' << w << ',' << h << ',' << bc_cur << ',' << mb << ',' << mc << ',' << mc / mb << ','
+            << std::setprecision(10) << so.energy << ',' << sc.energy << std::setprecision(6) << ',' << so.flipped
+            << ',' << sc.flipped << '\n';
+        csv.flush();
+    }
+    // Energy above the best found for the map, against seconds: one curve
+    // per line search, one panel per map.
+    std::ofstream gp(out_dir + "/correct_curves.gp");
+    gp << "# gnuplot " << out_dir << "/correct_curves.gp  -> correct_curves.png\n"
+       << "set terminal pngcairo size " << 520 * names.size() << ",480 font ',10'\n"
+       << "set output '" << out_dir << "/correct_curves.png'\n"
+       << "set datafile separator ','\nset logscale y\nset grid\nset key top right font ',8'\n"
+       << "set xlabel 'seconds (in-process, warm; tolerances "
+       << tolerances.front() << " .. " << tolerances.back() << ")'\n"
+       << "set ylabel 'energy / lowest energy found - 1'\n"
+       << "set multiplot layout 1," << names.size() << " title 'relief --correct: energy against time (2-core PoCL)'\n";
+    for (const std::string& name : names) {
+        gp << "best = 1e300\nstats '" << out_dir << "/correct_curves.csv' using (strcol(1) eq '" << name
+           << "' ? $5 : 1/0) nooutput\nbest = STATS_min\nset title '" << name << "'\nplot ";
+        for (std::size_t v = 0; v < std::size(kVariants); ++v)
+            gp << (v ? ", \\\n  " : "") << "'" << out_dir << "/correct_curves.csv' using (strcol(1) eq '" << name
+               << "' && strcol(2) eq '" << kVariants[v].name << "' ? $4 : 1/0):($5 / best - 1 + 1e-7) with linespoints lc "
+               << v + 1 << " pt " << v + 4 << " title '" << kVariants[v].name << "'";
+        gp << "\n";
+    }
+    gp << "unset multiplot\n";
+    gp.close();
+    if (std::system(("command -v gnuplot >/dev/null && gnuplot '" + out_dir + "/correct_curves.gp'").c_str()) != 0)
+        std::fprintf(stderr, "bench_correct: gnuplot missing or failed; the curves are in correct_curves.csv\n");
+    std::filesystem::remove_all(work);
+}
+
 } // namespace
 
 int main(int argc, char** argv)
 {
     std::vector<int> sizes{512, 1024};
     double budget = 300.0;
-    std::string out_dir = "bench/results";
+    std::string out_dir = "bench/results", data = RELIEF_SHARED_DATA, baseline;
+    std::vector<std::string> maps;
+    std::vector<double> tolerances{1e-3, 1e-4, 1e-5};
+    int runs = 3;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--sizes" && i + 1 < argc) {
             sizes.clear();
-            std::stringstream ss(argv[++i]);
-            for (std::string t; std::getline(ss, t, ',');)
-                sizes.push_back(std::stoi(t));
+            for (const std::string& t : split(argv[++i]))
+                if (t != "none")
+                    sizes.push_back(std::stoi(t));
         } else if (a == "--budget" && i + 1 < argc) {
             budget = std::stod(argv[++i]);
         } else if (a == "--out" && i + 1 < argc) {
             out_dir = argv[++i];
+        } else if (a == "--maps" && i + 1 < argc) {
+            maps = split(argv[++i]);
+        } else if (a == "--data" && i + 1 < argc) {
+            data = argv[++i];
+        } else if (a == "--baseline" && i + 1 < argc) {
+            baseline = argv[++i];
+        } else if (a == "--runs" && i + 1 < argc) {
+            runs = std::max(1, std::atoi(argv[++i]));
+        } else if (a == "--tolerances" && i + 1 < argc) {
+            tolerances.clear();
+            for (const std::string& t : split(argv[++i]))
+                tolerances.push_back(std::stod(t));
         } else {
-            std::fprintf(stderr, "usage: bench_correct [--sizes 512,1024] [--budget S] [--out DIR]\n");
+            std::fprintf(stderr, "usage: bench_correct [--sizes 512,1024|none] [--budget S] [--out DIR] [--maps A,B] "
+                                 "[--data DIR] [--baseline OLD_RELIEF] [--runs N] [--tolerances T1,T2]\n");
             return 2;
         }
     }
+    if (!baseline.empty() && access(baseline.c_str(), X_OK) != 0) {
+        std::fprintf(stderr, "bench_correct: --baseline %s is not an executable\n", baseline.c_str());
+        return 2;
+    }
     std::filesystem::create_directories(out_dir);
+    out_dir = std::filesystem::absolute(out_dir).string();
+    if (!maps.empty())
+        real_maps(maps, data, baseline, runs, tolerances, out_dir);
+    if (sizes.empty())
+        return 0;
     {  // warm the kernel cache
         correct(terrain(64), 0, 0, 1e-5);
     }

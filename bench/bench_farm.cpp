@@ -23,7 +23,6 @@
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
 
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -37,49 +36,20 @@
 #include <string>
 #include <vector>
 
+#include "run_process.h"
+
 namespace fs = std::filesystem;
 
 namespace {
 
 std::string g_out;
 
-// Runs argv (stdout and stderr to `log` when given, else /dev/null); exits on failure.
 double run(const std::vector<std::string>& argv, const std::string& log = "")
 {
-    const auto t0 = std::chrono::steady_clock::now();
-    const pid_t pid = fork();
-    if (pid == 0) {
-        setenv("POCL_CACHE_DIR", (g_out + "/pocl-cache").c_str(), 1);
-        setenv("RELIEF_CACHE_DIR", (g_out + "/relief-cache").c_str(), 1);
-        const std::string to = log.empty() ? "/dev/null" : log;
-        if (!std::freopen(to.c_str(), "w", stderr) || !std::freopen("/dev/null", "w", stdout))
-            _exit(127);
-        std::vector<char*> a;
-        for (const auto& s : argv)
-            a.push_back(const_cast<char*>(s.c_str()));
-        a.push_back(nullptr);
-        execv(a[0], a.data());
-        _exit(127);
-    }
-    int status = 0;
-    waitpid(pid, &status, 0);
-    const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-        std::string cmd;
-        for (const auto& s : argv)
-            cmd += s + " ";
-        std::fprintf(stderr, "bench_farm: command failed (status %d): %s\n", status, cmd.c_str());
-        std::exit(1);
-    }
-    return sec;
+    return bench::run_process(argv, g_out, log);
 }
 
-double median(std::vector<double> v)
-{
-    std::sort(v.begin(), v.end());
-    const std::size_t n = v.size();
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
+using bench::median;
 
 std::vector<float> pixels(const std::string& path)
 {

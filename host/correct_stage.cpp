@@ -25,10 +25,14 @@ int CorrectReport::total_iterations() const
 namespace {
 
 constexpr int kTile = 16;  // nodes per tile side, CORRECT_TILE in correct.cl
+// Tolerances from this up follow the energy by the nodes' summed falls;
+// tighter ones recompute the energy every iteration.
+constexpr double kGainTolerance = 1e-6;
 // Quads per work-item on CPUs (CORRECT_NODES: line searches in lockstep,
-// to overlap their dependency chains). Measured on PoCL (512^2, one
-// iteration): 1 quad 0.076 s, 2 quads 0.114 s, 4 quads 0.096 s, so 1.
-constexpr int kCpuNodesPerItem = 1;
+// to overlap their dependency chains). Measured on PoCL with Brent's search
+// (1024^2, 12 iterations, 2 cores): 1 quad 1.28-1.33 s, 2 quads 1.07-1.28 s,
+// 4 quads 1.10-1.36 s, 8 quads 1.07-1.17 s, so 2.
+constexpr int kCpuNodesPerItem = 2;
 
 void validate(const CorrectParams& p, int w, int h)
 {
@@ -45,6 +49,8 @@ void validate(const CorrectParams& p, int w, int h)
         throw Error("iterations and levels must be >= 0");
     if (!(p.threshold >= 0.0))
         throw Error("the distortion threshold must be >= 0");
+    if (!(p.relax >= 1.0 && p.relax < 2.0))
+        throw Error("the over-relaxation factor must be in [1, 2)");
 }
 
 DistortionStats summarise(std::vector<float>& v)
@@ -76,10 +82,12 @@ public:
         cl::Program& prog = c_.program(
             "correct.cl", std::string(fp64_ ? "-DRELIEF_FP64" : "") +
                               (whole ? " -DCORRECT_ITHETA=" + std::to_string(int(p.theta)) : "") +
-                              " -DCORRECT_NODES=" + std::to_string(nodes_per_item_));
+                              " -DCORRECT_NODES=" + std::to_string(nodes_per_item_) +
+                              " -DCORRECT_SEARCH=" + std::to_string(int(p.search)));
         energy_k_ = cl::Kernel(prog, "correct_energy");
         phase_k_ = cl::Kernel(prog, "correct_phase");
         active_k_ = cl::Kernel(prog, "correct_active");
+        gain_sum_k_ = cl::Kernel(prog, "correct_gain_sum");
         const std::size_t esize = fp64_ ? sizeof(double) : sizeof(float);
         groups_ = padded(nodes_) / kGroupSize;
         c_buf_ = c_.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * nodes_, "distortion correction");
@@ -88,6 +96,7 @@ public:
                                         sizeof(float) * nodes_, "distortion correction", fix.data())
                             : c_.buffer(CL_MEM_READ_ONLY, sizeof(float), "distortion correction");
         partial_ = c_.buffer(CL_MEM_READ_WRITE, esize * groups_, "distortion correction");
+        gain_ = c_.buffer(CL_MEM_READ_WRITE, esize * nodes_, "distortion correction");
         tiles_x_ = (g.nx + kTile - 1) / kTile;
         tiles_y_ = (g.ny + kTile - 1) / kTile;
         for (int cy = 0; cy < (g.periodic && (g.ny & 1) && g.ny > 1 ? 3 : 2); ++cy)
@@ -128,8 +137,6 @@ public:
         cl::Buffer stats = c_.buffer(CL_MEM_WRITE_ONLY, want ? sizeof(cl_float4) * chunk : 16,
                                      "distortion correction's statistics");
         std::vector<float> st(want ? 4 * chunk : 0);
-        std::vector<double> part_d(fp64_ ? chunk / kGroupSize : 0);
-        std::vector<float> part_f(fp64_ ? 0 : chunk / kGroupSize);
         double sum = 0.0;
         for (std::size_t first = 0; first < nodes_; first += chunk) {
             const std::size_t count = std::min(chunk, padded(nodes_ - first));
@@ -150,16 +157,7 @@ public:
             energy_k_.setArg(a++, cl_int(first));
             c_.queue.enqueueNDRangeKernel(energy_k_, cl::NullRange, cl::NDRange(count),
                                           cl::NDRange(kGroupSize));
-            const std::size_t groups = count / kGroupSize;
-            if (fp64_) {
-                c_.queue.enqueueReadBuffer(partial_, CL_TRUE, 0, esize * groups, part_d.data());
-                for (std::size_t g = 0; g < groups; ++g)
-                    sum += part_d[g];
-            } else {
-                c_.queue.enqueueReadBuffer(partial_, CL_TRUE, 0, esize * groups, part_f.data());
-                for (std::size_t g = 0; g < groups; ++g)
-                    sum += part_f[g];
-            }
+            add_partials(count / kGroupSize, sum);
             if (want) {
                 const std::size_t real = std::min(count, nodes_ - first);
                 c_.queue.enqueueReadBuffer(stats, CL_TRUE, 0, sizeof(cl_float4) * real, st.data());
@@ -172,6 +170,37 @@ public:
             }
         }
         return sum;
+    }
+
+    // The energy fall of the last iteration: the sum of the nodes' gains.
+    double gain_sum()
+    {
+        int a = 0;
+        gain_sum_k_.setArg(a++, gain_);
+        gain_sum_k_.setArg(a++, cl_int(nodes_));
+        gain_sum_k_.setArg(a++, partial_);
+        gain_sum_k_.setArg(a++, cl::Local((fp64_ ? sizeof(double) : sizeof(float)) * kGroupSize));
+        c_.queue.enqueueNDRangeKernel(gain_sum_k_, cl::NullRange, cl::NDRange(padded(nodes_)),
+                                      cl::NDRange(kGroupSize));
+        double sum = 0.0;
+        add_partials(groups_, sum);
+        return sum;
+    }
+
+    // Adds the first `groups` work-group partial sums to `sum`, in order.
+    void add_partials(std::size_t groups, double& sum)
+    {
+        if (fp64_) {
+            std::vector<double> part(groups);
+            c_.queue.enqueueReadBuffer(partial_, CL_TRUE, 0, sizeof(double) * groups, part.data());
+            for (double v : part)
+                sum += v;
+        } else {
+            std::vector<float> part(groups);
+            c_.queue.enqueueReadBuffer(partial_, CL_TRUE, 0, sizeof(float) * groups, part.data());
+            for (float v : part)
+                sum += v;
+        }
     }
 
     // Iterates; returns what happened.
@@ -189,7 +218,16 @@ public:
         lv.energy_start = e;
         std::vector<cl_uchar> act(tiles);
         const int limit = p_.iterations > 0 ? p_.iterations : p_.max_iterations;
+        // The energy falls by the sum of the nodes' falls (float fan
+        // energies: exact to ~1e-7 of the energy); below that, a tolerance
+        // needs the energy itself each iteration.
+        const bool from_gains =
+            !p_.energy_each_iteration && (p_.iterations > 0 || tolerance >= kGainTolerance);
         for (int it = 1; it <= limit; ++it) {
+            if (from_gains && fp64_)
+                c_.queue.enqueueFillBuffer(gain_, cl_double(0), 0, sizeof(double) * nodes_);
+            else if (from_gains)
+                c_.queue.enqueueFillBuffer(gain_, cl_float(0), 0, sizeof(float) * nodes_);
             for (std::size_t ph = 0; ph < phases_.size(); ++ph) {
                 int a = 0;
                 if (p_.skip_tiles) {
@@ -227,12 +265,14 @@ public:
                 phase_k_.setArg(a++, cl_int(ph * tiles));
                 phase_k_.setArg(a++, float(p_.theta));
                 phase_k_.setArg(a++, cl_int(itheta_));
+                phase_k_.setArg(a++, float(p_.relax));
+                phase_k_.setArg(a++, gain_);
                 c_.queue.enqueueNDRangeKernel(phase_k_, cl::NullRange,
                                               cl::NDRange(std::size_t(tiles_x_) * 8 / nodes_per_item_,
                                                           std::size_t(tiles_y_) * 8),
                                               cl::NDRange(8 / nodes_per_item_, 8));
             }
-            const double next = energy();
+            const double next = from_gains ? e - gain_sum() : energy();
             const double rel = (e - next) / std::max(std::abs(e), 1e-300);
             e = next;
             lv.iterations = it;
@@ -245,7 +285,7 @@ public:
                 break;
             }
         }
-        lv.energy_end = e;
+        lv.energy_end = from_gains ? energy() : e;
         return lv;
     }
 
@@ -260,8 +300,8 @@ private:
     std::size_t groups_ = 0;
     int tiles_x_ = 0, tiles_y_ = 0, itheta_ = -1;
     std::vector<std::pair<int, int>> phases_;
-    cl::Kernel energy_k_, phase_k_, active_k_;
-    cl::Buffer c_buf_, z_buf_, fix_buf_, partial_, moved_, active_;
+    cl::Kernel energy_k_, phase_k_, active_k_, gain_sum_k_;
+    cl::Buffer c_buf_, z_buf_, fix_buf_, partial_, moved_, active_, gain_;
 };
 
 struct LevelInput {

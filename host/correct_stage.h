@@ -1,7 +1,7 @@
 #pragma once
 // Stage 3, distortion correction (DESIGN.md §4.5): a height map -> per-texel
-// texture-coordinate offsets, by per-node descent with a ternary line
-// search (kernels/correct.cl), coarse to fine.
+// texture-coordinate offsets, by per-node descent with a golden-section or
+// ternary line search and over-relaxation (kernels/correct.cl), coarse to fine.
 #include <functional>
 #include <string>
 #include <vector>
@@ -28,6 +28,16 @@ struct CorrectParams {
     // anisotropy s1/s2 - 1 or area ratio |s1 s2 - 1| exceeds this.
     double threshold = 1e-3;
     bool skip_tiles = true;      // skip tiles whose nodes cannot move (bit-identical result)
+    // The line search per node (kernels/correct.cl's CORRECT_SEARCH).
+    enum class Search { Ternary = 0, Golden = 1, Brent = 2 };
+    Search search = Search::Brent;
+    // Over-relaxation: a node moves relax x its searched step when that
+    // lowers its fan energy too (1 = exact line-search steps).
+    double relax = 1.5;
+    // Recompute the energy every iteration instead of summing the moved
+    // nodes' falls (always so for tolerances below 1e-6): the same moves,
+    // for tests and comparisons.
+    bool energy_each_iteration = false;
 };
 
 struct DistortionStats {

@@ -60,6 +60,8 @@ TEST_CASE("parse: the API's defaults are the documented ones", "[cli][parse]")
     CHECK(c.levels == 0);
     CHECK(c.threshold == 1e-3f);
     CHECK(c.skip_tiles);
+    CHECK(c.search == CorrectSearch::Brent);
+    CHECK(c.relax == 1.5f);
     const BakeOptions b;
     CHECK(b.filter == BakeFilter::Bilinear);
     CHECK(b.colorspace == BakeColorspace::Auto);
@@ -204,6 +206,11 @@ TEST_CASE("parse: every --correct modifier lands in its field", "[cli][parse]")
     CHECK(c("threshold=0").threshold == 0.0f);
     CHECK_FALSE(c("skip=off").skip_tiles);
     CHECK(c("skip=on").skip_tiles);
+    CHECK(c("search=ternary").search == CorrectSearch::Ternary);
+    CHECK(c("search=golden").search == CorrectSearch::Golden);
+    CHECK(c("search=brent").search == CorrectSearch::Brent);
+    CHECK(c("relax=1").relax == 1.0f);
+    CHECK(c("relax=1.75").relax == 1.75f);
     const CorrectOptions tent = c("fix=height:0.25:0.5");
     CHECK(tent.fix_height == 0.25f);
     CHECK(tent.fix_width == 0.5f);
@@ -302,6 +309,9 @@ TEST_CASE("parse: nonsense is a usage error naming the argument", "[cli][parse][
         {{kIn, "--correct:levels=31"}, "levels=31"},
         {{kIn, "--correct:tolerance=1"}, "tolerance=1"},
         {{kIn, "--correct:threshold=-1"}, "threshold=-1"},
+        {{kIn, "--correct:relax=2"}, "relax=2"},
+        {{kIn, "--correct:relax=0.9"}, "relax=0.9"},
+        {{kIn, "--correct:search=newton"}, "search=newton"},
         {{kIn, "--correct:fix=height:1:0"}, "DH must be > 0"},
         {{kIn, "--correct:fix=height:x:1"}, "not a number"},
         {{kIn, "--correct:fix=nothing.png"}, "no such file"},

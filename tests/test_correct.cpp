@@ -155,17 +155,52 @@ TEST_CASE("correct: device energy equals the golden model's", "[correct]")
     }
 }
 
+namespace {
+
+// The line searches: Brent's with over-relaxation as shipped, plain Brent,
+// golden section, and the first implementation (ternary, plain steps).
+// `agreement`: how closely the device's offsets after one iteration follow
+// the double golden model's, as a fraction of the largest offset. Brent's
+// search ends within 1% of each step, and float and double can take
+// different branches (parabola or golden section) inside that: measured
+// 0.36-0.62% on the sizes below. The golden-section search ends within
+// 0.8% of its bracket: 0.26-1.5%. The ternary one is precise to 1e-6.
+struct Search {
+    host::CorrectParams::Search host;
+    ref::CorrectionGrid::Search golden_model;
+    double relax;
+    const char* name;
+    double agreement;
+};
+const Search kSearches[] = {
+    {host::CorrectParams::Search::Brent, ref::CorrectionGrid::Search::Brent, 1.5, "brent, relax 1.5", 1e-2},
+    {host::CorrectParams::Search::Brent, ref::CorrectionGrid::Search::Brent, 1.0, "brent", 1e-2},
+    {host::CorrectParams::Search::Golden, ref::CorrectionGrid::Search::Golden, 1.5, "golden, relax 1.5", 2e-2},
+    {host::CorrectParams::Search::Ternary, ref::CorrectionGrid::Search::Ternary, 1.0, "ternary", 2e-3}};
+
+host::CorrectParams with_search(host::CorrectParams p, const Search& s)
+{
+    p.search = s.host;
+    p.relax = s.relax;
+    return p;
+}
+
+} // namespace
+
 TEST_CASE("correct: one device iteration equals the golden model's", "[correct]")
 {
     // Odd periodic sizes exercise the extra phase class of the last node.
+    for (const Search& search : kSearches)
     for (auto [w, h, periodic] : {std::tuple{24, 16, true}, std::tuple{23, 17, true},
                                   std::tuple{20, 19, false}}) {
         const auto hts = waves(w, h, 1.0, 9);
         const double scale = 0.3;
         ref::CorrectionGrid g = centre_grid(hts, w, h, scale, periodic);
+        g.search = search.golden_model;
+        g.relax = search.relax;
         std::vector<double> c(2 * std::size_t(w) * h, 0.0);
         ref::iterate(g, c);
-        const auto out = run(hts, w, h, one_iteration(params(scale, periodic)));
+        const auto out = run(hts, w, h, one_iteration(with_search(params(scale, periodic), search)));
         double worst = 0.0, largest = 0.0;
         std::vector<double> dev(c.size());
         for (std::size_t k = 0; k < c.size(); ++k) {
@@ -173,12 +208,13 @@ TEST_CASE("correct: one device iteration equals the golden model's", "[correct]"
             worst = std::max(worst, std::abs(dev[k] - c[k]));
             largest = std::max(largest, std::abs(c[k]));
         }
-        INFO(w << "x" << h << " periodic " << periodic << ": max |offset| " << largest
+        INFO(search.name << ", " << w << "x" << h << " periodic " << periodic << ": max |offset| "
+                         << largest
                 << " texels, max |device - golden| " << worst);
         CHECK(largest > 1e-2);
-        CHECK(worst <= 2e-3 * largest);
+        CHECK(worst <= search.agreement * largest);
         const double e_dev = ref::total_energy(g, dev), e_gold = ref::total_energy(g, c);
-        CHECK(std::abs(e_dev - e_gold) <= 1e-5 * e_gold);
+        CHECK(std::abs(e_dev - e_gold) <= (search.host == host::CorrectParams::Search::Brent ? 1e-4 : 1e-5) * e_gold);
     }
 }
 
@@ -188,6 +224,7 @@ TEST_CASE("correct: corner nodes, one device iteration equals the golden model's
     // texels (i-1, j-1) and (i, j), with the mean of those four texels'
     // heights (wrapping when periodic, clamped at a fixed border: W+1 x H+1
     // nodes); the offset of a texel is the mean of its four corners'.
+    for (const Search& search : kSearches)
     for (auto [w, h, periodic] : {std::tuple{24, 16, true}, std::tuple{23, 17, true},
                                   std::tuple{20, 19, false}, std::tuple{17, 22, false}}) {
         const auto hts = waves(w, h, 1.0, 10);
@@ -203,6 +240,8 @@ TEST_CASE("correct: corner nodes, one device iteration equals the golden model's
         g.ny = ny;
         g.periodic = periodic;
         g.theta = 5.0;
+        g.search = search.golden_model;
+        g.relax = search.relax;
         for (int j = 0; j < ny; ++j)
             for (int i = 0; i < nx; ++i)
                 g.z.push_back(0.25 * (texel(i - 1, j - 1) + texel(i, j - 1) + texel(i - 1, j) + texel(i, j)) *
@@ -210,7 +249,7 @@ TEST_CASE("correct: corner nodes, one device iteration equals the golden model's
         std::vector<double> c(2 * std::size_t(nx) * ny, 0.0);
         ref::iterate(g, c);
         auto node = [&](int i, int j, int ch) { return c[2 * (std::size_t(j % ny) * nx + i % nx) + ch]; };
-        const auto out = run(hts, w, h, one_iteration(params(scale, periodic, true)));
+        const auto out = run(hts, w, h, one_iteration(with_search(params(scale, periodic, true), search)));
         double worst = 0.0, largest = 0.0;
         for (int y = 0; y < h; ++y)
             for (int x = 0; x < w; ++x)
@@ -221,10 +260,11 @@ TEST_CASE("correct: corner nodes, one device iteration equals the golden model's
                     worst = std::max(worst, std::abs(dev - gold));
                     largest = std::max(largest, std::abs(gold));
                 }
-        INFO(w << "x" << h << " periodic " << periodic << ": max |texel offset| " << largest
+        INFO(search.name << ", " << w << "x" << h << " periodic " << periodic
+                         << ": max |texel offset| " << largest
                 << " texels, max |device - golden| " << worst);
         CHECK(largest > 1e-2);
-        CHECK(worst <= 2e-3 * largest);
+        CHECK(worst <= search.agreement * largest);
     }
 }
 
@@ -233,18 +273,19 @@ TEST_CASE("correct: the energy never rises, iteration after iteration", "[correc
     const int w = 40, h = 36;
     const auto hts = waves(w, h, 1.0, 4);
     auto ctx = host::ComputeContext::acquire("auto");
+    for (const Search& search : kSearches)
     for (bool corner : {false, true})
         for (bool periodic : {true, false}) {
             double previous = INFINITY, first = 0.0;
             for (int it = 0; it <= 6; ++it) {
-                auto p = params(0.4, periodic, corner);
+                auto p = with_search(params(0.4, periodic, corner), search);
                 p.levels = 1;
                 p.iterations = std::max(it, 1);
                 p.threshold = 0.0;
                 host::CorrectReport rep;
                 run(hts, w, h, p, &rep);
                 const double e = it == 0 ? rep.energy_before : rep.energy_after;
-                INFO("corner " << corner << " periodic " << periodic << " iteration " << it);
+                INFO(search.name << ", corner " << corner << " periodic " << periodic << " iteration " << it);
                 REQUIRE(std::isfinite(e));
                 CHECK(e <= previous * (1.0 + 1e-7));
                 if (it == 0)
@@ -255,6 +296,40 @@ TEST_CASE("correct: the energy never rises, iteration after iteration", "[correc
             INFO("corner " << corner << " periodic " << periodic << ": " << first << " -> " << previous);
             CHECK(previous < first * (1.0 - 1e-3));
         }
+}
+
+TEST_CASE("correct: convergence from the nodes' energy falls decides as the energy does", "[correct]")
+{
+    // A bump in a flat sea at a single resolution: tiles skip (their nodes'
+    // falls must not linger from earlier iterations), and each iteration's
+    // change, summed from the moved nodes' fan-energy falls, must stop at
+    // the iteration at which the recomputed energy stops it.
+    const int w = 160, h = 128;
+    std::vector<float> hts(std::size_t(w) * h, 0.0f);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const double r2 = ((x - 30.0) * (x - 30.0) + (y - 25.0) * (y - 25.0)) / 25.0;
+            hts[std::size_t(y) * w + x] = r2 < 9 ? float(std::exp(-r2)) : 0.0f;
+        }
+    for (double tolerance : {1e-3, 1e-4}) {
+        auto p = params(0.15, true);
+        p.levels = 1;
+        p.tolerance = tolerance;
+        host::CorrectReport by_falls, by_energy;
+        const auto a = run(hts, w, h, p, &by_falls);
+        p.energy_each_iteration = true;
+        const auto b = run(hts, w, h, p, &by_energy);
+        const auto &fa = by_falls.levels.back(), &fb = by_energy.levels.back();
+        INFO("tolerance " << tolerance << ": iterations " << fa.iterations << " and " << fb.iterations
+                          << ", tiles run " << fa.tile_phases_run << " of " << fa.tile_phases);
+        CHECK(fa.iterations == fb.iterations);
+        CHECK(fa.converged);
+        CHECK(fb.converged);
+        CHECK(fa.energy_end == fb.energy_end);
+        CHECK(a == b);
+        CHECK(fa.iterations > 3);
+        CHECK(fa.tile_phases_run < fa.tile_phases * 9 / 10);
+    }
 }
 
 TEST_CASE("correct: a flat height map gives zero offsets and skips the solve", "[correct]")
@@ -310,7 +385,12 @@ TEST_CASE("correct: a radially symmetric bump gives symmetric, radial offsets", 
                 tangential = std::max(tangential, std::abs(at(x, y, 0) * b - at(x, y, 1) * a) / r);
         }
     INFO("max offset " << largest << ", asymmetry " << asym << ", tangential " << tangential);
-    CHECK(asym <= 0.05 * largest);
+    // The phases sweep the nodes in one order, which the mirrors do not
+    // preserve; over-relaxation amplifies that. Measured: 4.2% of the
+    // largest offset with plain ternary steps, 5.5% with relax 1.5 (the
+    // default), 6.2% with golden section and relax 1.5. An orientation bug
+    // gives the order of the offsets themselves.
+    CHECK(asym <= 0.08 * largest);
     CHECK(tangential <= 0.2 * largest);
 }
 

@@ -46,6 +46,7 @@ bool same_options(const OperationCall& a, const OperationCall& b)
            c.fix_width == d.fix_width && a.fix_file == b.fix_file &&
            c.iterations == d.iterations && c.tolerance == d.tolerance && c.levels == d.levels &&
            c.threshold == d.threshold && c.skip_tiles == d.skip_tiles &&
+           c.search == d.search && c.relax == d.relax &&
            a.bake.filter == b.bake.filter && a.bake.colorspace == b.bake.colorspace &&
            a.bake.kind == b.bake.kind && a.bake.wrap == b.bake.wrap &&
            a.normals.convention == b.normals.convention && a.normals.scale == b.normals.scale &&

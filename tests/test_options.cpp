@@ -413,6 +413,11 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
          [&](host::CorrectParams& p) { p.fix_weights = fix.data(); }},
         {"fixation tent", [](CorrectOptions& o) { o.fix_height = 0.2f; o.fix_width = 0.5f; },
          [&](host::CorrectParams& p) { p.fix_weights = tent.data(); }},
+        {"ternary search", [](CorrectOptions& o) { o.search = CorrectSearch::Ternary; },
+         [](host::CorrectParams& p) { p.search = host::CorrectParams::Search::Ternary; }},
+        {"golden search", [](CorrectOptions& o) { o.search = CorrectSearch::Golden; },
+         [](host::CorrectParams& p) { p.search = host::CorrectParams::Search::Golden; }},
+        {"relax 1.2", [](CorrectOptions& o) { o.relax = 1.2f; }, [](host::CorrectParams& p) { p.relax = 1.2f; }},
         {"skip off", [](CorrectOptions& o) { o.skip_tiles = false; }, [](host::CorrectParams& p) { p.skip_tiles = false; }},
     };
     std::vector<std::vector<float>> results;

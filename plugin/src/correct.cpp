@@ -23,6 +23,11 @@ namespace {
 
 DistortionSummary summary(const host::DistortionStats& s) { return {s.mean, s.p95, s.max}; }
 
+const char* search_name(CorrectSearch s)
+{
+    return s == CorrectSearch::Ternary ? "ternary" : s == CorrectSearch::Golden ? "golden" : "brent";
+}
+
 void validate(const CorrectOptions& o)
 {
     OperationCall call;
@@ -127,6 +132,10 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         p.levels = options.levels;
         p.threshold = options.threshold;
         p.skip_tiles = options.skip_tiles;
+        p.search = options.search == CorrectSearch::Ternary  ? host::CorrectParams::Search::Ternary
+                   : options.search == CorrectSearch::Golden ? host::CorrectParams::Search::Golden
+                                                             : host::CorrectParams::Search::Brent;
+        p.relax = options.relax;
 
         auto ctx = host::ComputeContext::acquire(options.exec.device);
         detail::say(options.exec, Severity::Info, "device: " + ctx->device().describe());
@@ -203,7 +212,8 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         par << "scale=" << p.scale << " theta=" << p.theta << " nodes=" << rep.nodes
             << " boundary=" << rep.boundary << " tolerance=" << p.tolerance
             << " iterations=" << (p.iterations ? std::to_string(p.iterations) : "auto")
-            << " levels=" << (p.levels ? std::to_string(p.levels) : "auto");
+            << " levels=" << (p.levels ? std::to_string(p.levels) : "auto")
+            << " search=" << search_name(options.search) << " relax=" << p.relax;
         spec.attribute("relief:parameters", par.str());
         dst.reset(spec);
         dst.set_pixels(dst.roi(), TypeDesc::FLOAT, offsets.data());

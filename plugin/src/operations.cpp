@@ -479,6 +479,17 @@ Operation correct_operation()
                "correct nothing when no triangle's anisotropy or area change exceeds this"),
         choice("skip", [k](auto& c) -> auto& { return k(c).skip_tiles; }, kOnOff, "",
                "skip tiles whose nodes cannot move (the result is identical)"),
+        choice("search", [k](auto& c) -> auto& { return k(c).search; },
+               std::vector<std::pair<std::string, CorrectSearch>>{{"brent", CorrectSearch::Brent},
+                                                                  {"golden", CorrectSearch::Golden},
+                                                                  {"ternary", CorrectSearch::Ternary}},
+               "",
+               "line search per node: Brent's (parabolic, precise relative to the step), golden "
+               "section or ternary (the first implementation)"),
+        number("relax", ModifierType::Number, [k](auto& c) -> auto& { return k(c).relax; }, 1,
+               false, 2, true, "W", "", "",
+               "over-relaxation: move W x the searched step when that lowers the energy too "
+               "(1 = plain steps)"),
     };
     op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
         CorrectOptions o = c.correct;

@@ -96,19 +96,98 @@ void update_node(const CorrectionGrid& g, std::vector<double>& c, int i, int j)
     if (!(tmax > 0.0))
         return;
     auto energy = [&](double s) { return fan_energy_at(g, c, i, j, cx + s * dx, cy + s * dy); };
-    double lo = 0.0, hi = tmax;
-    for (int step = 0; step < 31 && hi - lo > 1e-6 * tmax; ++step) {
-        const double m1 = lo + (hi - lo) / 3.0, m2 = hi - (hi - lo) / 3.0;
-        if (energy(m1) < energy(m2))
-            hi = m2;
-        else
-            lo = m1;
+    double lo = 0.0, hi = tmax, s = 0.0, es = 0.0;
+    const double e0 = energy(0.0);
+    const double r = (3.0 - std::sqrt(5.0)) / 2.0;
+    if (g.search == CorrectionGrid::Search::Brent) {
+        // Brent's minimiser from t = 0 (Numerical Recipes' brent(), the
+        // bracket [0, tmax]); non-finite energies count as higher.
+        double x = 0.0, w = 0.0, v = 0.0, fx = e0, fw = e0, fv = e0, d = 0.0, e = 0.0;
+        for (int it = 0; it < 5; ++it) {
+            const double xm = 0.5 * (lo + hi), tol1 = 0.01 * std::abs(x) + 1e-6 * tmax, tol2 = 2.0 * tol1;
+            if (std::abs(x - xm) <= tol2 - 0.5 * (hi - lo))
+                break;
+            bool golden = true;
+            if (std::abs(e) > tol1) {
+                const double rr = (x - w) * (fx - fv);
+                double q = (x - v) * (fx - fw), p = (x - v) * q - (x - w) * rr;
+                q = 2.0 * (q - rr);
+                if (q > 0.0)
+                    p = -p;
+                q = std::abs(q);
+                if (std::isfinite(p) && std::isfinite(q) && std::abs(p) < std::abs(0.5 * q * e) &&
+                    p > q * (lo - x) && p < q * (hi - x)) {
+                    e = d;
+                    d = p / q;
+                    if (x + d - lo < tol2 || hi - (x + d) < tol2)
+                        d = std::copysign(tol1, xm - x);
+                    golden = false;
+                }
+            }
+            if (golden) {
+                e = x >= xm ? lo - x : hi - x;
+                d = r * e;
+            }
+            const double u = std::abs(d) >= tol1 ? x + d : x + std::copysign(tol1, d);
+            const double fu = energy(u);
+            if (fu <= fx) {
+                (u >= x ? lo : hi) = x;
+                v = w, fv = fw, w = x, fw = fx, x = u, fx = fu;
+            } else {
+                (u < x ? lo : hi) = u;
+                if (!(fu > fw) || w == x)
+                    v = w, fv = fw, w = u, fw = fu;
+                else if (!(fu > fv) || v == x || v == w)
+                    v = u, fv = fu;
+            }
+        }
+        s = x;
+        es = fx;
+    } else if (g.search == CorrectionGrid::Search::Golden) {
+        // Golden section: keep the interior point that survives, add one.
+        double x1 = r * hi, x2 = hi - r * hi, e1 = energy(x1), e2 = energy(x2);
+        for (int step = 0; step < 10 && hi - lo > 1e-6 * tmax; ++step) {
+            if (!std::isfinite(e1)) {
+                hi = x1;
+                x1 = lo + r * (hi - lo);
+                x2 = hi - r * (hi - lo);
+                e1 = energy(x1);
+                e2 = energy(x2);
+            } else if (std::isfinite(e2) && std::abs(e1 - e2) <= 1e-7 * (e1 + e2)) {
+                break;
+            } else if (!std::isfinite(e2) || e1 < e2) {
+                hi = x2;
+                x2 = x1;
+                e2 = e1;
+                x1 = lo + r * (hi - lo);
+                e1 = energy(x1);
+            } else {
+                lo = x1;
+                x1 = x2;
+                e1 = e2;
+                x2 = hi - r * (hi - lo);
+                e2 = energy(x2);
+            }
+        }
+        s = e1 <= e2 ? x1 : x2;
+        es = std::min(e1, e2);
+    } else {
+        for (int step = 0; step < 31 && hi - lo > 1e-6 * tmax; ++step) {
+            const double m1 = lo + (hi - lo) / 3.0, m2 = hi - (hi - lo) / 3.0;
+            if (energy(m1) < energy(m2))
+                hi = m2;
+            else
+                lo = m1;
+        }
+        s = 0.5 * (lo + hi);
+        es = energy(s);
     }
-    const double s = 0.5 * (lo + hi);
-    if (energy(s) < energy(0.0)) {
-        c[2 * p] = cx + s * dx;
-        c[2 * p + 1] = cy + s * dy;
-    }
+    if (g.relax != 1.0 && g.relax * s < tmax && energy(g.relax * s) < e0)
+        s *= g.relax;
+    else if (!(es < e0))
+        return;
+    c[2 * p] = cx + s * dx;
+    c[2 * p + 1] = cy + s * dy;
 }
 
 } // namespace

@@ -15,6 +15,9 @@ struct CorrectionGrid {
     double theta = 5.0;
     std::vector<double> z;    // height per node, texels
     std::vector<double> fix;  // fixation weight per node, or empty
+    enum class Search { Ternary, Golden, Brent };
+    Search search = Search::Brent;  // the line search per node
+    double relax = 1.5;             // over-relaxation factor (1 = the searched step)
 };
 
 using Vec2 = std::array<double, 2>;
@@ -42,8 +45,10 @@ Vec2 fan_gradient(const CorrectionGrid& g, const std::vector<double>& c, int i, 
 
 // One iteration: the phases (x mod 2, y mod 2) = (0,0), (1,0), (0,1), (1,1)
 // (plus the last node of an odd periodic axis on its own), each node
-// stepping along its negative gradient by a ternary search over the flip
-// (and fixation) bracket.
+// stepping along its negative gradient by a line search over the flip (and
+// fixation) bracket: Brent's minimiser (5 evaluations, precision 1% of the
+// step), golden section (10 steps) or ternary (31 steps); then relax x that
+// step when its energy is below the start's as well.
 void iterate(const CorrectionGrid& g, std::vector<double>& c);
 
 } // namespace relief::reference

@@ -21,6 +21,11 @@ enum class CorrectNodes { Corner, Center };
 // put. Auto: periodic when the height jumps across the wrap seams no more
 // than twice the mean jump between neighbouring texels; the choice is reported.
 enum class CorrectBoundary { Auto, Periodic, Fixed };
+// The line search along each node's descent direction: Brent's minimiser
+// (parabolic steps, precision relative to the step), golden section (one
+// energy evaluation per step) or ternary (two per step; the first
+// implementation). The last two are kept for comparison.
+enum class CorrectSearch { Brent, Golden, Ternary };
 
 // mean, 95th percentile and maximum over the triangles of the mesh
 struct DistortionSummary {
@@ -75,6 +80,10 @@ struct CorrectOptions {
     // change |s1 s2 - 1| exceeds this (zero offsets, no solve).
     float threshold = 1e-3f;
     bool skip_tiles = true;    // skip tiles whose nodes cannot move (identical result)
+    CorrectSearch search = CorrectSearch::Brent;
+    // Over-relaxation factor in [1, 2): a node moves `relax` times its
+    // searched step when that also lowers the energy (1 = plain steps).
+    float relax = 1.5f;
     CorrectReport* report = nullptr;  // filled when given
     Execution exec;
 };

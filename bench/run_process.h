@@ -1,0 +1,58 @@
+#pragma once
+// Whole-process timing for the benchmarks that run relief (or a peer, or an
+// older relief build) as a user would: fork, exec, wait.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+namespace bench {
+
+// Runs argv with stdout to /dev/null and stderr to `log` (or /dev/null),
+// POCL_CACHE_DIR and RELIEF_CACHE_DIR set under `cache_root` (warm caches,
+// as a farm node's after its first map); returns the wall seconds, or exits
+// naming the command when it fails.
+inline double run_process(const std::vector<std::string>& argv, const std::string& cache_root,
+                          const std::string& log = "")
+{
+    const auto t0 = std::chrono::steady_clock::now();
+    const pid_t pid = fork();
+    if (pid == 0) {
+        setenv("POCL_CACHE_DIR", (cache_root + "/pocl-cache").c_str(), 1);
+        setenv("RELIEF_CACHE_DIR", (cache_root + "/relief-cache").c_str(), 1);
+        const std::string to = log.empty() ? "/dev/null" : log;
+        if (!std::freopen(to.c_str(), "w", stderr) || !std::freopen("/dev/null", "w", stdout))
+            _exit(127);
+        std::vector<char*> a;
+        for (const auto& s : argv)
+            a.push_back(const_cast<char*>(s.c_str()));
+        a.push_back(nullptr);
+        execv(a[0], a.data());
+        _exit(127);
+    }
+    int status = 0;
+    waitpid(pid, &status, 0);
+    const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+        std::string cmd;
+        for (const auto& s : argv)
+            cmd += s + " ";
+        std::fprintf(stderr, "bench: command failed (status %d): %s\n", status, cmd.c_str());
+        std::exit(1);
+    }
+    return sec;
+}
+
+inline double median(std::vector<double> v)
+{
+    std::sort(v.begin(), v.end());
+    const std::size_t n = v.size();
+    return n == 0 ? 0.0 : n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+} // namespace bench
