@@ -235,14 +235,14 @@ cl::Buffer active_tiles(ComputeContext::Impl& c, const DeviceSlopes& slopes, dou
 
 namespace {
 
-// Periodic boundaries: A = Kx (x) gx + Ky (x) gy, one convolution.
-void integrate_rays_by_fft(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& p,
-                           float* height_out, const Progress& progress, RayReport* report)
+// A = Kx (x) gx + Ky (x) gy, one circular convolution: the periodic
+// result before its mean is removed, and the clip result wherever every ray
+// stays in the image. The caller holds c.mutex.
+void fft_ray_sums(ComputeContext::Impl& c, const DeviceSlopes& slopes, const RayParams& p,
+                  float* height_out, const Progress& progress)
 {
     const int w = slopes.width(), h = slopes.height();
     const std::size_t n = std::size_t(w) * h;
-    if (report)
-        *report = RayReport{};
     if (n == 1) {
         height_out[0] = 0.0f;
         return;
@@ -277,9 +277,7 @@ void integrate_rays_by_fft(ComputeContext& ctx, const DeviceSlopes& slopes, cons
         return;
     }
     std::vector<float> kxf(kx.begin(), kx.end()), kyf(ky.begin(), ky.end());
-
-    auto& c = ctx.impl();
-    std::lock_guard<std::mutex> lock(c.mutex);
+    kx = ky = std::vector<double>();
     try {
         cl::Program& spectral = c.program("poisson.cl");  // split and gather
         cl::Program& prog = c.program("rays_fft.cl");
@@ -339,7 +337,36 @@ void integrate_rays_by_fft(ComputeContext& ctx, const DeviceSlopes& slopes, cons
         throw Error(std::string("OpenCL error in the FFT ray stage: ") + e.what() + " (" +
                     std::to_string(e.err()) + ")");
     }
-    remove_mean(height_out, n);
+}
+
+// Periodic boundaries: the convolution, then the mean removed.
+void integrate_rays_by_fft(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& p,
+                           float* height_out, const Progress& progress, RayReport* report)
+{
+    if (report)
+        *report = RayReport{};
+    {
+        std::lock_guard<std::mutex> lock(ctx.impl().mutex);
+        fft_ray_sums(ctx.impl(), slopes, p, height_out, progress);
+    }
+    remove_mean(height_out, std::size_t(slopes.width()) * slopes.height());
+}
+
+// The texels whose rays, in every direction, stay in a w x h image: there
+// the clip result is the FFT's (inclusive; x0 > x1 when there are none).
+cl_int4 whole_ray_rect(const RayParams& p, int w, int h)
+{
+    int min_x = 0, max_x = 0, min_y = 0, max_y = 0;
+    for_each_packed_direction(p, [&](int, const std::vector<cl_int2>& offsets,
+                                     const std::vector<cl_float4>&) {
+        for (const cl_int2& o : offsets) {
+            min_x = std::min(min_x, o.s[0]);
+            max_x = std::max(max_x, o.s[0]);
+            min_y = std::min(min_y, o.s[1]);
+            max_y = std::max(max_y, o.s[1]);
+        }
+    });
+    return cl_int4{{-min_x, -min_y, w - 1 - max_x, h - 1 - max_y}};
 }
 
 } // namespace
@@ -361,6 +388,28 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
     const bool fp64 = ctx.device().has_fp64 && !p.force_float;
     auto& c = ctx.impl();
     std::lock_guard<std::mutex> lock(c.mutex);
+    // Clip: where every ray stays in the image, the result is the periodic
+    // convolution's (the same walks, nothing wraps); chains walk only the
+    // band around it. The FFT runs first, so that its buffers are gone
+    // before the chains' are made.
+    cl_int4 fft_rect{{0, 0, -1, -1}};
+    std::vector<float> fft_values;
+    double chain_share = 1.0;
+    if (!periodic && p.clip_by_fft) {
+        RayParams rational = p;
+        rational.directions = DirectionSet::Rational;
+        fft_rect = whole_ray_rect(rational, w, h);
+        if (fft_rect.s[0] <= fft_rect.s[2] && fft_rect.s[1] <= fft_rect.s[3]) {
+            fft_values.resize(n);
+            chain_share = 0.8;
+            fft_ray_sums(c, slopes, rational, fft_values.data(), [&](double f) {
+                if (progress)
+                    progress((1.0 - chain_share) * f);
+            });
+        } else {
+            fft_rect = cl_int4{{0, 0, -1, -1}};
+        }
+    }
     try {
         // CPUs walk several neighbouring chains per work-item (cache reuse).
         const int lanes = ctx.device().is_gpu ? 1 : 16;
@@ -413,6 +462,8 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
             period_sums.setArg(a++, active);
             period_sums.setArg(a++, cl_int(kSkipTile));
             period_sums.setArg(a++, cl_int(tiles_x));
+            period_sums.setArg(a++, fft_rect);
+            period_sums.setArg(a++, cl_int2{{t.whole * d.a, t.whole * d.b}});
             period_sums.setArg(a++, sums);
             period_sums.setArg(a++, tail);
             c.queue.enqueueNDRangeKernel(period_sums, cl::NullRange, cl::NDRange(padded(n)),
@@ -474,6 +525,7 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
                 windows.setArg(a++, active);
                 windows.setArg(a++, cl_int(kSkipTile));
                 windows.setArg(a++, cl_int(tiles_x));
+                windows.setArg(a++, fft_rect);
                 windows.setArg(a++, accum);
                 c.queue.enqueueNDRangeKernel(windows, cl::NullRange,
                                              cl::NDRange(padded((starts.size() + lanes - 1) / lanes)),
@@ -482,7 +534,7 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
             // The tables above go out of scope with this iteration.
             c.queue.finish();
             if (progress)
-                progress(double(j + 1) / double(dirs.size()));
+                progress(1.0 - chain_share + chain_share * double(j + 1) / double(dirs.size()));
         }
         cl::Kernel finish(prog, "rays_finish");
         finish.setArg(0, accum);
@@ -495,6 +547,10 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
         throw Error(std::string("OpenCL error in the fast ray stage: ") + e.what() + " (" +
                     std::to_string(e.err()) + ")");
     }
+    for (int y = fft_rect.s[1]; y <= fft_rect.s[3]; ++y)
+        std::copy(fft_values.begin() + std::ptrdiff_t(y) * w + fft_rect.s[0],
+                  fft_values.begin() + std::ptrdiff_t(y) * w + fft_rect.s[2] + 1,
+                  height_out + std::ptrdiff_t(y) * w + fft_rect.s[0]);
     remove_mean(height_out, n);
 }
 

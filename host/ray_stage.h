@@ -27,6 +27,10 @@ struct RayParams {
     // Fast kernel, periodic boundary: integrate as one FFT convolution (the
     // cost of two Poisson solves, whatever J and R) rather than along chains.
     bool periodic_by_fft = true;
+    // Fast kernel, clip: texels whose rays all stay in the image take the
+    // FFT convolution's value (it is the same sum there); chains walk only
+    // the band within the radius of the border.
+    bool clip_by_fft = true;
 };
 
 // What a ray integration skipped.
@@ -49,7 +53,8 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
 // The fast kernel (DESIGN.md §4.3): same result as integrate_rays_reference
 // to rounding, at a cost independent of the radius. Periodic boundaries (with
 // periodic_by_fft): one FFT convolution, either direction set. Clip (or
-// periodic_by_fft off): rational directions, chain windows.
+// periodic_by_fft off): rational directions, chain windows; with
+// clip_by_fft, only in the border band, the FFT's values inside it.
 void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& params,
                          float* height_out, const Progress& progress = {},
                          RayReport* report = nullptr);

@@ -31,6 +31,11 @@ inline int inside(int x, int y, int w, int h)
     return x >= 0 && x < w && y >= 0 && y < h;
 }
 
+inline int in_rect(int x, int y, int4 r)
+{
+    return x >= r.x && x <= r.z && y >= r.y && y <= r.w;
+}
+
 inline int texel_index(int x, int y, int w, int h, int periodic)
 {
     if (periodic) {
@@ -47,12 +52,19 @@ __kernel void rays_period_sums(__global const float2* slopes, int width, int hei
                                __constant int2* seg_offset, __constant float4* seg_data,
                                __constant float4* seg_cut, __constant int* seg_linear,
                                float origin_len, __global const uchar* active, int tile,
-                               int tiles_x, __global float4* sums, __global float2* tail)
+                               int tiles_x, int4 fft_rect, int2 reach, __global float4* sums,
+                               __global float2* tail)
 {
     int gid = get_global_id(0);
     if (gid >= width * height)
         return;
     int x = gid % width, y = gid / width;
+    // Under clip, the texels whose whole rays stay in the image (fft_rect,
+    // inclusive; empty when x0 > x1) come from the FFT: q's sums serve the
+    // chain points q - m (a, b), m = 0..K (reach = K (a, b)), none of which
+    // is walked when both ends lie in that rectangle (it is convex).
+    if (in_rect(x, y, fft_rect) && in_rect(x - reach.x, y - reach.y, fft_rect))
+        return;
     if (!active[(y / tile) * tiles_x + x / tile]) {  // all zero slopes within reach
         sums[gid] = (float4)(0.0f);
         tail[gid] = (float2)(0.0f);
@@ -173,6 +185,7 @@ typedef struct {
     int nx, ny;  // q_{k+K}, kept wrapped
     int k;
     int done;
+    int rebuild;  // the window starts afresh here (after a jump over fft_rect)
 } Chain;
 
 typedef struct {
@@ -190,6 +203,7 @@ typedef struct {
     int tile, tiles_x;
     acc_t origin_w;
     float dir_weight;  // the direction's angular quadrature weight
+    int4 fft_rect;     // clip: texels the FFT gives (inclusive; empty when x0 > x1)
 } ChainArgs;
 
 inline void chain_begin(Chain* c, int2 start, const ChainArgs* g)
@@ -204,6 +218,22 @@ inline void chain_begin(Chain* c, int2 start, const ChainArgs* g)
     }
     c->k = 0;
     c->done = 0;
+    c->rebuild = 0;
+}
+
+// Steps along (sx, sy) from (x, y), inside r, to the first point past r.
+inline int steps_out_of(int x, int y, int sx, int sy, int4 r)
+{
+    int s = INT_MAX;
+    if (sx > 0)
+        s = min(s, (r.z - x) / sx + 1);
+    else if (sx < 0)
+        s = min(s, (x - r.x) / -sx + 1);
+    if (sy > 0)
+        s = min(s, (r.w - y) / sy + 1);
+    else if (sy < 0)
+        s = min(s, (y - r.y) / -sy + 1);
+    return s;
 }
 
 // Adds the ray sum of chain point q_k to accum and slides the window on.
@@ -216,11 +246,25 @@ inline void chain_step(Chain* c, const ChainArgs* g)
         c->done = 1;
         return;
     }
+    if (!periodic && in_rect(c->x, c->y, g->fft_rect)) {
+        // The chain's run through the FFT's rectangle (one run: it is
+        // convex) is skipped; the window starts afresh past it (it only
+        // looks ahead, so that is exact).
+        const int jump = steps_out_of(c->x, c->y, step_x, step_y, g->fft_rect);
+        c->x += jump * step_x;
+        c->y += jump * step_y;
+        c->nx += jump * step_x;
+        c->ny += jump * step_y;
+        c->k += jump;
+        c->rebuild = 1;
+        return;
+    }
     const int x = c->x, y = c->y;
     Window win = c->win;
-    if (c->k == 0 || (g->reanchor > 0 && c->k % g->reanchor == 0))
+    if (c->k == 0 || c->rebuild || (g->reanchor > 0 && c->k % g->reanchor == 0))
         win = window_from_scratch(g->sums, width, height, periodic, step_x, step_y, x, y,
                                   k_whole);
+    c->rebuild = 0;
     const acc_t L = g->period, K = k_whole;
     const acc_t n = (acc_t)win.count;
     const int p = y * width + x;
@@ -316,7 +360,7 @@ __kernel void rays_chain_windows(__global const float2* slopes, int width, int h
                                  __constant int2* seg_offset, __constant float4* seg_data,
                                  __global const float4* sums, __global const float2* tail,
                                  int reanchor, float dir_weight, __global const uchar* active,
-                                 int tile, int tiles_x, __global float2* accum)
+                                 int tile, int tiles_x, int4 fft_rect, __global float2* accum)
 {
     const int first = get_global_id(0) * RELIEF_LANES;
     if (first >= chains)
@@ -325,7 +369,7 @@ __kernel void rays_chain_windows(__global const float2* slopes, int width, int h
     const ChainArgs g = {slopes, width, height, periodic, step_x, step_y, cycle, k_whole,
                          period, w0, w1, pw0, pw1, partial, segments, seg_offset, seg_data,
                          sums, tail, reanchor, accum, active, tile, tiles_x,
-                         0.5 * (acc_t)origin_len * origin_len, dir_weight};
+                         0.5 * (acc_t)origin_len * origin_len, dir_weight, fft_rect};
     Chain lane[RELIEF_LANES];
     const int lanes = min(RELIEF_LANES, chains - first);
     for (int l = 0; l < lanes; ++l)

@@ -26,7 +26,10 @@ struct Run {
     bool periodic = true;
     bool fast = true;
     bool force_float = false;
-    bool by_fft = true;  // periodic: the FFT convolution, else chain windows
+    // Periodic: the FFT convolution, else chain windows. Clip: the FFT
+    // where every ray stays in the image and chains in the band, else
+    // chains everywhere.
+    bool by_fft = true;
 };
 
 std::vector<float> run_rays(const std::vector<float>& g, int w, int h, const Run& r)
@@ -41,6 +44,7 @@ std::vector<float> run_rays(const std::vector<float>& g, int w, int h, const Run
     p.boundary = r.periodic ? host::RayBoundary::Periodic : host::RayBoundary::Clip;
     p.force_float = r.force_float;
     p.periodic_by_fft = r.by_fft;
+    p.clip_by_fft = r.by_fft;
     std::vector<float> out(std::size_t(w) * h);
     if (r.fast)
         host::integrate_rays_fast(*ctx, slopes, p, out.data());
@@ -206,17 +210,24 @@ TEST_CASE("fast kernel equals the reference kernel for the same directions", "[r
         {1, 1, 8, 4.0, 0.5, false},
         {64, 48, 32, 40.0, 0.5, true},
         {64, 48, 32, 40.0, 0.5, false},
+        // Clip with an FFT interior: its rectangle comes from the walks'
+        // offsets, which differ per side for odd J and phases other than 0.5.
+        {96, 80, 16, 10.0, 0.25, false},
+        {101, 77, 7, 13.0, 0.0, false},
+        {160, 120, 32, 24.0, 0.5, false},
     };
     for (const Case& c : cases) {
-        for (int variant : {0, 1, 2}) {
+        for (int variant : {0, 1, 2, 3}) {
             // 0: chain windows, fp64 where the device has it; 1: chain windows
-            // in float, re-anchored; 2: periodic only, the FFT convolution.
-            const bool force_float = variant == 1, by_fft = variant == 2;
-            if (by_fft && !c.periodic)
+            // in float, re-anchored; 2: the FFT convolution (periodic), or
+            // the FFT inside and chains in the border band (clip); 3: clip
+            // only, that in float.
+            const bool force_float = variant == 1 || variant == 3, by_fft = variant >= 2;
+            if (variant == 3 && c.periodic)
                 continue;
             INFO(c.w << "x" << c.h << " rays=" << c.rays << " radius=" << c.radius
                       << (c.periodic ? " periodic" : " clip")
-                      << (by_fft ? " fft" : force_float ? " float" : " fp64"));
+                      << (by_fft ? " fft" : "") << (force_float ? " float" : " fp64"));
             auto g = rough_slopes(c.w, c.h, 5u + c.rays);
             Run r;
             r.rays = c.rays;
