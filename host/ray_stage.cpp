@@ -462,11 +462,21 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
             period_sums.setArg(a++, active);
             period_sums.setArg(a++, cl_int(kSkipTile));
             period_sums.setArg(a++, cl_int(tiles_x));
-            period_sums.setArg(a++, fft_rect);
-            period_sums.setArg(a++, cl_int2{{t.whole * d.a, t.whole * d.b}});
+            // The sums of q serve the chain points q - m (a, b), m = 0..K; none
+            // is walked when q and q - K (a, b) both lie in the FFT's
+            // rectangle (it is convex).
+            const int rx = t.whole * d.a, ry = t.whole * d.b;
+            const cl_int4 unused{{std::max(fft_rect.s[0], fft_rect.s[0] + rx),
+                                  std::max(fft_rect.s[1], fft_rect.s[1] + ry),
+                                  std::min(fft_rect.s[2], fft_rect.s[2] + rx),
+                                  std::min(fft_rect.s[3], fft_rect.s[3] + ry)}};
+            std::size_t sums_needed = n;
+            if (unused.s[0] <= unused.s[2] && unused.s[1] <= unused.s[3])
+                sums_needed -= std::size_t(unused.s[2] - unused.s[0] + 1) * std::size_t(unused.s[3] - unused.s[1] + 1);
+            period_sums.setArg(a++, unused);
             period_sums.setArg(a++, sums);
             period_sums.setArg(a++, tail);
-            c.queue.enqueueNDRangeKernel(period_sums, cl::NullRange, cl::NDRange(padded(n)),
+            c.queue.enqueueNDRangeKernel(period_sums, cl::NullRange, cl::NDRange(padded(sums_needed)),
                                          cl::NDRange(kGroupSize));
 
             if (periodic && fp64 && std::abs(d.a) < w && std::abs(d.b) < h) {

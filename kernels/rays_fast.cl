@@ -52,19 +52,39 @@ __kernel void rays_period_sums(__global const float2* slopes, int width, int hei
                                __constant int2* seg_offset, __constant float4* seg_data,
                                __constant float4* seg_cut, __constant int* seg_linear,
                                float origin_len, __global const uchar* active, int tile,
-                               int tiles_x, int4 fft_rect, int2 reach, __global float4* sums,
+                               int tiles_x, int4 unused, __global float4* sums,
                                __global float2* tail)
 {
-    int gid = get_global_id(0);
-    if (gid >= width * height)
-        return;
-    int x = gid % width, y = gid / width;
-    // Under clip, the texels whose whole rays stay in the image (fft_rect,
-    // inclusive; empty when x0 > x1) come from the FFT: q's sums serve the
-    // chain points q - m (a, b), m = 0..K (reach = K (a, b)), none of which
-    // is walked when both ends lie in that rectangle (it is convex).
-    if (in_rect(x, y, fft_rect) && in_rect(x - reach.x, y - reach.y, fft_rect))
-        return;
+    // Under clip, the texels whose rays all stay in the image come from the
+    // FFT, and the sums of q serve only the chain points q - m (a, b),
+    // m = 0..K: `unused` (inclusive; empty when x0 > x1) holds the q for
+    // which none of them is walked. The launch covers the rest: the rows
+    // above and below it, and the texels left and right of it.
+    int gid = get_global_id(0), x, y;
+    if (unused.x <= unused.z && unused.y <= unused.w) {
+        const int top = unused.y * width, gap = unused.z - unused.x + 1, side = width - gap;
+        const int middle = (unused.w - unused.y + 1) * side;
+        if (gid < top) {
+            x = gid % width;
+            y = gid / width;
+        } else if (gid < top + middle) {
+            const int k = gid - top, c = k % side;
+            y = unused.y + k / side;
+            x = c < unused.x ? c : c + gap;
+        } else {
+            const int k = gid - top - middle;
+            y = unused.w + 1 + k / width;
+            x = k % width;
+        }
+        if (y >= height)
+            return;
+        gid = y * width + x;
+    } else {
+        if (gid >= width * height)
+            return;
+        x = gid % width;
+        y = gid / width;
+    }
     if (!active[(y / tile) * tiles_x + x / tile]) {  // all zero slopes within reach
         sums[gid] = (float4)(0.0f);
         tail[gid] = (float2)(0.0f);
