@@ -13,7 +13,7 @@
 //    energies scored here from the written offset maps.
 // Usage: bench_correct [--sizes 512,1024|none] [--budget SECONDS] [--out DIR]
 //                      [--maps castell,... (folders of --data)] [--data DIR]
-//                      [--baseline OLD_RELIEF] [--runs 3] [--tolerances 1e-3,...]
+//                      [--baseline OLD_RELIEF] [--runs 3] [--tolerances 1e-3,...|none]
 // Synthetic heights: a terrain (bumps, ridges, a plateau) at every size.
 // Everything runs at scale 0.05, nodes=center, theta 5 (synthetic: periodic;
 // real maps: boundary=auto, as the CLI decides).
@@ -216,10 +216,11 @@ struct Variant {
     relief::CorrectSearch search;
     float relax;
 };
+// (Names without commas: they are CSV fields, which gnuplot splits.)
 const Variant kVariants[] = {{"ternary (first version)", relief::CorrectSearch::Ternary, 1.0f},
-                             {"golden, relax 1.5", relief::CorrectSearch::Golden, 1.5f},
+                             {"golden with relax 1.5", relief::CorrectSearch::Golden, 1.5f},
                              {"brent", relief::CorrectSearch::Brent, 1.0f},
-                             {"brent, relax 1.5 (default)", relief::CorrectSearch::Brent, 1.5f}};
+                             {"brent with relax 1.5 (default)", relief::CorrectSearch::Brent, 1.5f}};
 
 // Real maps: the time-to-energy curves, and the whole-process comparison
 // against --baseline.
@@ -229,13 +230,21 @@ void real_maps(const std::vector<std::string>& names, const std::string& data, c
     const std::string mods = "--correct:scale=0.05:theta=5:nodes=center";
     const std::string work = out_dir + "/correct-work";
     std::filesystem::create_directories(work);
-    std::ofstream curves(out_dir + "/correct_curves.csv");
-    curves << "map,variant,tolerance,seconds,energy,iterations\n";
-    std::ofstream md(out_dir + "/correct_maps.md"), csv(out_dir + "/correct_maps.csv");
-    md << "| map | size | boundary | baseline s | this build s | ratio | baseline energy | this build energy | "
-          "energy ratio | flipped (baseline, this) |\n|---|---|---|---|---|---|---|---|---|---|\n";
-    csv << "map,width,height,boundary,baseline_s,current_s,ratio,baseline_energy,current_energy,flipped_baseline,"
-           "flipped_current\n";
+    // Each part writes its files only when it runs (--tolerances none, no
+    // --baseline), so that the two can run separately.
+    std::ofstream curves, md, csv;
+    if (!tolerances.empty()) {
+        curves.open(out_dir + "/correct_curves.csv");
+        curves << "map,variant,tolerance,seconds,energy,iterations\n";
+    }
+    if (!baseline.empty()) {
+        md.open(out_dir + "/correct_maps.md");
+        csv.open(out_dir + "/correct_maps.csv");
+        md << "| map | size | boundary | baseline s | this build s | ratio | baseline energy | this build energy | "
+              "energy ratio | flipped (baseline, this) |\n|---|---|---|---|---|---|---|---|---|---|\n";
+        csv << "map,width,height,boundary,baseline_s,current_s,ratio,baseline_energy,current_energy,"
+               "flipped_baseline,flipped_current\n";
+    }
     for (const std::string& name : names) {
         const std::string path = name.find('/') != std::string::npos ? name : data + "/" + name + "/height.png";
         int w = 0, h = 0;
@@ -261,7 +270,7 @@ void real_maps(const std::vector<std::string>& names, const std::string& data, c
                 const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
                 std::fprintf(stderr, "bench_correct: %s, %s, tolerance %g: %.2f s, energy %.9g\n", name.c_str(),
                              v.name, tol, sec, rep.energy_after);
-                curves << name << ",\"" << v.name << "\"," << tol << ',' << sec << ',' << std::setprecision(10)
+                curves << name << ',' << v.name << ',' << tol << ',' << sec << ',' << std::setprecision(10)
                        << rep.energy_after << std::setprecision(6) << ',' << rep.iterations << '\n';
                 curves.flush();
             }
@@ -298,20 +307,23 @@ void real_maps(const std::vector<std::string>& names, const std::string& data, c
             << ',' << sc.flipped << '\n';
         csv.flush();
     }
+    std::filesystem::remove_all(work);
+    if (tolerances.empty())
+        return;
     // Energy above the best found for the map, against seconds: one curve
     // per line search, one panel per map.
     std::ofstream gp(out_dir + "/correct_curves.gp");
     gp << "# gnuplot " << out_dir << "/correct_curves.gp  -> correct_curves.png\n"
        << "set terminal pngcairo size " << 520 * names.size() << ",480 font ',10'\n"
        << "set output '" << out_dir << "/correct_curves.png'\n"
-       << "set datafile separator ','\nset logscale y\nset grid\nset key top right font ',8'\n"
+       << "set datafile separator ','\nset logscale y\nset grid\nset key top right font ',8' noenhanced\n"
        << "set xlabel 'seconds (in-process, warm; tolerances "
        << tolerances.front() << " .. " << tolerances.back() << ")'\n"
-       << "set ylabel 'energy / lowest energy found - 1'\n"
+       << "set ylabel 'energy / lowest energy found - 1 (+1e-7)'\n"
        << "set multiplot layout 1," << names.size() << " title 'relief --correct: energy against time (2-core PoCL)'\n";
     for (const std::string& name : names) {
         gp << "best = 1e300\nstats '" << out_dir << "/correct_curves.csv' using (strcol(1) eq '" << name
-           << "' ? $5 : 1/0) nooutput\nbest = STATS_min\nset title '" << name << "'\nplot ";
+           << "' ? $5 : 1/0) nooutput\nbest = STATS_min\nset title '" << name << "' noenhanced\nplot ";
         for (std::size_t v = 0; v < std::size(kVariants); ++v)
             gp << (v ? ", \\\n  " : "") << "'" << out_dir << "/correct_curves.csv' using (strcol(1) eq '" << name
                << "' && strcol(2) eq '" << kVariants[v].name << "' ? $4 : 1/0):($5 / best - 1 + 1e-7) with linespoints lc "
@@ -322,7 +334,6 @@ void real_maps(const std::vector<std::string>& names, const std::string& data, c
     gp.close();
     if (std::system(("command -v gnuplot >/dev/null && gnuplot '" + out_dir + "/correct_curves.gp'").c_str()) != 0)
         std::fprintf(stderr, "bench_correct: gnuplot missing or failed; the curves are in correct_curves.csv\n");
-    std::filesystem::remove_all(work);
 }
 
 } // namespace
@@ -357,7 +368,8 @@ int main(int argc, char** argv)
         } else if (a == "--tolerances" && i + 1 < argc) {
             tolerances.clear();
             for (const std::string& t : split(argv[++i]))
-                tolerances.push_back(std::stod(t));
+                if (t != "none")
+                    tolerances.push_back(std::stod(t));
         } else {
             std::fprintf(stderr, "usage: bench_correct [--sizes 512,1024|none] [--budget S] [--out DIR] [--maps A,B] "
                                  "[--data DIR] [--baseline OLD_RELIEF] [--runs N] [--tolerances T1,T2]\n");

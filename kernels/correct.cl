@@ -98,6 +98,22 @@ inline int correct_node(int i, int j, int nx, int ny)
     return relief_wrap(j, ny) * nx + relief_wrap(i, nx);
 }
 
+// The work-group's sum of `value`, in a fixed order (deterministic), into
+// partial[group].
+inline void correct_group_sum(energy_t value, local energy_t* scratch, global energy_t* partial)
+{
+    const int lid = get_local_id(0);
+    scratch[lid] = value;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (int s = get_local_size(0) / 2; s > 0; s >>= 1) {
+        if (lid < s)
+            scratch[lid] += scratch[lid + s];
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    if (lid == 0)
+        partial[get_group_id(0)] = scratch[0];
+}
+
 // Total energy: the triangles each node owns plus its fixation term, summed
 // per work-group in a fixed order (deterministic), one partial per group.
 // With `stats`, also writes per owned triangle the anisotropy s1/s2 and the
@@ -112,7 +128,7 @@ kernel void correct_energy(global const float2* c, global const float* z,
                            local energy_t* scratch, global float4* stats, int want_stats,
                            int first)
 {
-    const int gid = first + get_global_id(0), lid = get_local_id(0);
+    const int gid = first + get_global_id(0);
     energy_t sum = 0;
     if (gid < nx * ny) {
         const int i = gid % nx, j = gid / nx;
@@ -155,15 +171,7 @@ kernel void correct_energy(global const float2* c, global const float* z,
         if (want_stats)
             stats[gid - first] = st;
     }
-    scratch[lid] = sum;
-    barrier(CLK_LOCAL_MEM_FENCE);
-    for (int s = get_local_size(0) / 2; s > 0; s >>= 1) {
-        if (lid < s)
-            scratch[lid] += scratch[lid + s];
-        barrier(CLK_LOCAL_MEM_FENCE);
-    }
-    if (lid == 0)
-        partial[get_group_id(0)] = scratch[0];
+    correct_group_sum(sum, scratch, partial);
 }
 
 // Sum of the per-node energy falls of an iteration (correct_phase's gain;
@@ -172,16 +180,8 @@ kernel void correct_energy(global const float2* c, global const float* z,
 kernel void correct_gain_sum(global const energy_t* gain, int count, global energy_t* partial,
                              local energy_t* scratch)
 {
-    const int gid = get_global_id(0), lid = get_local_id(0);
-    scratch[lid] = gid < count ? gain[gid] : 0;
-    barrier(CLK_LOCAL_MEM_FENCE);
-    for (int s = get_local_size(0) / 2; s > 0; s >>= 1) {
-        if (lid < s)
-            scratch[lid] += scratch[lid + s];
-        barrier(CLK_LOCAL_MEM_FENCE);
-    }
-    if (lid == 0)
-        partial[get_group_id(0)] = scratch[0];
+    const int gid = get_global_id(0);
+    correct_group_sum(gid < count ? gain[gid] : 0, scratch, partial);
 }
 
 // Which tiles must run phase `phase` next: those with a node that moved,

@@ -178,6 +178,19 @@ const Search kSearches[] = {
     {host::CorrectParams::Search::Golden, ref::CorrectionGrid::Search::Golden, 1.5, "golden, relax 1.5", 2e-2},
     {host::CorrectParams::Search::Ternary, ref::CorrectionGrid::Search::Ternary, 1.0, "ternary", 2e-3}};
 
+// A bump in a flat sea (160 x 128): at a single resolution, tiles far from
+// it have nothing to do until the correction spreads to them.
+std::vector<float> bump_in_sea(int w, int h)
+{
+    std::vector<float> hts(std::size_t(w) * h, 0.0f);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const double r2 = ((x - 30.0) * (x - 30.0) + (y - 25.0) * (y - 25.0)) / 25.0;
+            hts[std::size_t(y) * w + x] = r2 < 9 ? float(std::exp(-r2)) : 0.0f;
+        }
+    return hts;
+}
+
 host::CorrectParams with_search(host::CorrectParams p, const Search& s)
 {
     p.search = s.host;
@@ -305,12 +318,7 @@ TEST_CASE("correct: convergence from the nodes' energy falls decides as the ener
     // change, summed from the moved nodes' fan-energy falls, must stop at
     // the iteration at which the recomputed energy stops it.
     const int w = 160, h = 128;
-    std::vector<float> hts(std::size_t(w) * h, 0.0f);
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-            const double r2 = ((x - 30.0) * (x - 30.0) + (y - 25.0) * (y - 25.0)) / 25.0;
-            hts[std::size_t(y) * w + x] = r2 < 9 ? float(std::exp(-r2)) : 0.0f;
-        }
+    const std::vector<float> hts = bump_in_sea(w, h);
     for (double tolerance : {1e-3, 1e-4}) {
         auto p = params(0.15, true);
         p.levels = 1;
@@ -427,12 +435,7 @@ TEST_CASE("correct: tile skipping changes no bit", "[correct]")
     // A bump in a flat sea: at a single resolution, tiles far from it have
     // nothing to do until the correction spreads to them.
     const int w = 160, h = 128;
-    std::vector<float> hts(std::size_t(w) * h, 0.0f);
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-            const double r2 = ((x - 30.0) * (x - 30.0) + (y - 25.0) * (y - 25.0)) / 25.0;
-            hts[std::size_t(y) * w + x] = r2 < 9 ? float(std::exp(-r2)) : 0.0f;
-        }
+    const std::vector<float> hts = bump_in_sea(w, h);
     for (auto [corner, levels] : {std::pair{false, 1}, std::pair{true, 1}, std::pair{false, 0}}) {
         auto p = params(0.15, true, corner);
         p.levels = levels;
