@@ -1,7 +1,8 @@
 #pragma once
 // Stage 3, distortion correction (DESIGN.md §4.5): a height map -> per-texel
-// texture-coordinate offsets, by per-node descent with a golden-section or
-// ternary line search and over-relaxation (kernels/correct.cl), coarse to fine.
+// texture-coordinate offsets, by per-node descent with a line search (Brent's,
+// golden-section or ternary) and over-relaxation (kernels/correct.cl), coarse
+// to fine.
 #include <functional>
 #include <string>
 #include <vector>

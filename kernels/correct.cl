@@ -377,7 +377,7 @@ inline NodeSearch correct_prepare(global const float2* c, global const float* z,
     const float8 q2 = m11 - 2.0f * m12 + m22;  // |s| = 1
     const float8 flip = select((float8)(CORRECT_MAX_STEP), -auv / a1, a1 < 0.0f);
     const float4 t4 = fmin(flip.lo, flip.hi);
-    float tmax = fmin(fmin(t4.x, t4.y), fmin(t4.z, t4.w));
+    float tmax = fmin(CORRECT_MAX_STEP, fmin(fmin(t4.x, t4.y), fmin(t4.z, t4.w)));
     if (use_fix && w > 0.0f) {
         // |c + t d| = 1/w: the fixation barrier.
         const float cd = dot(cp, d);
@@ -437,8 +437,8 @@ inline void correct_finish(global float2* c, global uchar* moved, int moved_at,
 }
 
 // One phase of an iteration: every node of phase class (class_x, class_y)
-// moves along its negative energy gradient by a golden-section (default) or
-// ternary line search over the same bracket, optionally over-relaxed.
+// moves along its negative energy gradient by a line search over its
+// bracket (Brent's by default, golden-section or ternary), over-relaxed.
 // Work-item = CORRECT_NODES neighbouring 2x2 quads of nodes along x, whose
 // searches run in lockstep (independent dependency chains: a CPU core
 // overlaps them; the search is otherwise latency-bound); work-group = one

@@ -170,7 +170,7 @@ void update_node(const CorrectionGrid& g, std::vector<double>& c, int i, int j)
             }
         }
         s = e1 <= e2 ? x1 : x2;
-        es = std::min(e1, e2);
+        es = e1 <= e2 ? e1 : e2;
     } else {
         for (int step = 0; step < 31 && hi - lo > 1e-6 * tmax; ++step) {
             const double m1 = lo + (hi - lo) / 3.0, m2 = hi - (hi - lo) / 3.0;
@@ -182,9 +182,12 @@ void update_node(const CorrectionGrid& g, std::vector<double>& c, int i, int j)
         s = 0.5 * (lo + hi);
         es = energy(s);
     }
-    if (g.relax != 1.0 && g.relax * s < tmax && energy(g.relax * s) < e0)
+    // A move must lower the fan energy by more than 1e-6 of it (the kernel's
+    // rounding guard, CORRECT_GAIN).
+    const double floor_e = e0 - 1e-6 * e0;
+    if (g.relax != 1.0 && g.relax * s < tmax && energy(g.relax * s) < floor_e)
         s *= g.relax;
-    else if (!(es < e0))
+    else if (!(es < floor_e))
         return;
     c[2 * p] = cx + s * dx;
     c[2 * p + 1] = cy + s * dy;
