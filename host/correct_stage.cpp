@@ -206,7 +206,11 @@ public:
     // Iterates; returns what happened.
     // on_iteration(it, rel): after iteration it, with the relative energy
     // change it made.
-    CorrectLevel solve(const std::function<void(int, double)>& on_iteration, double tolerance)
+    // start_energy: the energy of the uploaded offsets when the caller has
+    // it (else NaN); with measure_end false the caller measures the end
+    // energy itself (energy_end is left NaN).
+    CorrectLevel solve(const std::function<void(int, double)>& on_iteration, double tolerance,
+                       double start_energy, bool measure_end)
     {
         CorrectLevel lv;
         lv.width = g_.width;
@@ -214,7 +218,7 @@ public:
         const std::size_t tiles = std::size_t(tiles_x_) * tiles_y_;
         // Every tile runs the first time round.
         c_.queue.enqueueFillBuffer(moved_, cl_uchar(1), 0, tiles * phases_.size());
-        double e = energy();
+        double e = std::isnan(start_energy) ? energy() : start_energy;
         lv.energy_start = e;
         std::vector<cl_uchar> act(tiles);
         const int limit = p_.iterations > 0 ? p_.iterations : p_.max_iterations;
@@ -285,7 +289,7 @@ public:
                 break;
             }
         }
-        lv.energy_end = from_gains ? energy() : e;
+        lv.energy_end = !measure_end ? std::numeric_limits<double>::quiet_NaN() : from_gains ? energy() : e;
         return lv;
     }
 
@@ -407,12 +411,16 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
             // The upsampled offsets start the level unless zero offsets are
             // better: at a much finer level, coarse offsets can crowd steep
             // detail that the coarse level did not see.
+            double start_energy = std::numeric_limits<double>::quiet_NaN();
             if (!offsets.empty()) {
                 const double e_up = s.energy();
                 s.upload(std::vector<float>(start.size(), 0.0f));
                 const double e_zero = s.energy();
-                if (std::isfinite(e_up) && e_up <= e_zero)
+                start_energy = e_zero;
+                if (std::isfinite(e_up) && e_up <= e_zero) {
                     s.upload(start);
+                    start_energy = e_up;
+                }
             }
             const auto level_t0 = std::chrono::steady_clock::now();
             const double weight = double(lw) * lh / total_weight;
@@ -439,7 +447,7 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
                 // Every level to the same tolerance: measured on a 1024^2 wall,
                 // coarse levels 3x looser cost the finest level 1.5x the
                 // iterations, 3x tighter cost more than they saved.
-                p.tolerance);
+                p.tolerance, start_energy, L > 0);
             lv.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - level_t0).count();
             done += weight;
             if (progress)
@@ -447,13 +455,14 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
             s.download(offsets);
             to_texels(offsets, in.grid, false);
             previous = in.grid;
-            rep.levels.push_back(lv);
             if (L == 0) {
-                // The device still holds the final offsets.
-                rep.energy_after = s.energy(&aniso, &area);
+                // The device still holds the final offsets: their energy is
+                // the level's end and the result's, with the statistics.
+                rep.energy_after = lv.energy_end = s.energy(&aniso, &area);
                 rep.anisotropy_after = summarise(aniso);
                 rep.area_after = summarise(area);
             }
+            rep.levels.push_back(lv);
         }
         const std::vector<float> out = texel_offsets(offsets, finest.grid);
         std::copy(out.begin(), out.end(), offsets_out);

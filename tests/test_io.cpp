@@ -87,24 +87,39 @@ TEST_CASE("io: (child) write a 256x256 relief result to $RELIEF_TEST_CHILD_ARG",
     std::_Exit(relief::write_image(img, path, o) ? 1 : 0);
 }
 
+namespace {
+
+// Writes dir/name through the child test case `child` under a file-size
+// limit of `limit` bytes: the old contents `old` must survive, with no
+// temporary left; without the limit the same write must succeed and leave
+// no temporary either. Returns what it wrote.
+std::string write_on_full_disk(const fs::path& dir, const std::string& child, const char* name,
+                               rlim_t limit, const std::string& old)
+{
+    const fs::path target = dir / name;
+    std::ofstream(target, std::ios::binary) << old;
+    CHECK(with_size_limit(limit, child, target.string()) == 0);
+    CHECK(slurp(target) == old);
+    CHECK(others(dir, name).empty());
+    CHECK(with_size_limit(RLIM_INFINITY, child, target.string()) == 1);
+    const std::string written = slurp(target);
+    CHECK(others(dir, name).empty());
+    fs::remove(target);
+    return written;
+}
+
+} // namespace
+
 TEST_CASE("io: a write that fails half-way keeps the old file and leaves no temporary", "[io][errors]")
 {
     const auto dir = relief::test::scratch("io/partial");
     const std::string child = "io: (child) write a 256x256 relief result to $RELIEF_TEST_CHILD_ARG";
     for (const char* name : {"h.exr", "h.tif", "h.png"}) {
         INFO(name);
-        const fs::path target = dir / name;
         const std::string old = "the previous version of this file, which must survive\n";
-        std::ofstream(target, std::ios::binary) << old;
         // 256x256 pixels need 128 KiB and more; 20 KiB is not enough.
-        CHECK(with_size_limit(20 * 1024, child, target.string()) == 0);
-        CHECK(slurp(target) == old);
-        CHECK(others(dir, name).empty());
         // Without the limit the same write succeeds and replaces the file.
-        CHECK(with_size_limit(RLIM_INFINITY, child, target.string()) == 1);
-        CHECK(slurp(target) != old);
-        CHECK(others(dir, name).empty());
-        fs::remove(target);
+        CHECK(write_on_full_disk(dir, child, name, 20 * 1024, old) != old);
     }
 }
 
@@ -147,16 +162,7 @@ TEST_CASE("io: a full disk during a mesh write keeps the old file, in every form
     const std::string child = "io: (child) write a mesh to $RELIEF_TEST_CHILD_ARG";
     for (const char* name : {"m.obj", "m.ply", "m.gltf", "m.glb"}) {
         INFO(name);
-        const fs::path target = dir / name;
-        const std::string old = "precious\n";
-        std::ofstream(target, std::ios::binary) << old;
-        CHECK(with_size_limit(64 * 1024, child, target.string()) == 0);
-        CHECK(slurp(target) == old);
-        CHECK(others(dir, name).empty());
-        CHECK(with_size_limit(RLIM_INFINITY, child, target.string()) == 1);
-        CHECK(slurp(target).size() > 500000);
-        CHECK(others(dir, name).empty());
-        fs::remove(target);
+        CHECK(write_on_full_disk(dir, child, name, 64 * 1024, "precious\n").size() > 500000);
     }
 }
 
