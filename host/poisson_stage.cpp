@@ -1,6 +1,7 @@
 #include "poisson_stage.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -21,21 +22,24 @@ double highpass_sigma(double highpass)
 void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
                                 const PoissonParams& p, float* height_out, PoissonReport* report);
 
-void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes, const PoissonParams& p,
-                       float* height_out, PoissonReport* report)
+namespace {
+
+// Both forms: `consume` lets go of `slopes` once split into the grids.
+void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const PoissonParams& p,
+             const HeightSink& sink, PoissonReport* report)
 {
     if (p.highpass < 0.0 || !std::isfinite(p.highpass))
         throw Error("highpass must be a radius >= 0 texels");
     const int w = slopes.width(), h = slopes.height();
     const std::size_t n = std::size_t(w) * std::size_t(h);
     if (n == 1) {  // one texel: nothing to integrate
-        height_out[0] = 0.0f;
+        sink()[0] = 0.0f;
         return;
     }
     if (p.weights) {
         if (p.highpass > 0.0)
             throw Error("highpass cannot be combined with a mask yet");
-        integrate_poisson_weighted(ctx, slopes, p, height_out, report);
+        integrate_poisson_weighted(ctx, slopes, p, sink(), report);
         return;
     }
     // A one-texel-wide texture is solved transposed: a 1-D transform.
@@ -49,17 +53,11 @@ void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes, const Po
 
     auto& c = ctx.impl();
     std::lock_guard<std::mutex> lock(c.mutex);
+    float* height_out = nullptr;
     try {
         cl::Program& prog = c.program("poisson.cl");
         cl::Buffer gx = c.buffer(CL_MEM_READ_WRITE, bytes, "the Poisson stage");
         cl::Buffer gy = c.buffer(CL_MEM_READ_WRITE, bytes, "the Poisson stage");
-        std::shared_ptr<FftPlan> fft;
-        std::shared_ptr<DctPlan> dct;
-        if (periodic)
-            fft = c.plans->fft(c, n0, n1, gx);
-        else
-            dct = c.plans->dct(c, n0, n1);
-        auto forward = [&](cl::Buffer& b) { periodic ? fft->forward(b) : dct->forward(b); };
         const std::size_t grid = padded(std::size_t(n0) * n1);
 
         cl::Kernel split(prog, "poisson_split");
@@ -75,6 +73,18 @@ void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes, const Po
         split.setArg(a++, gy);
         c.queue.enqueueNDRangeKernel(split, cl::NullRange, cl::NDRange(grid),
                                      cl::NDRange(kGroupSize));
+        if (consume) {
+            split = cl::Kernel();  // the kernel holds its arguments too
+            slopes.release();      // freed once the split has run
+        }
+        // The plans' own buffers are made after the slopes are gone.
+        std::shared_ptr<FftPlan> fft;
+        std::shared_ptr<DctPlan> dct;
+        if (periodic)
+            fft = c.plans->fft(c, n0, n1, gx);
+        else
+            dct = c.plans->dct(c, n0, n1);
+        auto forward = [&](cl::Buffer& b) { periodic ? fft->forward(b) : dct->forward(b); };
         forward(gx);
         forward(gy);
 
@@ -92,26 +102,69 @@ void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes, const Po
             fft->inverse(gx);
         else
             dct->inverse(gx);
+        divide = cl::Kernel();
+        fft.reset();
+        dct.reset();
 
-        cl::Buffer& out = gy;  // no longer needed; at least n floats
-        cl::Kernel gather(prog, "poisson_gather");
-        a = 0;
-        gather.setArg(a++, gx);
-        gather.setArg(a++, cl_int(stride));
-        gather.setArg(a++, cl_int(n0));
-        gather.setArg(a++, cl_int(n1));
-        gather.setArg(a++, cl_int(w));
-        gather.setArg(a++, cl_int(transposed));
-        gather.setArg(a++, out);
-        c.queue.enqueueNDRangeKernel(gather, cl::NullRange, cl::NDRange(grid),
-                                     cl::NDRange(kGroupSize));
-        c.queue.enqueueReadBuffer(out, CL_TRUE, 0, sizeof(float) * n, height_out);
+        if (transposed) {  // one column: gathered out of the transform's row
+            cl::Buffer& out = gy;  // no longer needed; at least n floats
+            cl::Kernel gather(prog, "poisson_gather");
+            a = 0;
+            gather.setArg(a++, gx);
+            gather.setArg(a++, cl_int(stride));
+            gather.setArg(a++, cl_int(n0));
+            gather.setArg(a++, cl_int(n1));
+            gather.setArg(a++, cl_int(w));
+            gather.setArg(a++, cl_int(transposed));
+            gather.setArg(a++, out);
+            c.queue.enqueueNDRangeKernel(gather, cl::NullRange, cl::NDRange(grid),
+                                         cl::NDRange(kGroupSize));
+            height_out = sink();
+            c.queue.enqueueReadBuffer(out, CL_TRUE, 0, sizeof(float) * n, height_out);
+        } else {  // rows out of the padded grid straight into the result
+            gy = cl::Buffer();
+            height_out = sink();
+            const std::array<std::size_t, 3> origin{0, 0, 0};
+            const std::array<std::size_t, 3> region{sizeof(float) * std::size_t(w), std::size_t(h), 1};
+            c.queue.enqueueReadBufferRect(gx, CL_TRUE, origin, origin, region, sizeof(float) * stride,
+                                          0, sizeof(float) * std::size_t(w), 0, height_out);
+        }
     } catch (const cl::Error& e) {
         throw Error(std::string("OpenCL error in the Poisson stage: ") + e.what() + " (" +
                     std::to_string(e.err()) + ")");
     }
     // The transforms already drop the mean; this removes their rounding.
     remove_mean(height_out, n);
+}
+
+} // namespace
+
+void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes, const PoissonParams& p,
+                       float* height_out, PoissonReport* report)
+{
+    DeviceSlopes shared = slopes;
+    poisson(ctx, shared, false, p, [&] { return height_out; }, report);
+}
+
+void integrate_poisson(ComputeContext& ctx, DeviceSlopes&& slopes, const PoissonParams& p,
+                       const HeightSink& out, PoissonReport* report)
+{
+    DeviceSlopes taken = std::move(slopes);
+    poisson(ctx, taken, true, p, out, report);
+}
+
+std::uint64_t poisson_device_bytes(int w, int h, const PoissonParams& p, bool slopes_taken)
+{
+    const std::uint64_t n = std::uint64_t(w) * std::uint64_t(h), slopes = 8 * n;
+    if (p.weights)  // conjugate gradients: masked slopes, edges, CG vectors (poisson_weighted.cpp)
+        return slopes + 16 * sizeof(float) * n;
+    const bool periodic = p.boundary == PoissonBoundary::Periodic;
+    const std::uint64_t grid =
+        sizeof(float) * (periodic ? FftPlan::row_stride(std::size_t(w)) : std::size_t(w)) * std::uint64_t(h);
+    // gx, gy and the transposed spectrum (the DCT adds its reordered copy);
+    // taken, the slopes are gone before the transforms' buffers are made
+    const std::uint64_t grids = (periodic ? 3 : 4) * grid;
+    return slopes_taken ? std::max(slopes + 2 * grid, grids) : slopes + grids;
 }
 
 } // namespace relief::host

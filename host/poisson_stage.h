@@ -2,6 +2,8 @@
 // Stage 2, least-squares (Poisson) integration (DESIGN.md §4.4):
 // slopes -> height, by Frankot–Chellappa projection with FFTs (periodic) or
 // DCTs (free) on the device.
+#include <cstdint>
+
 #include "compute_context.h"
 #include "slope_stage.h"
 
@@ -35,6 +37,17 @@ struct PoissonReport {
 void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes,
                        const PoissonParams& params, float* height_out,
                        PoissonReport* report = nullptr);
+
+// The same, taking the slopes over: their buffer is let go as soon as the
+// transforms have their own copy, and `out` is asked for the result's memory
+// only when the transforms' grids are gone. The peak then holds the slopes
+// (8 bytes a texel) or the result (4), never both beside the grids.
+void integrate_poisson(ComputeContext& ctx, DeviceSlopes&& slopes, const PoissonParams& params,
+                       const HeightSink& out, PoissonReport* report = nullptr);
+
+// Bytes of device buffers integrate_poisson holds at its peak for a w x h
+// map, the slopes included (`slopes_taken`: the DeviceSlopes&& form).
+std::uint64_t poisson_device_bytes(int w, int h, const PoissonParams& params, bool slopes_taken);
 
 // Gaussian sigma (texels) of the relief-balance filter for `highpass` texels.
 double highpass_sigma(double highpass);

@@ -1,9 +1,11 @@
 #include "ray_stage.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numeric>
 #include <sstream>
+#include <unordered_map>
 #include <vector>
 
 #include "errors.h"
@@ -237,14 +239,16 @@ namespace {
 
 // A = Kx (x) gx + Ky (x) gy, one circular convolution: the periodic
 // result before its mean is removed, and the clip result wherever every ray
-// stays in the image. The caller holds c.mutex.
-void fft_ray_sums(ComputeContext::Impl& c, const DeviceSlopes& slopes, const RayParams& p,
-                  float* height_out, const Progress& progress)
+// stays in the image. The caller holds c.mutex. With `consume`, the slopes
+// are let go once split into the transform's grids; the host memory for
+// the result is asked of `sink` only after the grids are gone.
+void fft_ray_sums(ComputeContext::Impl& c, DeviceSlopes& slopes, bool consume, const RayParams& p,
+                  const HeightSink& sink, const Progress& progress)
 {
     const int w = slopes.width(), h = slopes.height();
     const std::size_t n = std::size_t(w) * h;
     if (n == 1) {
-        height_out[0] = 0.0f;
+        sink()[0] = 0.0f;
         return;
     }
     // A one-texel-wide texture is a 1-D transform along y (as in Poisson).
@@ -254,7 +258,12 @@ void fft_ray_sums(ComputeContext::Impl& c, const DeviceSlopes& slopes, const Ray
     const std::size_t grid = stride * n1;
 
     // The kernels, mirrored (K'(o) = K(-o)) so that A = K' * g, wrapped.
-    std::vector<double> kx(grid, 0.0), ky(grid, 0.0);
+    // They have a few taps per walk step: kept sparse, summed per tap in
+    // walk order (in double), and scattered into a grid on the device one
+    // at a time, rather than made as full grids here.
+    std::unordered_map<std::size_t, std::size_t> slot;  // grid index -> tap
+    std::vector<std::size_t> tap_index;
+    std::vector<double> tap_x, tap_y;
     double total = 0.0;
     for_each_packed_direction(p, [&](int, const std::vector<cl_int2>& offsets,
                                      const std::vector<cl_float4>& data) {
@@ -267,26 +276,36 @@ void fft_ray_sums(ComputeContext::Impl& c, const DeviceSlopes& slopes, const Ray
             const int ox = ((-offsets[s].s[0]) % w + w) % w;
             const int oy = ((-offsets[s].s[1]) % h + h) % h;
             const std::size_t at = transposed ? std::size_t(oy) : std::size_t(oy) * stride + ox;
-            kx[at] += data[s].s[0] * factor;
-            ky[at] += data[s].s[1] * factor;
+            auto [it, added] = slot.emplace(at, tap_index.size());
+            if (added) {
+                tap_index.push_back(at);
+                tap_x.push_back(0.0);
+                tap_y.push_back(0.0);
+            }
+            tap_x[it->second] += data[s].s[0] * factor;
+            tap_y[it->second] += data[s].s[1] * factor;
         }
         total += dir_total;
     });
     if (!(total > 0.0)) {
-        std::fill(height_out, height_out + n, 0.0f);
+        std::fill_n(sink(), n, 0.0f);
         return;
     }
-    std::vector<float> kxf(kx.begin(), kx.end()), kyf(ky.begin(), ky.end());
-    kx = ky = std::vector<double>();
+    const std::size_t taps = tap_index.size();
+    std::vector<cl_int> index(taps);
+    std::vector<float> value_x(taps), value_y(taps);
+    for (std::size_t t = 0; t < taps; ++t) {
+        index[t] = cl_int(tap_index[t]);
+        value_x[t] = float(tap_x[t]);
+        value_y[t] = float(tap_y[t]);
+    }
+    float* height_out = nullptr;
     try {
         cl::Program& spectral = c.program("poisson.cl");  // split and gather
         cl::Program& prog = c.program("rays_fft.cl");
         const std::size_t bytes = sizeof(float) * grid;
         cl::Buffer gx = c.buffer(CL_MEM_READ_WRITE, bytes, "ray integration");
         cl::Buffer gy = c.buffer(CL_MEM_READ_WRITE, bytes, "ray integration");
-        cl::Buffer bx = c.buffer(CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, "ray integration", kxf.data());
-        cl::Buffer by = c.buffer(CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, "ray integration", kyf.data());
-        const std::shared_ptr<FftPlan> plan = c.plans->fft(c, n0, n1, gx);
         const cl::NDRange local(kGroupSize);
 
         cl::Kernel split(spectral, "poisson_split");
@@ -301,36 +320,77 @@ void fft_ray_sums(ComputeContext::Impl& c, const DeviceSlopes& slopes, const Ray
         split.setArg(a++, gx);
         split.setArg(a++, gy);
         c.queue.enqueueNDRangeKernel(split, cl::NullRange, cl::NDRange(padded(n)), local);
-        for (cl::Buffer* b : {&gx, &gy, &bx, &by})
-            plan->forward(*b);
+        if (consume) {
+            split = cl::Kernel();  // the kernel holds its arguments too
+            slopes.release();      // freed once the split has run
+        }
+        std::shared_ptr<FftPlan> plan = c.plans->fft(c, n0, n1, gx);
+        plan->forward(gx);
+        plan->forward(gy);
+
+        // Transposed, the split put the y slopes in gx and the x slopes in gy.
+        const std::vector<float>& first = transposed ? value_y : value_x;
+        const std::vector<float>& second = transposed ? value_x : value_y;
+        cl::Buffer taps_at = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(cl_int) * taps,
+                                      "ray integration", index.data());
+        cl::Buffer kernel_grid = c.buffer(CL_MEM_READ_WRITE, bytes, "ray integration");
+        cl::Kernel scatter(prog, "rays_fft_scatter");
+        scatter.setArg(0, kernel_grid);
+        scatter.setArg(1, taps_at);
+        scatter.setArg(3, cl_int(taps));
+        auto make_kernel_spectrum = [&](const std::vector<float>& values) {
+            cl::Buffer v = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * taps,
+                                    "ray integration", values.data());
+            c.queue.enqueueFillBuffer(kernel_grid, 0.0f, 0, bytes);
+            scatter.setArg(2, v);
+            c.queue.enqueueNDRangeKernel(scatter, cl::NullRange, cl::NDRange(padded(taps)), local);
+            plan->forward(kernel_grid);
+        };
+        const std::size_t count = (stride / 2) * n1;
+        make_kernel_spectrum(first);
+        cl::Kernel multiply(prog, "rays_fft_multiply");
+        multiply.setArg(0, gx);
+        multiply.setArg(1, kernel_grid);
+        multiply.setArg(2, cl_int(count));
+        c.queue.enqueueNDRangeKernel(multiply, cl::NullRange, cl::NDRange(padded(count)), local);
         if (progress) {
             c.queue.finish();
             progress(0.5);
         }
-        const std::size_t count = (stride / 2) * n1;
-        cl::Kernel combine(prog, "rays_fft_combine");
-        combine.setArg(0, gx);
-        combine.setArg(1, gy);
-        // Transposed, the split put the y slopes in gx and the x slopes in gy.
-        combine.setArg(2, transposed ? by : bx);
-        combine.setArg(3, transposed ? bx : by);
-        combine.setArg(4, cl_int(count));
-        combine.setArg(5, cl_float(-1.0 / total));
-        c.queue.enqueueNDRangeKernel(combine, cl::NullRange, cl::NDRange(padded(count)), local);
+        make_kernel_spectrum(second);
+        cl::Kernel multiply_add(prog, "rays_fft_multiply_add");
+        multiply_add.setArg(0, gx);
+        multiply_add.setArg(1, gy);
+        multiply_add.setArg(2, kernel_grid);
+        multiply_add.setArg(3, cl_int(count));
+        multiply_add.setArg(4, cl_float(-1.0 / total));
+        c.queue.enqueueNDRangeKernel(multiply_add, cl::NullRange, cl::NDRange(padded(count)), local);
         plan->inverse(gx);
+        scatter = multiply = multiply_add = cl::Kernel();
+        kernel_grid = cl::Buffer();
+        plan.reset();
 
-        cl::Buffer out = c.buffer(CL_MEM_WRITE_ONLY, sizeof(float) * n, "ray integration");
-        cl::Kernel gather(spectral, "poisson_gather");
-        a = 0;
-        gather.setArg(a++, gx);
-        gather.setArg(a++, cl_int(stride));
-        gather.setArg(a++, cl_int(n0));
-        gather.setArg(a++, cl_int(n1));
-        gather.setArg(a++, cl_int(w));
-        gather.setArg(a++, cl_int(transposed));
-        gather.setArg(a++, out);
-        c.queue.enqueueNDRangeKernel(gather, cl::NullRange, cl::NDRange(padded(n)), local);
-        c.queue.enqueueReadBuffer(out, CL_TRUE, 0, sizeof(float) * n, height_out);
+        if (transposed) {  // one column: gathered out of the transform's row
+            cl::Kernel gather(spectral, "poisson_gather");
+            a = 0;
+            gather.setArg(a++, gx);
+            gather.setArg(a++, cl_int(stride));
+            gather.setArg(a++, cl_int(n0));
+            gather.setArg(a++, cl_int(n1));
+            gather.setArg(a++, cl_int(w));
+            gather.setArg(a++, cl_int(transposed));
+            gather.setArg(a++, gy);  // no longer needed; at least n floats
+            c.queue.enqueueNDRangeKernel(gather, cl::NullRange, cl::NDRange(padded(n)), local);
+            height_out = sink();
+            c.queue.enqueueReadBuffer(gy, CL_TRUE, 0, sizeof(float) * n, height_out);
+        } else {  // rows out of the padded grid straight into the result
+            gy = cl::Buffer();
+            height_out = sink();
+            const std::array<std::size_t, 3> origin{0, 0, 0};
+            const std::array<std::size_t, 3> region{sizeof(float) * std::size_t(w), std::size_t(h), 1};
+            c.queue.enqueueReadBufferRect(gx, CL_TRUE, origin, origin, region, sizeof(float) * stride,
+                                          0, sizeof(float) * std::size_t(w), 0, height_out);
+        }
         if (progress)
             progress(1.0);
     } catch (const cl::Error& e) {
@@ -340,16 +400,17 @@ void fft_ray_sums(ComputeContext::Impl& c, const DeviceSlopes& slopes, const Ray
 }
 
 // Periodic boundaries: the convolution, then the mean removed.
-void integrate_rays_by_fft(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& p,
-                           float* height_out, const Progress& progress, RayReport* report)
+void integrate_rays_by_fft(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const RayParams& p,
+                           const HeightSink& sink, const Progress& progress, RayReport* report)
 {
     if (report)
         *report = RayReport{};
+    float* out = nullptr;
     {
         std::lock_guard<std::mutex> lock(ctx.impl().mutex);
-        fft_ray_sums(ctx.impl(), slopes, p, height_out, progress);
+        fft_ray_sums(ctx.impl(), slopes, consume, p, [&] { return out = sink(); }, progress);
     }
-    remove_mean(height_out, std::size_t(slopes.width()) * slopes.height());
+    remove_mean(out, std::size_t(slopes.width()) * slopes.height());
 }
 
 // The texels whose rays, in every direction, stay in a w x h image: there
@@ -371,13 +432,27 @@ cl_int4 whole_ray_rect(const RayParams& p, int w, int h)
 
 } // namespace
 
+void integrate_rays_fast(ComputeContext& ctx, DeviceSlopes&& slopes, const RayParams& p,
+                         const HeightSink& out, const Progress& progress, RayReport* report)
+{
+    DeviceSlopes taken = std::move(slopes);
+    if (p.boundary == RayBoundary::Periodic && p.periodic_by_fft) {
+        if (p.rays < 1 || !(p.radius > 0.0))
+            throw Error("ray integration needs rays >= 1 and radius > 0");
+        integrate_rays_by_fft(ctx, taken, true, p, out, progress, report);
+        return;
+    }
+    integrate_rays_fast(ctx, taken, p, out(), progress, report);
+}
+
 void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& p,
                          float* height_out, const Progress& progress, RayReport* report)
 {
     if (p.boundary == RayBoundary::Periodic && p.periodic_by_fft) {
         if (p.rays < 1 || !(p.radius > 0.0))
             throw Error("ray integration needs rays >= 1 and radius > 0");
-        integrate_rays_by_fft(ctx, slopes, p, height_out, progress, report);
+        DeviceSlopes shared = slopes;
+        integrate_rays_by_fft(ctx, shared, false, p, [&] { return height_out; }, progress, report);
         return;
     }
     if (p.rays < 1 || !(p.radius > 0.0))
@@ -402,7 +477,8 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
         if (fft_rect.s[0] <= fft_rect.s[2] && fft_rect.s[1] <= fft_rect.s[3]) {
             fft_values.resize(n);
             chain_share = 0.8;
-            fft_ray_sums(c, slopes, rational, fft_values.data(), [&](double f) {
+            DeviceSlopes shared = slopes;
+            fft_ray_sums(c, shared, false, rational, [&] { return fft_values.data(); }, [&](double f) {
                 if (progress)
                     progress((1.0 - chain_share) * f);
             });
@@ -626,6 +702,20 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
     }
 
     remove_mean(height_out, n);
+}
+
+std::uint64_t rays_fast_device_bytes(int w, int h, const RayParams& p, bool slopes_taken)
+{
+    const std::uint64_t n = std::uint64_t(w) * std::uint64_t(h), slopes = 8 * n;
+    const std::uint64_t grid = sizeof(float) * FftPlan::row_stride(std::size_t(w)) * std::uint64_t(h);
+    // gx, gy, one kernel grid and the transform's transposed spectrum
+    const std::uint64_t convolution = 4 * grid;
+    if (p.boundary == RayBoundary::Periodic && p.periodic_by_fft)
+        return slopes_taken ? std::max(slopes + 2 * grid, convolution) : slopes + convolution;
+    // chains: sums (float4), tail and accumulator (float2), out (float);
+    // clip's convolution runs first and is freed before them
+    const bool fft_first = p.boundary == RayBoundary::Clip && p.clip_by_fft;
+    return slopes + std::max<std::uint64_t>(36 * n, fft_first ? convolution : 0);
 }
 
 } // namespace relief::host

@@ -1,5 +1,6 @@
 #pragma once
 // Stage 2, radial ray integration (DESIGN.md §4.2): slopes -> displacement.
+#include <cstdint>
 #include <functional>
 
 #include "compute_context.h"
@@ -58,5 +59,16 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
 void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& params,
                          float* height_out, const Progress& progress = {},
                          RayReport* report = nullptr);
+
+// The same, taking the slopes over (as integrate_poisson's form does): the
+// periodic convolution lets go of them once split into its grids and asks
+// `out` for the result's memory only after its grids are gone.
+void integrate_rays_fast(ComputeContext& ctx, DeviceSlopes&& slopes, const RayParams& params,
+                         const HeightSink& out, const Progress& progress = {},
+                         RayReport* report = nullptr);
+
+// Bytes of device buffers integrate_rays_fast holds at its peak for a w x h
+// map, the slopes included (`slopes_taken`: the DeviceSlopes&& form).
+std::uint64_t rays_fast_device_bytes(int w, int h, const RayParams& params, bool slopes_taken);
 
 } // namespace relief::host

@@ -1,5 +1,6 @@
 #include "slope_stage.h"
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -46,6 +47,18 @@ void measure_curl(ComputeContext::Impl& cl_, const cl::Buffer& slopes, int w, in
 DeviceSlopes derive_slopes(ComputeContext& ctx, const float* normals, const SlopeParams& p,
                            SlopeStats& stats)
 {
+    const std::size_t row = std::size_t(p.width) * std::size_t(std::max(p.channels, 0));
+    return derive_slopes(
+        ctx,
+        [&](int first, int count, float* out) {
+            std::copy(normals + std::size_t(first) * row, normals + std::size_t(first + count) * row, out);
+        },
+        p, stats);
+}
+
+DeviceSlopes derive_slopes(ComputeContext& ctx, const NormalRows& rows, const SlopeParams& p,
+                           SlopeStats& stats)
+{
     if (p.width <= 0 || p.height <= 0)
         throw Error("empty normal map");
     if (p.channels != 2 && p.channels != 3)
@@ -56,12 +69,14 @@ DeviceSlopes derive_slopes(ComputeContext& ctx, const float* normals, const Slop
         const std::size_t n = texel_count(p.width, p.height);
         check_index_range(p.width, p.height, "slopes");
         const int texels = int(n);
-        // The decoded map goes up in chunks of at most 64 MiB (and one device
-        // buffer): a whole 16384^2 RGB float map passes many devices' limit.
-        const std::size_t per_texel = sizeof(float) * std::size_t(p.channels);
-        const std::size_t chunk_bytes = std::min<std::size_t>(c.buffer_limit(), std::size_t(64) << 20);
-        const std::size_t chunk = std::min(n, std::max<std::size_t>(chunk_bytes / per_texel / kGroupSize, 1) * kGroupSize);
-        cl::Buffer in = c.buffer(CL_MEM_READ_ONLY, per_texel * chunk, "the DDM stage");
+        // The decoded map goes up in bands of rows of at most 64 MiB (and one
+        // device buffer): a whole 16384^2 RGB float map passes many devices'
+        // limit, and is 3 GB on the host that the file's bytes do not need.
+        const std::size_t per_row = sizeof(float) * std::size_t(p.channels) * std::size_t(p.width);
+        const std::size_t band_bytes = std::min<std::size_t>(c.buffer_limit(), std::size_t(64) << 20);
+        const int band = int(std::min<std::size_t>(std::size_t(p.height), std::max<std::size_t>(band_bytes / per_row, 1)));
+        cl::Buffer in = c.buffer(CL_MEM_READ_ONLY, per_row * std::size_t(band), "the DDM stage");
+        std::vector<float> staging(per_row / sizeof(float) * std::size_t(band));
         auto impl = std::make_shared<DeviceSlopes::Impl>();
         impl->buffer = c.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * n, "the DDM stage");
         cl_int zero[2] = {0, 0};
@@ -80,11 +95,13 @@ DeviceSlopes derive_slopes(ComputeContext& ctx, const float* normals, const Slop
         k.setArg(9, float(std::sin(a)));
         k.setArg(10, impl->buffer);
         k.setArg(11, counters);
-        for (std::size_t first = 0; first < n; first += chunk) {
-            const std::size_t count = std::min(chunk, n - first);
-            // Blocking: the next chunk reuses the buffer.
-            c.queue.enqueueWriteBuffer(in, CL_TRUE, 0, per_texel * count,
-                                       normals + first * std::size_t(p.channels));
+        for (int first_row = 0; first_row < p.height; first_row += band) {
+            const int band_rows = std::min(band, p.height - first_row);
+            rows(first_row, band_rows, staging.data());
+            const std::size_t first = std::size_t(first_row) * std::size_t(p.width);
+            const std::size_t count = std::size_t(band_rows) * std::size_t(p.width);
+            // Blocking: the next band reuses the buffer and the staging rows.
+            c.queue.enqueueWriteBuffer(in, CL_TRUE, 0, per_row * std::size_t(band_rows), staging.data());
             k.setArg(2, cl_int(first));
             k.setArg(3, cl_int(count));
             c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(count)),
@@ -147,6 +164,37 @@ void read_slopes(ComputeContext& ctx, const DeviceSlopes& slopes, float* out)
     } catch (const cl::Error& e) {
         throw Error(std::string("OpenCL error reading slopes: ") + e.what());
     }
+}
+
+void with_slopes_on_host(ComputeContext& ctx, const DeviceSlopes& slopes,
+                         const std::function<void(const float*)>& use)
+{
+    auto& c = ctx.impl();
+    std::unique_lock<std::mutex> lock(c.mutex);
+    const std::size_t bytes = sizeof(cl_float2) * texel_count(slopes.width(), slopes.height());
+    void* p = nullptr;
+    try {
+        p = c.queue.enqueueMapBuffer(slopes.impl().buffer, CL_TRUE, CL_MAP_READ, 0, bytes);
+    } catch (const cl::Error& e) {
+        throw Error(std::string("OpenCL error mapping slopes: ") + e.what());
+    }
+    lock.unlock();  // `use` may take the context itself
+    struct Unmap {
+        ComputeContext::Impl& c;
+        const cl::Buffer& b;
+        void* p;
+        ~Unmap()
+        {
+            std::lock_guard<std::mutex> l(c.mutex);
+            try {
+                c.queue.enqueueUnmapMemObject(b, p);
+                c.queue.finish();
+            } catch (const cl::Error&) {
+                // nothing to report from a destructor; the buffer goes with its owner
+            }
+        }
+    } unmap{c, slopes.impl().buffer, p};
+    use(static_cast<const float*>(p));
 }
 
 } // namespace relief::host

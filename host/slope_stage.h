@@ -1,6 +1,8 @@
 #pragma once
 // Stage 1, DDM derivation (DESIGN.md §4.1): normals -> slopes on the device.
+#include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -18,11 +20,19 @@ public:
     int width() const { return width_; }
     int height() const { return height_; }
     Impl& impl() const { return *impl_; }
+    bool empty() const { return !impl_; }
+    // Lets go of the device buffer (freed once no queued work uses it).
+    void release() { impl_.reset(); }
 
 private:
     int width_, height_;
     std::shared_ptr<Impl> impl_;
 };
+
+// Where an integration stage puts its width*height floats of height: called
+// once, when the result is ready on the device, so that the host memory for
+// it is taken only after the stage's own grids have been freed.
+using HeightSink = std::function<float*()>;
 
 enum class GreenConvention { Auto, OpenGL, DirectX };
 
@@ -56,10 +66,24 @@ constexpr double kAmbiguousCurlRatio = 1.15;
 DeviceSlopes derive_slopes(ComputeContext& ctx, const float* normals, const SlopeParams& params,
                            SlopeStats& stats);
 
+// The same, with the decoded map supplied a band of rows at a time:
+// `rows(first_row, row_count, out)` writes row_count*width*channels floats.
+// Only one band is ever held, so a map kept in its file's type (a byte per
+// channel) is never widened to floats as a whole.
+using NormalRows = std::function<void(int first_row, int row_count, float* out)>;
+DeviceSlopes derive_slopes(ComputeContext& ctx, const NormalRows& rows, const SlopeParams& params,
+                           SlopeStats& stats);
+
 // Puts a given slope field (2 floats per texel) on the device.
 DeviceSlopes upload_slopes(ComputeContext& ctx, const float* slopes, int width, int height);
 
 // Copies the field back: 2 floats per texel.
 void read_slopes(ComputeContext& ctx, const DeviceSlopes& slopes, float* out);
+
+// Calls `use` with the field readable on the host (2 floats per texel) for
+// the duration of the call: mapped, so a CPU device lends its own memory
+// rather than a second copy.
+void with_slopes_on_host(ComputeContext& ctx, const DeviceSlopes& slopes,
+                         const std::function<void(const float*)>& use);
 
 } // namespace relief::host

@@ -8,18 +8,40 @@
 // weights of all later segments) to K at its texel offset. The host builds
 // the kernels from the same walk tables as the reference kernel (so the
 // answer is the same to rounding), VkFFT transforms them and the slopes,
-// and this kernel combines the spectra: H = -(Gx Kx* + Gy Ky*) / W, where
-// W is the total weight and Kx* the spectrum of the mirrored kernel.
-__kernel void rays_fft_combine(__global float2* gx, __global const float2* gy,
-                               __global const float2* kx, __global const float2* ky,
-                               int count, float scale)
+// and these kernels combine the spectra: H = -(Gx Kx* + Gy Ky*) / W, where
+// W is the total weight and Kx* the spectrum of the mirrored kernel. The
+// two kernel grids are made one after the other in one buffer (the host
+// scatters each one's few non-zero taps), so the product is taken in two
+// steps: Gx Kx*, then (that + Gy Ky*) / -W.
+
+// One kernel's non-zero taps into a zeroed grid (the indices are distinct).
+__kernel void rays_fft_scatter(__global float* grid, __global const int* index,
+                               __global const float* value, int count)
+{
+    int i = get_global_id(0);
+    if (i < count)
+        grid[index[i]] = value[i];
+}
+
+// g *= k, complex, in place.
+__kernel void rays_fft_multiply(__global float2* g, __global const float2* k, int count)
 {
     int i = get_global_id(0);
     if (i >= count)
         return;
-    float2 a = gx[i], b = gy[i], u = kx[i], v = ky[i];
-    // complex products a*u + b*v
-    float re = a.x * u.x - a.y * u.y + b.x * v.x - b.y * v.y;
-    float im = a.x * u.y + a.y * u.x + b.x * v.y + b.y * v.x;
-    gx[i] = (float2)(re * scale, im * scale);
+    float2 a = g[i], u = k[i];
+    g[i] = (float2)(a.x * u.x - a.y * u.y, a.x * u.y + a.y * u.x);
+}
+
+// g = (g + h k) * scale, complex, in place.
+__kernel void rays_fft_multiply_add(__global float2* g, __global const float2* h,
+                                    __global const float2* k, int count, float scale)
+{
+    int i = get_global_id(0);
+    if (i >= count)
+        return;
+    float2 a = g[i], b = h[i], v = k[i];
+    float re = a.x + b.x * v.x - b.y * v.y;
+    float im = a.y + b.x * v.y + b.y * v.x;
+    g[i] = (float2)(re * scale, im * scale);
 }

@@ -1,7 +1,9 @@
 // relief::height — the integration family (normal map -> displacement).
 #include "relief/height.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cmath>
 #include <exception>
 #include <sstream>
@@ -9,6 +11,7 @@
 #include <vector>
 
 #include "check_stage.h"
+#include "memory_budget.h"
 #include "normal_stage.h"
 #include "operation_table.h"
 #include "poisson_stage.h"
@@ -22,6 +25,8 @@ using OIIO::ROI;
 using OIIO::TypeDesc;
 
 namespace {
+
+const float kOneWeight = 1.0f;  // stands for "a mask" in the memory estimate
 
 const char* name(Boundary b, bool rays)
 {
@@ -58,9 +63,9 @@ Boundary choose_boundary(const HeightOptions& o, const detail::DerivedSlopes& d,
     if (o.boundary != Boundary::Auto)
         return o.boundary;
     const int w = d.slopes.width(), h = d.slopes.height();
-    std::vector<float> g(2 * std::size_t(w) * h);
-    host::read_slopes(*d.context, d.slopes, g.data());
-    const host::TilingEvidence e = host::tiling_evidence(g.data(), w, h);
+    host::TilingEvidence e;
+    host::with_slopes_on_host(*d.context, d.slopes,
+                              [&](const float* g) { e = host::tiling_evidence(g, w, h); });
     const Boundary b = e.tiles ? Boundary::Periodic : Boundary::Free;
     auto axis = [](const char* name, const host::AxisEvidence& a) {
         return std::string(name) + " " + detail::format_double("%.2f", a.seam) + " vs " +
@@ -114,6 +119,42 @@ std::vector<float> mask_weights(const HeightOptions& o, const ImageBuf& normals,
     return w;
 }
 
+// Refuses, before anything is allocated, a map whose slopes, integration
+// grids and result do not fit the device and the machine.
+void check_memory(const HeightOptions& o, int w, int h)
+{
+    const auto ctx = host::ComputeContext::acquire(o.exec.device);
+    const std::uint64_t n = std::uint64_t(w) * std::uint64_t(h);
+    const bool taken = o.report == nullptr;  // the round trip needs the slopes after
+    // boundary=auto is chosen later, from the slopes: the larger of the two
+    std::vector<Boundary> boundaries{o.boundary};
+    if (o.boundary == Boundary::Auto)
+        boundaries = {Boundary::Periodic, Boundary::Free};
+    std::uint64_t device = 0, host_bytes = 4 * n;  // the result
+    for (Boundary b : boundaries) {
+        if (o.method == HeightMethod::Rays && o.impl == RayImpl::Fast) {
+            host::RayParams p;
+            p.boundary = b == Boundary::Free ? host::RayBoundary::Clip : host::RayBoundary::Periodic;
+            device = std::max(device, host::rays_fast_device_bytes(w, h, p, taken));
+            if (b == Boundary::Free)
+                host_bytes = 8 * n;  // and the convolution's values inside the band
+        } else if (o.method == HeightMethod::Rays) {
+            device = std::max(device, 12 * n);  // slopes and sums
+        } else {
+            host::PoissonParams p;
+            p.weights = o.mask || o.mask_alpha ? &kOneWeight : nullptr;
+            p.boundary = b == Boundary::Free ? host::PoissonBoundary::Free : host::PoissonBoundary::Periodic;
+            device = std::max(device, host::poisson_device_bytes(w, h, p, taken));
+            if (p.weights)
+                host_bytes = 12 * n;  // and the weights, and the spectral start
+        }
+    }
+    host::check_memory(*ctx,
+                       std::string(o.method == HeightMethod::Rays ? "ray integration" : "the Poisson integration") +
+                           " of a " + std::to_string(w) + "x" + std::to_string(h) + " map",
+                       device, host_bytes);
+}
+
 } // namespace
 
 std::string HeightReport::to_json() const
@@ -156,17 +197,27 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
         const auto t0 = std::chrono::steady_clock::now();
         validate(options);
         roi = detail::resolve_roi(normals, roi);
-        auto derived = detail::derive_slopes(normals, roi, options.normals, options.exec);
-
         HeightOptions chosen = options;
-        if (chosen.method == HeightMethod::Auto) {
+        if (chosen.method == HeightMethod::Auto)
             chosen.method = HeightMethod::Poisson;
-            detail::say(options.exec, Severity::Info, "method: poisson (the default; method=rays for rays)");
-        }
         const bool rays = chosen.method == HeightMethod::Rays;
+        check_memory(chosen, roi.width(), roi.height());
+        auto derived = detail::derive_slopes(normals, roi, options.normals, options.exec);
+        if (options.method == HeightMethod::Auto)
+            detail::say(options.exec, Severity::Info, "method: poisson (the default; method=rays for rays)");
         chosen.boundary = choose_boundary(chosen, derived, rays);
 
-        std::vector<float> h(std::size_t(roi.width()) * roi.height());
+        // The result's memory is taken when the stage has it ready, after
+        // its grids are freed; without a report to make, the stage also
+        // takes the slopes over and frees them as soon as it can.
+        ImageBuf result;
+        const host::HeightSink sink = [&] {
+            result = detail::make_result(roi, {"Y"});
+            return static_cast<float*>(result.localpixels());
+        };
+        auto slopes_for_stage = [&] {
+            return options.report ? host::DeviceSlopes(derived.slopes) : std::move(derived.slopes);
+        };
         if (rays) {
             host::RayParams p;
             p.rays = chosen.rays;
@@ -180,10 +231,10 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
             p.skip_flat = chosen.skip_flat;
             host::RayReport report;
             if (chosen.impl == RayImpl::Fast)
-                host::integrate_rays_fast(*derived.context, derived.slopes, p, h.data(),
+                host::integrate_rays_fast(*derived.context, slopes_for_stage(), p, sink,
                                           options.exec.on_progress, &report);
             else
-                host::integrate_rays_reference(*derived.context, derived.slopes, p, h.data(),
+                host::integrate_rays_reference(*derived.context, derived.slopes, p, sink(),
                                                options.exec.on_progress, &report);
             if (p.skip_flat)
                 detail::say(options.exec, Severity::Info,
@@ -206,7 +257,7 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
                     p.weights = weights.data();
             }
             host::PoissonReport report;
-            host::integrate_poisson(*derived.context, derived.slopes, p, h.data(), &report);
+            host::integrate_poisson(*derived.context, slopes_for_stage(), p, sink, &report);
             if (p.weights)
                 detail::say(options.exec, Severity::Info,
                             "poisson: weighted solve, " + std::to_string(report.iterations) +
@@ -215,7 +266,8 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
         }
         if (HeightReport* r = options.report) {
             const bool periodic = chosen.boundary == Boundary::Periodic;
-            const host::RoundTrip t = host::round_trip(*derived.context, derived.slopes, h.data(), periodic);
+            const host::RoundTrip t = host::round_trip(*derived.context, derived.slopes,
+                                                       static_cast<const float*>(result.localpixels()), periodic);
             r->method = rays ? "rays" : "poisson";
             r->normal_convention = detail::convention_name(derived.stats.chosen);
             r->boundary = name(chosen.boundary, rays);
@@ -232,7 +284,7 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
                             detail::format_double("%.3g", t.residual_share) +
                             " (the part of the slopes the height does not reproduce)");
         }
-        detail::publish_result(dst, roi, {"Y"}, rays ? "rays" : "poisson", derived.stats, h.data(),
+        detail::publish_result(dst, std::move(result), rays ? "rays" : "poisson", derived.stats,
                                describe(chosen));
         if (options.report)
             options.report->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

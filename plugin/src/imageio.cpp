@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "error_state.h"
+#include "memory_budget.h"  // host/: no OpenCL types
 
 namespace relief {
 
@@ -45,7 +46,34 @@ bool read_image(ImageBuf& dst, const std::string& path)
     ImageSpec config;
     config.attribute("oiio:UnassociatedAlpha", 1);
     dst.reset(path, 0, 0, nullptr, &config);
-    if (!dst.read(0, 0, /*force=*/true, TypeDesc::FLOAT) || dst.has_error()) {
+    // The pixels stay in the file's own type where the operations read that
+    // type as it is (8 and 16 bit, half, float): a 16384^2 RGB map is then
+    // 0.8 GB in memory, not 3.2 GB of floats. Other types become float.
+    TypeDesc keep = TypeDesc::FLOAT;
+    if (dst.init_spec(path, 0, 0)) {
+        const ImageSpec& file = dst.nativespec();
+        const TypeDesc t = file.format;
+        if (file.channelformats.empty() &&
+            (t == TypeDesc::UINT8 || t == TypeDesc::UINT16 || t == TypeDesc::HALF))
+            keep = t;
+        // A header may claim any size: refuse before allocating what the
+        // machine does not have, rather than be killed part way through.
+        std::string why;
+        try {
+            why = host::refuse_host(
+            host::Bytes(std::max(file.width, 0)) * host::Bytes(std::max(file.height, 1)) *
+            host::Bytes(std::max(file.depth, 1)) * host::Bytes(std::max(file.nchannels, 1)) *
+            keep.size());
+        } catch (const std::exception& e) {
+            why = e.what();
+        }
+        if (!why.empty()) {
+            detail::set_error("cannot read '" + path + "': " + why);
+            dst.clear();
+            return false;
+        }
+    }
+    if (!dst.read(0, 0, /*force=*/true, keep) || dst.has_error()) {
         std::string why = dst.geterror();
         if (why.empty())
             why = OIIO::geterror();

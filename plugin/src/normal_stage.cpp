@@ -103,35 +103,41 @@ DerivedSlopes derive_slopes(const ImageBuf& normals, ROI roi, const NormalDecodi
         p.bias = 0.0f;
     }
 
-    std::vector<float> texels(std::size_t(p.width) * p.height * p.channels);
-    ROI read = roi;
-    read.chbegin = 0;
-    read.chend = p.channels;
-    if (!normals.get_pixels(read, TypeDesc::FLOAT, texels.data()))
-        throw std::runtime_error("cannot read the normal map's pixels: " + normals.geterror());
+    // The map is decoded a band of rows at a time, from the image's own
+    // pixel type: a whole map widened to floats would be 12 bytes a texel.
+    const bool check_signed = is_float(stored) && decoding.float_encoding == FloatEncoding::Signed;
+    float lo = 0.0f;
+    double mean_x = 0.0, mean_y = 0.0;
+    const host::NormalRows rows = [&](int first, int count, float* out) {
+        ROI read = roi;
+        read.ybegin = roi.ybegin + first;
+        read.yend = read.ybegin + count;
+        read.chbegin = 0;
+        read.chend = p.channels;
+        if (!normals.get_pixels(read, TypeDesc::FLOAT, out))
+            throw std::runtime_error("cannot read the normal map's pixels: " + normals.geterror());
+        if (check_signed)
+            for (std::size_t i = 0, e = std::size_t(count) * p.width * p.channels; i < e; i += p.channels) {
+                lo = std::min({lo, out[i], out[i + 1]});
+                mean_x += out[i];
+                mean_y += out[i + 1];
+            }
+    };
 
-    if (is_float(stored) && decoding.float_encoding == FloatEncoding::Signed) {
+    DerivedSlopes out{host::ComputeContext::acquire(exec.device),
+                      host::DeviceSlopes(0, 0, nullptr), {}};
+    say(exec, Severity::Info, "device: " + out.context->device().describe());
+    out.slopes = host::derive_slopes(*out.context, rows, p, out.stats);
+    if (check_signed) {
         // Signed maps centre x and y on 0; a map stored in [0, 1] centres
         // them on 0.5 and has no negative component. Decoding that as
         // signed would tilt every texel.
-        float lo = 0.0f;
-        double mean_x = 0.0, mean_y = 0.0;
-        for (std::size_t i = 0; i < texels.size(); i += p.channels) {
-            lo = std::min({lo, texels[i], texels[i + 1]});
-            mean_x += texels[i];
-            mean_y += texels[i + 1];
-        }
-        const double count = double(texels.size() / p.channels);
+        const double count = double(p.width) * double(p.height);
         if (lo >= 0.0f && mean_x / count > 0.25 && mean_y / count > 0.25)
             say(exec, Severity::Warning,
                 "float normal map has no negative x or y component and centres on 0.5; if it "
                 "is stored in [0, 1], decode it with range=unsigned");
     }
-
-    DerivedSlopes out{host::ComputeContext::acquire(exec.device),
-                      host::DeviceSlopes(0, 0, nullptr), {}};
-    say(exec, Severity::Info, "device: " + out.context->device().describe());
-    out.slopes = host::derive_slopes(*out.context, texels.data(), p, out.stats);
 
     const auto& s = out.stats;
     if (s.auto_chosen) {
@@ -169,6 +175,27 @@ void tag_slope_metadata(OIIO::ImageSpec& spec, const host::SlopeStats& s)
     }
     spec.attribute("relief:invalid_normals", int(std::min<std::int64_t>(s.invalid, INT32_MAX)));
     spec.attribute("relief:clamped_normals", int(std::min<std::int64_t>(s.clamped, INT32_MAX)));
+}
+
+ImageBuf make_result(ROI roi, std::vector<std::string> channels)
+{
+    OIIO::ImageSpec spec(roi.width(), roi.height(), int(channels.size()), TypeDesc::FLOAT);
+    spec.x = roi.xbegin;
+    spec.y = roi.ybegin;
+    spec.channelnames = std::move(channels);
+    return ImageBuf(spec, OIIO::InitializePixels::No);
+}
+
+void publish_result(ImageBuf& dst, ImageBuf&& result, const char* method, const host::SlopeStats& stats,
+                    const std::string& parameters)
+{
+    OIIO::ImageSpec& spec = result.specmod();
+    spec.attribute("relief:method", method);
+    if (!parameters.empty())
+        spec.attribute("relief:parameters", parameters);
+    spec.attribute("relief:height_unit", "texel");
+    tag_slope_metadata(spec, stats);
+    dst = std::move(result);
 }
 
 void publish_result(ImageBuf& dst, ROI roi, std::vector<std::string> channels, const char* method,

@@ -44,6 +44,13 @@ void publish_result(OIIO::ImageBuf& dst, OIIO::ROI roi, std::vector<std::string>
                     const char* method, const host::SlopeStats& stats, const float* pixels,
                     const std::string& parameters = "");
 
+// A result image of `roi`'s size and origin with float `channels`, made
+// when a stage asks for its memory (host::HeightSink); publish_result(dst,
+// ..., std::move(it), ...) then tags it and hands it to dst without a copy.
+OIIO::ImageBuf make_result(OIIO::ROI roi, std::vector<std::string> channels);
+void publish_result(OIIO::ImageBuf& dst, OIIO::ImageBuf&& result, const char* method,
+                    const host::SlopeStats& stats, const std::string& parameters);
+
 // Records a failed operation in dst and geterror(); returns false.
 bool fail(OIIO::ImageBuf& dst, const char* operation, const std::exception& e);
 

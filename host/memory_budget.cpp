@@ -1,0 +1,130 @@
+#include "memory_budget.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <unistd.h>
+
+#include "errors.h"
+#include "opencl_context.h"
+
+namespace relief::host {
+
+namespace {
+
+constexpr Bytes kUnlimited = std::numeric_limits<Bytes>::max();
+
+// "<n>", "<n>K", "<n>M", "<n>G", "<n>T" (powers of 1024); 0 when unset.
+Bytes limit_from_environment()
+{
+    const char* text = std::getenv("RELIEF_MEMORY_LIMIT");
+    if (!text || !*text)
+        return 0;
+    char* end = nullptr;
+    errno = 0;
+    const double v = std::strtod(text, &end);
+    Bytes scale = 1;
+    switch (*end) {
+    case 'k': case 'K': scale = Bytes(1) << 10; ++end; break;
+    case 'm': case 'M': scale = Bytes(1) << 20; ++end; break;
+    case 'g': case 'G': scale = Bytes(1) << 30; ++end; break;
+    case 't': case 'T': scale = Bytes(1) << 40; ++end; break;
+    default: break;
+    }
+    if (end == text || *end || errno || !(v > 0) || v * double(scale) > 1e18)
+        throw Error(std::string("RELIEF_MEMORY_LIMIT must be a size in bytes > 0 (suffix K, M, G "
+                                "or T allowed), not '") + text + "'");
+    return Bytes(v * double(scale));
+}
+
+// MemAvailable from /proc/meminfo (kB), else the free pages.
+Bytes machine_available()
+{
+    std::ifstream meminfo("/proc/meminfo");
+    std::string key;
+    Bytes kb = 0;
+    std::string unit;
+    while (meminfo >> key >> kb >> unit)
+        if (key == "MemAvailable:")
+            return kb * 1024;
+    const long pages = sysconf(_SC_AVPHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    return pages > 0 && page > 0 ? Bytes(pages) * Bytes(page) : kUnlimited;
+}
+
+// A cgroup v2 limit less what the group uses, or unlimited.
+Bytes cgroup_available()
+{
+    auto read = [](const char* path) -> Bytes {
+        std::ifstream f(path);
+        std::string v;
+        if (!(f >> v) || v == "max")
+            return kUnlimited;
+        return Bytes(std::strtoull(v.c_str(), nullptr, 10));
+    };
+    const Bytes max = read("/sys/fs/cgroup/memory.max");
+    if (max == kUnlimited)
+        return kUnlimited;
+    const Bytes used = read("/sys/fs/cgroup/memory.current");
+    return used == kUnlimited || used >= max ? 0 : max - used;
+}
+
+} // namespace
+
+Bytes host_memory_available()
+{
+    Bytes a = std::min(machine_available(), cgroup_available());
+    if (const Bytes limit = limit_from_environment())
+        a = std::min(a, limit);
+    return a;
+}
+
+std::string format_bytes(Bytes b)
+{
+    char text[64];
+    const double v = double(b);
+    if (v >= 1e9)
+        std::snprintf(text, sizeof text, "%.1f GB", v / 1e9);
+    else if (v >= 1e6)
+        std::snprintf(text, sizeof text, "%.1f MB", v / 1e6);
+    else
+        std::snprintf(text, sizeof text, "%.0f kB", std::max(v / 1e3, 1.0));
+    return text;
+}
+
+std::string refuse_host(Bytes need)
+{
+    const Bytes have = host_memory_available();
+    if (need <= have)
+        return "";
+    const bool limited = limit_from_environment() == have;
+    return "needs " + format_bytes(need) + " of memory, this machine has " + format_bytes(have) +
+           (limited ? " (RELIEF_MEMORY_LIMIT)" : " available");
+}
+
+DeviceMemory device_memory(ComputeContext& ctx)
+{
+    auto& c = ctx.impl();
+    DeviceMemory m;
+    m.total = Bytes(c.device.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>());
+    m.host_unified = c.device.getInfo<CL_DEVICE_HOST_UNIFIED_MEMORY>() != CL_FALSE ||
+                     c.device.getInfo<CL_DEVICE_TYPE>() == CL_DEVICE_TYPE_CPU;
+    return m;
+}
+
+void check_memory(ComputeContext& ctx, const std::string& what, Bytes device, Bytes host)
+{
+    const DeviceMemory d = device_memory(ctx);
+    if (device > d.total)
+        throw Error(what + " needs " + format_bytes(device) + " of device memory, the device has " +
+                    format_bytes(d.total));
+    const Bytes on_host = host + (d.host_unified ? device : 0);
+    const std::string why = refuse_host(on_host);
+    if (!why.empty())
+        throw Error(what + " " + why);
+}
+
+} // namespace relief::host

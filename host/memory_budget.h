@@ -1,0 +1,42 @@
+#pragma once
+// How much memory a job needs, said before it is allocated: a map too large
+// for the machine or the device is refused with the numbers instead of
+// failing part way (or being killed by the kernel's OOM killer) with files
+// half made. No OpenCL types here: the plugin includes it.
+#include <cstdint>
+#include <string>
+
+namespace relief::host {
+
+class ComputeContext;
+
+using Bytes = std::uint64_t;
+
+// What this process may still allocate: the smallest of the machine's
+// available memory (MemAvailable), the cgroup's limit less its use, and
+// $RELIEF_MEMORY_LIMIT (bytes, or with a K/M/G/T suffix, powers of 1024),
+// which a farm sets to share a node between jobs. Throws Error for a
+// malformed $RELIEF_MEMORY_LIMIT.
+Bytes host_memory_available();
+
+// "12.3 GB" (decimal units, as memory is sold and `free -h` is read).
+std::string format_bytes(Bytes b);
+
+// "" when `need` bytes fit in host memory, else the refusal:
+// "needs 48.0 GB of memory, this machine has 16.0 GB available" (what = "").
+std::string refuse_host(Bytes need);
+
+// The device's memory: CL_DEVICE_GLOBAL_MEM_SIZE, and whether it is the
+// host's own (a CPU device), where its buffers count against host memory.
+struct DeviceMemory {
+    Bytes total = 0;
+    bool host_unified = false;
+};
+DeviceMemory device_memory(ComputeContext& ctx);
+
+// Refuses a stage needing `device` bytes of device buffers and `host` bytes
+// of host memory: throws Error naming `what` with both numbers when either
+// does not fit (a CPU device's buffers are host memory: they are added).
+void check_memory(ComputeContext& ctx, const std::string& what, Bytes device, Bytes host);
+
+} // namespace relief::host
