@@ -201,9 +201,30 @@ struct FftPlan::Impl {
     }
 };
 
+std::string FftPlan::unsupported(std::size_t n0, std::size_t n1)
+{
+    for (std::size_t n : {n0, n1}) {
+        if (n <= kMaxBluesteinLength || smooth(n))
+            continue;
+        std::size_t up = n;  // the next length made of the primes 2..13
+        while (!smooth(up))
+            ++up;
+        std::size_t down = n;
+        while (!smooth(down))
+            --down;
+        return "an FFT along an axis of " + std::to_string(n) +
+               " texels, which has a prime factor above 13, is supported only up to " +
+               std::to_string(kMaxBluesteinLength) + " texels; crop the map to " + std::to_string(down) +
+               " or pad it to " + std::to_string(up) + " texels (lengths made of the primes 2 to 13)";
+    }
+    return "";
+}
+
 FftPlan::FftPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, cl::Buffer& buffer)
     : impl_(new Impl(c))
 {
+    if (const std::string why = unsupported(n0, n1); !why.empty())
+        throw Error(why);
     SetupTimer timer(SetupTimer::Kind::Plans);
     if (n0 < 2 || n1 < 1)
         throw Error("internal error: FFT plan of size " + std::to_string(n0) + "x" +

@@ -9,6 +9,10 @@
 // length factors into 2..13; otherwise it is a batched 1-D R2C along the
 // contiguous axis, a transpose of the half spectrum (kernels/fft.cl), a
 // batched 1-D C2C along the former columns and a transpose back.
+// Its Bluestein kernels also segfault on PoCL once the length passes about
+// 21000 points (21011 ran, 21839, 25013, 32660, 65320 and 65519 crashed,
+// along either axis), so such lengths are refused (kMaxBluesteinLength).
+#include <string>
 #include <CL/opencl.hpp>
 
 #include <cstddef>
@@ -23,6 +27,10 @@ public:
     // Floats per row of the buffer a plan works on: R2C pads each row to
     // 2 * (n0/2 + 1) floats.
     static std::size_t row_stride(std::size_t n0) { return 2 * (n0 / 2 + 1); }
+    // Longest axis with a prime factor above 13 that is planned.
+    static constexpr std::size_t kMaxBluesteinLength = 20000;
+    // "" when an n0 x n1 plan can be made, else why not, for users.
+    static std::string unsupported(std::size_t n0, std::size_t n1);
 
     // A 2-D plan over n0 (fast axis) x n1; a 1-D plan when n1 == 1. n0 >= 2.
     // Launches may name any buffer of row_stride * n1 floats; VkFFT builds

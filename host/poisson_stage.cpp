@@ -45,6 +45,8 @@ void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const Pois
     // A one-texel-wide texture is solved transposed: a 1-D transform.
     const bool transposed = w == 1;
     const int n0 = transposed ? h : w, n1 = transposed ? 1 : h;
+    if (const std::string why = FftPlan::unsupported(n0, n1); !why.empty())
+        throw Error("least squares: " + why);  // before anything is made
     const bool periodic = p.boundary == PoissonBoundary::Periodic;
     const std::size_t stride =
         periodic ? FftPlan::row_stride(n0) : std::size_t(n0);

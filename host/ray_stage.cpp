@@ -254,6 +254,8 @@ void fft_ray_sums(ComputeContext::Impl& c, DeviceSlopes& slopes, bool consume, c
     // A one-texel-wide texture is a 1-D transform along y (as in Poisson).
     const bool transposed = w == 1;
     const int n0 = transposed ? h : w, n1 = transposed ? 1 : h;
+    if (const std::string why = FftPlan::unsupported(n0, n1); !why.empty())
+        throw Error("periodic rays: " + why + " (boundary=clip walks every ray instead)");
     const std::size_t stride = FftPlan::row_stride(n0);
     const std::size_t grid = stride * n1;
 
@@ -470,7 +472,10 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
     cl_int4 fft_rect{{0, 0, -1, -1}};
     std::vector<float> fft_values;
     double chain_share = 1.0;
-    if (!periodic && p.clip_by_fft) {
+    // (Chains alone where the transform cannot be planned: FftPlan::unsupported.)
+    const bool transposed = w == 1;
+    if (!periodic && p.clip_by_fft &&
+        FftPlan::unsupported(transposed ? h : w, transposed ? 1 : h).empty()) {
         RayParams rational = p;
         rational.directions = DirectionSet::Rational;
         fft_rect = whole_ray_rect(rational, w, h);

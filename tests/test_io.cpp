@@ -282,3 +282,80 @@ TEST_CASE("io: PNG alpha is read unassociated (RGB not premultiplied)", "[io]")
     for (std::size_t i = 0; i < px.size(); ++i)
         REQUIRE(std::abs(got[i] - std::round(px[i] * 255.0f) / 255.0f) < 1e-6);
 }
+
+TEST_CASE("io: maps stay in their file's pixel type in memory (8-bit, 16-bit, half)", "[io][memory]")
+{
+    const auto dir = relief::test::scratch("io/native");
+    const std::vector<float> px(4 * 3 * 3, 0.5f);
+    for (const auto& [name, type] : {std::pair{"n8.png", OIIO::TypeDesc::UINT8},
+                                     std::pair{"n16.png", OIIO::TypeDesc::UINT16},
+                                     std::pair{"nh.exr", OIIO::TypeDesc::HALF}}) {
+        INFO(name);
+        OIIO::ImageBuf out = relief::test::image(4, 3, 3, px, type);
+        REQUIRE(out.write((dir / name).string()));
+        OIIO::ImageBuf in;
+        REQUIRE(relief::read_image(in, (dir / name).string()));
+        // in memory as stored: an RGB 8-bit map is 3 bytes a texel, not 12
+        CHECK(in.spec().format == type);
+        CHECK(relief::test::max_abs_diff(relief::test::pixels(in), px) <= 0.5 / 255 + 1e-6);
+    }
+}
+
+TEST_CASE("io: a header claiming more pixels than memory holds is refused before reading", "[io][memory][errors]")
+{
+    const auto dir = relief::test::scratch("io/huge-header");
+    // An 8-bit RGB PNG that says it is 60000 x 60000 (10.8 GB): a valid
+    // header and no image data.
+    OIIO::ImageBuf small = relief::test::image(2, 2, 3, std::vector<float>(12, 0.5f), OIIO::TypeDesc::UINT8);
+    REQUIRE(small.write((dir / "small.png").string()));
+    std::string bytes = slurp(dir / "small.png");
+    REQUIRE(bytes.substr(12, 4) == "IHDR");
+    auto be32 = [](std::string& s, std::size_t at, std::uint32_t v) {
+        for (int i = 0; i < 4; ++i)
+            s[at + i] = char((v >> (24 - 8 * i)) & 0xff);
+    };
+    be32(bytes, 16, 60000);
+    be32(bytes, 20, 60000);
+    // the header's CRC over "IHDR" and its 13 bytes, so that it is valid
+    std::uint32_t crc = 0xffffffffu;
+    for (std::size_t i = 12; i < 12 + 17; ++i) {
+        crc ^= std::uint8_t(bytes[i]);
+        for (int k = 0; k < 8; ++k)
+            crc = (crc >> 1) ^ (0xedb88320u & (0u - (crc & 1u)));
+    }
+    be32(bytes, 29, crc ^ 0xffffffffu);
+    std::ofstream(dir / "huge.png", std::ios::binary) << bytes;
+
+    auto r = run_cli("'" + (dir / "huge.png").string() + "' --height -o '" + (dir / "h.exr").string() + "'",
+                     "RELIEF_MEMORY_LIMIT=2G");
+    CHECK(r.rc == 1);
+    CHECK(r.err.find("relief: error: cannot read '") != std::string::npos);
+    CHECK(r.err.find("needs 10.8 GB of memory, this machine has 2.1 GB (RELIEF_MEMORY_LIMIT)") != std::string::npos);
+    CHECK_FALSE(fs::exists(dir / "h.exr"));
+}
+
+TEST_CASE("cli: a height that does not fit is refused with the numbers, before it starts", "[cli][memory][errors]")
+{
+    const auto dir = relief::test::scratch("io/memory-limit");
+    const std::string normal = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";  // 512 x 512
+    const std::string out = (dir / "h.exr").string();
+    // The map (0.8 MB) is read; its slopes (2.1 MB) and grids are not made.
+    auto r = run_cli("'" + normal + "' --height:boundary=periodic -o '" + out + "'", "RELIEF_MEMORY_LIMIT=3M");
+    CHECK(r.rc == 1);
+    CHECK(r.err.find("relief: error: height: the Poisson integration of a 512x512 map needs ") != std::string::npos);
+    CHECK(r.err.find("of memory, this machine has 3.1 MB (RELIEF_MEMORY_LIMIT)") != std::string::npos);
+    CHECK(r.err.find("rays") == std::string::npos);
+    CHECK_FALSE(fs::exists(out));
+    r = run_cli("'" + normal + "' --height:method=rays:boundary=periodic -o '" + out + "'", "RELIEF_MEMORY_LIMIT=3M");
+    CHECK(r.rc == 1);
+    CHECK(r.err.find("relief: error: height: ray integration of a 512x512 map needs ") != std::string::npos);
+    CHECK_FALSE(fs::exists(out));
+    // with room, the same commands run
+    r = run_cli("'" + normal + "' --height:boundary=periodic -o '" + out + "'", "RELIEF_MEMORY_LIMIT=64M");
+    CHECK(r.rc == 0);
+    CHECK(fs::exists(out));
+    r = run_cli("'" + normal + "' --height -o '" + out + "'", "RELIEF_MEMORY_LIMIT=lots");
+    CHECK(r.rc == 1);
+    CHECK(r.err.find("RELIEF_MEMORY_LIMIT must be a size in bytes > 0 (suffix K, M, G or T allowed), not 'lots'") !=
+          std::string::npos);
+}

@@ -108,7 +108,7 @@ inline OIIO::ImageBuf normal_image(const std::vector<double>& g, int w, int h, G
                        type.basetype == OIIO::TypeDesc::UINT16;
     std::vector<float> px(std::size_t(w) * h * channels);
     for (std::size_t i = 0; i < std::size_t(w) * h; ++i) {
-        double n[3];
+        double n[4] = {0.0, 0.0, 0.0, 1.0};  // a fourth channel is an opaque alpha
         encode_normal(g[2 * i], g[2 * i + 1], green, n);
         for (int c = 0; c < channels; ++c)
             px[i * channels + c] = float(unorm || unsigned_float ? (n[c] + 1.0) * 0.5 : n[c]);
