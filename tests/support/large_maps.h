@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstdint>
 #include <random>
 #include <string>
@@ -70,6 +71,14 @@ inline bool write_tiled_map(const std::string& path, const std::vector<std::uint
             return false;
     }
     return out->close();
+}
+
+// "1.23 GB"
+inline std::string format_gb(double bytes)
+{
+    char text[32];
+    std::snprintf(text, sizeof text, "%.2f GB", bytes / 1e9);
+    return text;
 }
 
 // Runs `command` (sh -c) in a child and returns its exit code; `peak_bytes`
