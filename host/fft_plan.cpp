@@ -2,6 +2,7 @@
 // plan time; it is confined to this file.
 #include "fft_plan.h"
 
+#include <clocale>
 #include <cstring>
 #include <map>
 #include <optional>
@@ -145,7 +146,15 @@ public:
         vkfft_builds.from_cache.clear();
         vkfft_builds.from_source.clear();
         app_ = {};
+        // VkFFT keeps setlocale(LC_ALL, NULL)'s pointer while it sets "C",
+        // then restores the locale from it: freed memory unless the locale
+        // already is "C" (whose name is static). So it is made "C" here and
+        // restored from a copy (Python, for one, sets a locale at start).
+        const char* current = std::setlocale(LC_ALL, nullptr);
+        const std::string locale = current ? current : "C";
+        std::setlocale(LC_ALL, "C");
         const VkFFTResult r = initializeVkFFT(&app_, config);
+        std::setlocale(LC_ALL, locale.c_str());
         vkfft_builds.identity = nullptr;
         loaded_ = vkfft_builds.from_cache;
         return r;

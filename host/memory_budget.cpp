@@ -115,13 +115,13 @@ DeviceMemory device_memory(ComputeContext& ctx)
     return m;
 }
 
-void check_memory(ComputeContext& ctx, const std::string& what, Bytes device, Bytes host)
+void check_memory(ComputeContext& ctx, const std::string& what, Bytes device, Bytes host, Bytes made)
 {
     const DeviceMemory d = device_memory(ctx);
     if (device > d.total)
         throw Error(what + " needs " + format_bytes(device) + " of device memory, the device has " +
                     format_bytes(d.total));
-    const Bytes on_host = host + (d.host_unified ? device : 0);
+    const Bytes on_host = host + (d.host_unified ? device - std::min(made, device) : 0);
     const std::string why = refuse_host(on_host);
     if (!why.empty())
         throw Error(what + " " + why);

@@ -37,6 +37,7 @@ DeviceMemory device_memory(ComputeContext& ctx);
 // Refuses a stage needing `device` bytes of device buffers and `host` bytes
 // of host memory: throws Error naming `what` with both numbers when either
 // does not fit (a CPU device's buffers are host memory: they are added).
-void check_memory(ComputeContext& ctx, const std::string& what, Bytes device, Bytes host);
+// `made` of the device bytes are already allocated (no longer available).
+void check_memory(ComputeContext& ctx, const std::string& what, Bytes device, Bytes host, Bytes made = 0);
 
 } // namespace relief::host

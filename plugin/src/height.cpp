@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <climits>
 #include <cstdint>
 #include <cmath>
 #include <exception>
@@ -119,40 +120,41 @@ std::vector<float> mask_weights(const HeightOptions& o, const ImageBuf& normals,
     return w;
 }
 
-// Refuses, before anything is allocated, a map whose slopes, integration
-// grids and result do not fit the device and the machine.
-void check_memory(const HeightOptions& o, int w, int h)
+// Refuses, before it is allocated, a height whose slopes, integration grids
+// and result do not fit the device and the machine. Called before the
+// slopes are derived (boundary=auto: with the boundary that needs less, as
+// it is not chosen yet) and again once the boundary is chosen.
+void check_memory(const HeightOptions& o, int w, int h, bool slopes_made)
 {
     const auto ctx = host::ComputeContext::acquire(o.exec.device);
     const std::uint64_t n = std::uint64_t(w) * std::uint64_t(h);
     const bool taken = o.report == nullptr;  // the round trip needs the slopes after
-    // boundary=auto is chosen later, from the slopes: the larger of the two
     std::vector<Boundary> boundaries{o.boundary};
     if (o.boundary == Boundary::Auto)
         boundaries = {Boundary::Periodic, Boundary::Free};
-    std::uint64_t device = 0, host_bytes = 4 * n;  // the result
+    std::uint64_t device = UINT64_MAX, host_bytes = 4 * n;  // the result
     for (Boundary b : boundaries) {
         if (o.method == HeightMethod::Rays && o.impl == RayImpl::Fast) {
             host::RayParams p;
             p.boundary = b == Boundary::Free ? host::RayBoundary::Clip : host::RayBoundary::Periodic;
-            device = std::max(device, host::rays_fast_device_bytes(w, h, p, taken));
-            if (b == Boundary::Free)
-                host_bytes = 8 * n;  // and the convolution's values inside the band
+            device = std::min(device, host::rays_fast_device_bytes(w, h, p, taken));
         } else if (o.method == HeightMethod::Rays) {
-            device = std::max(device, 12 * n);  // slopes and sums
+            device = std::min(device, std::uint64_t(12) * n);  // slopes and sums
         } else {
             host::PoissonParams p;
             p.weights = o.mask || o.mask_alpha ? &kOneWeight : nullptr;
             p.boundary = b == Boundary::Free ? host::PoissonBoundary::Free : host::PoissonBoundary::Periodic;
-            device = std::max(device, host::poisson_device_bytes(w, h, p, taken));
-            if (p.weights)
-                host_bytes = 12 * n;  // and the weights, and the spectral start
+            device = std::min(device, host::poisson_device_bytes(w, h, p, taken));
         }
     }
+    if (o.method == HeightMethod::Rays && o.impl == RayImpl::Fast && o.boundary == Boundary::Free)
+        host_bytes += 4 * n;  // the convolution's values inside the band
+    if (o.method != HeightMethod::Rays && (o.mask || o.mask_alpha))
+        host_bytes += 8 * n;  // the weights, and the spectral start
     host::check_memory(*ctx,
                        std::string(o.method == HeightMethod::Rays ? "ray integration" : "the Poisson integration") +
                            " of a " + std::to_string(w) + "x" + std::to_string(h) + " map",
-                       device, host_bytes);
+                       device, host_bytes, slopes_made ? 8 * n : 0);
 }
 
 } // namespace
@@ -201,11 +203,13 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
         if (chosen.method == HeightMethod::Auto)
             chosen.method = HeightMethod::Poisson;
         const bool rays = chosen.method == HeightMethod::Rays;
-        check_memory(chosen, roi.width(), roi.height());
+        check_memory(chosen, roi.width(), roi.height(), false);
         auto derived = detail::derive_slopes(normals, roi, options.normals, options.exec);
         if (options.method == HeightMethod::Auto)
             detail::say(options.exec, Severity::Info, "method: poisson (the default; method=rays for rays)");
         chosen.boundary = choose_boundary(chosen, derived, rays);
+        if (options.boundary == Boundary::Auto)
+            check_memory(chosen, roi.width(), roi.height(), true);
 
         // The result's memory is taken when the stage has it ready, after
         // its grids are freed; without a report to make, the stage also
