@@ -302,15 +302,23 @@ Operation height_operation()
                "",
                "poisson: least squares (Frankot-Chellappa); rays: radial ray integration; "
                "auto: poisson, or rays when a ray modifier is given"),
-        choice("boundary", [h](auto& c) -> auto& { return h(c).boundary; },
-               std::vector<std::pair<std::string, Boundary>>{
-                   {"auto", Boundary::Auto},
-                   {"periodic", Boundary::Periodic},
-                   {"free", Boundary::Free},
-                   {"clip", Boundary::Free}},
-               "",
-               "periodic: the texture tiles; free (clip for rays): it does not; auto: periodic "
-               "when the slopes are continuous across the wrap seams"),
+        [h] {
+            Modifier m = choice("boundary", [h](auto& c) -> auto& { return h(c).boundary; },
+                                std::vector<std::pair<std::string, Boundary>>{
+                                    {"auto", Boundary::Auto},
+                                    {"periodic", Boundary::Periodic},
+                                    {"free", Boundary::Free},
+                                    {"clip", Boundary::Free}},
+                                "",
+                                "periodic: the texture tiles; free (clip for rays): it does not; auto: "
+                                "periodic when the slopes are continuous across the wrap seams");
+            // Written as each method takes it: rays refuse "free".
+            m.get = [h, get = m.get](const OperationCall& c) {
+                const std::string name = get(c);
+                return name == "free" && h(c).method == HeightMethod::Rays ? std::string("clip") : name;
+            };
+            return m;
+        }(),
         number("highpass", ModifierType::Number, [h](auto& c) -> auto& { return h(c).highpass; },
                0, false, 1e9, false, "R", "texels", poisson,
                "relief balance: remove structure larger than R texels (0 = off)"),
@@ -318,14 +326,16 @@ Operation height_operation()
             Modifier m;
             m.info.name = "mask";
             m.info.type = ModifierType::File;
-            m.info.choices = {"alpha"};
+            // "none", the default, is what modifier_text writes for no mask:
+            // the call written out in full must parse back to itself.
+            m.info.choices = {"alpha", "none"};
             m.info.placeholder = "FILE";
             m.info.applies_to = "method=poisson";
             m.info.meaning = "per-texel weights in [0,1] (channel 0 of FILE, or the normal "
                              "map's alpha); 0 excludes a texel's slopes";
             m.set = [h](OperationCall& c, const std::string& text, double) {
                 h(c).mask_alpha = text == "alpha";
-                c.mask_file = text == "alpha" ? std::string() : text;
+                c.mask_file = text == "alpha" || text == "none" ? std::string() : text;
             };
             m.get = [h](const OperationCall& c) {
                 return h(c).mask_alpha ? std::string("alpha")
@@ -430,13 +440,13 @@ Operation correct_operation()
             Modifier m;
             m.info.name = "fix";
             m.info.type = ModifierType::File;
-            m.info.choices = {"height:H0:DH"};
+            m.info.choices = {"height:H0:DH", "none"};  // none: the default, as written out
             m.info.placeholder = "FILE";
             m.info.meaning = "keep texels with weight w within 1/w texels: w from channel 0 of "
                              "FILE, or max(0, 1-|h-H0|/DH)";
             m.set = [k](OperationCall& c, const std::string& v, double) {
                 if (v.rfind("height:", 0) != 0) {
-                    c.fix_file = v;
+                    c.fix_file = v == "none" ? std::string() : v;
                     return;
                 }
                 const std::size_t a1 = v.find(':'), a2 = v.find(':', a1 + 1);
