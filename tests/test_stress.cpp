@@ -23,6 +23,10 @@
 using namespace relief;
 namespace fs = std::filesystem;
 
+#ifndef RELIEF_SANITIZE
+#define RELIEF_SANITIZE 0
+#endif
+
 namespace {
 
 struct Method {
@@ -232,9 +236,11 @@ TEST_CASE("stress: an 8192x8192 map integrates in bounded memory", "[stress][lar
     }
     // Peak resident memory per texel beyond the input image (3 bytes per
     // texel, held before the first run), in the order of growing need, so
-    // that each bound is the method's own peak. Measured here: 18, 21 and
-    // 53-61 bytes per texel (the periodic ray path's FFT holds double grids;
-    // the normal map goes to the device in 64 MiB chunks).
+    // that each bound is the method's own peak. Measured here: 14.1, 14.3
+    // and 14.3 bytes per texel (PoCL's and LLVM's start-up included): the
+    // slopes (8) beside the transform's two grids (8), freed before the
+    // plans' buffers and the result are made. Before the stages took the
+    // slopes over: 18, 21 and 53-61.
     const double texels = double(n) * n;
     const double before = peak_rss_bytes();
     struct Bounded {
@@ -243,9 +249,9 @@ TEST_CASE("stress: an 8192x8192 map integrates in bounded memory", "[stress][lar
         Boundary boundary;
         double bytes_per_texel;
     };
-    for (const Bounded& b : {Bounded{"poisson periodic", HeightMethod::Poisson, Boundary::Periodic, 24.0},
-                             Bounded{"poisson free", HeightMethod::Poisson, Boundary::Free, 26.0},
-                             Bounded{"rays periodic", HeightMethod::Rays, Boundary::Periodic, 64.0}}) {
+    for (const Bounded& b : {Bounded{"poisson periodic", HeightMethod::Poisson, Boundary::Periodic, 17.0},
+                             Bounded{"poisson free", HeightMethod::Poisson, Boundary::Free, 17.0},
+                             Bounded{"rays periodic", HeightMethod::Rays, Boundary::Periodic, 17.0}}) {
         INFO(b.name);
         HeightOptions o;
         o.method = b.method;
@@ -257,7 +263,8 @@ TEST_CASE("stress: an 8192x8192 map integrates in bounded memory", "[stress][lar
         check_output(out, o, std::tan(85.0 * M_PI / 180.0), n, n);
         const double per_texel = (peak_rss_bytes() - before) / texels;
         std::printf("stress 8192^2 %s: peak RSS %.1f bytes per texel above the input\n", b.name, per_texel);
-        CHECK(per_texel < b.bytes_per_texel);
+        if (!RELIEF_SANITIZE)  // the sanitizers' shadow memory and quarantine are theirs
+            CHECK(per_texel < b.bytes_per_texel);
     }
 }
 
