@@ -4,6 +4,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <sstream>
@@ -13,6 +14,8 @@
 #include "opencl_context.h"
 
 namespace relief::host {
+
+namespace fs = std::filesystem;
 
 namespace {
 
@@ -55,21 +58,50 @@ Bytes machine_available()
     return pages > 0 && page > 0 ? Bytes(pages) * Bytes(page) : kUnlimited;
 }
 
-// A cgroup v2 limit less what the group uses, or unlimited.
+// What the cgroups (v2) this process is in still allow: for its own group
+// and each one above it that has a limit, the limit less what the group
+// uses, not counting file pages the kernel can take back (inactive_file).
 Bytes cgroup_available()
 {
-    auto read = [](const char* path) -> Bytes {
-        std::ifstream f(path);
+    auto number = [](const fs::path& p) -> Bytes {
+        std::ifstream f(p);
         std::string v;
         if (!(f >> v) || v == "max")
             return kUnlimited;
         return Bytes(std::strtoull(v.c_str(), nullptr, 10));
     };
-    const Bytes max = read("/sys/fs/cgroup/memory.max");
-    if (max == kUnlimited)
-        return kUnlimited;
-    const Bytes used = read("/sys/fs/cgroup/memory.current");
-    return used == kUnlimited || used >= max ? 0 : max - used;
+    auto reclaimable = [](const fs::path& stat) -> Bytes {
+        std::ifstream f(stat);
+        std::string key;
+        Bytes v = 0;
+        while (f >> key >> v)
+            if (key == "inactive_file")
+                return v;
+        return 0;
+    };
+    std::string own;  // "0::/user.slice/..." in /proc/self/cgroup
+    {
+        std::ifstream f("/proc/self/cgroup");
+        for (std::string line; std::getline(f, line);)
+            if (line.rfind("0::", 0) == 0)
+                own = line.substr(3);
+    }
+    const fs::path root = "/sys/fs/cgroup";
+    Bytes available = kUnlimited;
+    fs::path dir = (root / fs::path(own).relative_path()).lexically_normal();
+    for (int depth = 0; depth < 64; ++depth) {
+        const Bytes max = number(dir / "memory.max");
+        if (max != kUnlimited) {
+            const Bytes used = number(dir / "memory.current");
+            const Bytes free_back = reclaimable(dir / "memory.stat");
+            const Bytes held = used == kUnlimited ? 0 : used - std::min(used, free_back);
+            available = std::min(available, held >= max ? 0 : max - held);
+        }
+        if (dir == root || dir == dir.parent_path() || dir.string().size() <= root.string().size())
+            break;
+        dir = dir.parent_path();
+    }
+    return available;
 }
 
 } // namespace
@@ -115,13 +147,20 @@ DeviceMemory device_memory(ComputeContext& ctx)
     return m;
 }
 
-void check_memory(ComputeContext& ctx, const std::string& what, Bytes device, Bytes host, Bytes made)
+void check_memory(ComputeContext& ctx, const std::string& what, Bytes device, Bytes host, Bytes made,
+                  Bytes device_at_host)
 {
     const DeviceMemory d = device_memory(ctx);
     if (device > d.total)
         throw Error(what + " needs " + format_bytes(device) + " of device memory, the device has " +
                     format_bytes(d.total));
-    const Bytes on_host = host + (d.host_unified ? device - std::min(made, device) : 0);
+    // A CPU device's buffers are host memory: the peak is the device's own,
+    // or what it still holds when the host memory is taken, plus that.
+    Bytes on_host = host;
+    if (d.host_unified) {
+        const Bytes peak = std::max(device, std::min(device_at_host, device) + host);
+        on_host = peak - std::min(made, peak);
+    }
     const std::string why = refuse_host(on_host);
     if (!why.empty())
         throw Error(what + " " + why);

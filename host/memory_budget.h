@@ -34,10 +34,13 @@ struct DeviceMemory {
 };
 DeviceMemory device_memory(ComputeContext& ctx);
 
-// Refuses a stage needing `device` bytes of device buffers and `host` bytes
-// of host memory: throws Error naming `what` with both numbers when either
-// does not fit (a CPU device's buffers are host memory: they are added).
-// `made` of the device bytes are already allocated (no longer available).
-void check_memory(ComputeContext& ctx, const std::string& what, Bytes device, Bytes host, Bytes made = 0);
+// Refuses a stage needing `device` bytes of device buffers at its peak and
+// `host` bytes of host memory, taken when `device_at_host` of the device
+// bytes are still held: throws Error naming `what` with the numbers when
+// either does not fit. On a CPU device the buffers are host memory, so the
+// two are added at the moment they meet. `made` of the device bytes are
+// already allocated (no longer available).
+void check_memory(ComputeContext& ctx, const std::string& what, Bytes device, Bytes host, Bytes made = 0,
+                  Bytes device_at_host = ~Bytes(0));
 
 } // namespace relief::host

@@ -27,8 +27,14 @@ struct Refused : std::invalid_argument {
     using std::invalid_argument::invalid_argument;
 };
 
-TypeDesc type_of(relief_type t)
+// A C caller may store any int in the enum; C++ may not load one outside
+// its range (UBSan: "not a valid value for type 'relief_type'"). So its
+// bytes are read as the int they are.
+TypeDesc type_of(const relief_type& stored)
 {
+    int t = 0;
+    static_assert(sizeof(relief_type) == sizeof(int), "C enums are ints here");
+    std::memcpy(&t, &stored, sizeof t);
     switch (t) {
     case RELIEF_UINT8: return TypeDesc::UINT8;
     case RELIEF_UINT16: return TypeDesc::UINT16;

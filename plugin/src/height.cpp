@@ -132,19 +132,31 @@ void check_memory(const HeightOptions& o, int w, int h, bool slopes_made)
     std::vector<Boundary> boundaries{o.boundary};
     if (o.boundary == Boundary::Auto)
         boundaries = {Boundary::Periodic, Boundary::Free};
-    std::uint64_t device = UINT64_MAX, host_bytes = 4 * n;  // the result
+    // The result is taken when the transforms keep only their output grid
+    // (and the slopes, if kept); the other stages take it first.
+    std::uint64_t device = UINT64_MAX, at_result = 0, host_bytes = 4 * n;
+    auto consider = [&](std::uint64_t peak, std::uint64_t held_at_result) {
+        if (peak < device) {
+            device = peak;
+            at_result = held_at_result;
+        }
+    };
+    const std::uint64_t grid = 4 * std::uint64_t(w / 2 + 1) * 2 * std::uint64_t(h);
+    const std::uint64_t kept_slopes = taken ? 0 : 8 * n;
     for (Boundary b : boundaries) {
         if (o.method == HeightMethod::Rays && o.impl == RayImpl::Fast) {
             host::RayParams p;
             p.boundary = b == Boundary::Free ? host::RayBoundary::Clip : host::RayBoundary::Periodic;
-            device = std::min(device, host::rays_fast_device_bytes(w, h, p, taken));
+            const std::uint64_t peak = host::rays_fast_device_bytes(w, h, p, taken);
+            consider(peak, b == Boundary::Free ? peak : grid + kept_slopes);
         } else if (o.method == HeightMethod::Rays) {
-            device = std::min(device, std::uint64_t(12) * n);  // slopes and sums
+            consider(12 * n, 12 * n);  // slopes and sums
         } else {
             host::PoissonParams p;
             p.weights = o.mask || o.mask_alpha ? &kOneWeight : nullptr;
             p.boundary = b == Boundary::Free ? host::PoissonBoundary::Free : host::PoissonBoundary::Periodic;
-            device = std::min(device, host::poisson_device_bytes(w, h, p, taken));
+            const std::uint64_t peak = host::poisson_device_bytes(w, h, p, taken);
+            consider(peak, p.weights ? peak : grid + kept_slopes);
         }
     }
     if (o.method == HeightMethod::Rays && o.impl == RayImpl::Fast && o.boundary == Boundary::Free)
@@ -154,7 +166,7 @@ void check_memory(const HeightOptions& o, int w, int h, bool slopes_made)
     host::check_memory(*ctx,
                        std::string(o.method == HeightMethod::Rays ? "ray integration" : "the Poisson integration") +
                            " of a " + std::to_string(w) + "x" + std::to_string(h) + " map",
-                       device, host_bytes, slopes_made ? 8 * n : 0);
+                       device, host_bytes, slopes_made ? 8 * n : 0, at_result);
 }
 
 } // namespace

@@ -58,12 +58,14 @@ bool read_image(ImageBuf& dst, const std::string& path)
             keep = t;
         // A header may claim any size: refuse before allocating what the
         // machine does not have, rather than be killed part way through.
+        // (Saturating: a hostile header's product must not wrap to little.)
+        host::Bytes bytes = keep.size();
+        for (int factor : {file.width, file.height, file.depth, file.nchannels})
+            if (__builtin_mul_overflow(bytes, host::Bytes(std::max(factor, 1)), &bytes))
+                bytes = ~host::Bytes(0);
         std::string why;
         try {
-            why = host::refuse_host(
-            host::Bytes(std::max(file.width, 0)) * host::Bytes(std::max(file.height, 1)) *
-            host::Bytes(std::max(file.depth, 1)) * host::Bytes(std::max(file.nchannels, 1)) *
-            keep.size());
+            why = host::refuse_host(bytes);
         } catch (const std::exception& e) {
             why = e.what();
         }

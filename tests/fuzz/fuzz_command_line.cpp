@@ -17,8 +17,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     try {
         const std::vector<std::string> words = relief::cli::split_words(line);
         const auto expanded = relief::cli::expand_names(words);
-        if (expanded.empty() || expanded.size() > 10000)
-            __builtin_trap();  // expand_names returns at least the arguments, and is bounded
+        if (expanded.empty())
+            __builtin_trap();  // expand_names returns at least the arguments
         relief::cli::Program p = relief::cli::parse_command_line(expanded.front(), false);
         (void)p;
     } catch (const relief::cli::UsageError& e) {

@@ -20,18 +20,15 @@
 
 namespace {
 
-// One file per process, rewritten for each input.
-const std::string& scratch(int format)
+// A new name for each input (removed after it): the image library caches
+// what it read by file name.
+std::string scratch(int format)
 {
     static const char* ext[] = {".png", ".exr", ".tif", ".tga"};
-    static std::string paths[4];
-    std::string& p = paths[format];
-    if (p.empty()) {
-        const char* dir = std::getenv("TMPDIR");
-        p = std::string(dir && *dir ? dir : "/tmp") + "/relief-fuzz-decode-" + std::to_string(::getpid()) +
-            ext[format];
-    }
-    return p;
+    static unsigned long count = 0;
+    const char* dir = std::getenv("TMPDIR");
+    return std::string(dir && *dir ? dir : "/tmp") + "/relief-fuzz-decode-" + std::to_string(::getpid()) + "-" +
+           std::to_string(count++) + ext[format];
 }
 
 } // namespace
@@ -40,7 +37,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
 {
     if (size == 0)
         return 0;
-    const std::string& path = scratch(data[0] % 4);
+    const std::string path = scratch(data[0] % 4);
     std::FILE* f = std::fopen(path.c_str(), "wb");
     if (!f)
         return 0;

@@ -12,6 +12,12 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 prefix=$tmp/prefix
 step() { echo "== $*"; }
+# A program that loads librelief, run with $RELIEF_HOST_PRELOAD preloaded
+# when set (the sanitizer build: ASan's runtime must come first in a
+# program not built with it, and cmake or cpack must not get it).
+run() {
+  if [ -n "${RELIEF_HOST_PRELOAD:-}" ]; then LD_PRELOAD=$RELIEF_HOST_PRELOAD "$@"; else "$@"; fi
+}
 
 step "cmake --install into $prefix"
 cmake --install "$build" --prefix "$prefix" >/dev/null
@@ -62,7 +68,7 @@ st=$(cd / && "$prefix/bin/relief-slurm" status "$tmp/sub/jobs.txt" --log-dir "$t
 echo "$st" | grep -F "2 job(s): 0 ok, 0 skipped, 0 failed, 2 missing" >/dev/null
 
 step "the same bytes as a binary PPM, for the C host"
-PYTHONPATH=$pyroot "$python" - "$normal" "$tmp/normal.ppm" <<'PY'
+PYTHONPATH=$pyroot run "$python" - "$normal" "$tmp/normal.ppm" <<'PY'
 import sys, relief
 n = relief.read(sys.argv[1])
 with open(sys.argv[2], "wb") as f:
@@ -78,12 +84,12 @@ cc -Wall -Wextra -Werror -DRELIEF_DLOPEN "$src/examples/plugin_host.c" $(pkg-con
 if readelf -d "$tmp/host_dlopen" | grep -q 'librelief'; then
   echo "host_dlopen must not link librelief"; exit 1
 fi
-"$tmp/host_linked" height normal=opengl:boundary=periodic "$tmp/normal.ppm" "$tmp/linked.pfm"
-"$tmp/host_dlopen" "$libdir/librelief.so.1" height normal=opengl:boundary=periodic "$tmp/normal.ppm" "$tmp/dlopen.pfm"
-"$tmp/host_dlopen" "$libdir/librelief.so.1" --list > "$tmp/table.json"
+run "$tmp/host_linked" height normal=opengl:boundary=periodic "$tmp/normal.ppm" "$tmp/linked.pfm"
+run "$tmp/host_dlopen" "$libdir/librelief.so.1" height normal=opengl:boundary=periodic "$tmp/normal.ppm" "$tmp/dlopen.pfm"
+run "$tmp/host_dlopen" "$libdir/librelief.so.1" --list > "$tmp/table.json"
 grep -q '"name": "correct"' "$tmp/table.json"
 for host in host_linked "host_dlopen $libdir/librelief.so.1"; do
-  if $tmp/$host height rays=-3 "$tmp/normal.ppm" "$tmp/refused.pfm" 2>"$tmp/err"; then
+  if run $tmp/$host height rays=-3 "$tmp/normal.ppm" "$tmp/refused.pfm" 2>"$tmp/err"; then
     echo "$host accepted rays=-3"; exit 1
   fi
   grep -q 'rays=-3 must be an integer' "$tmp/err"
@@ -92,17 +98,17 @@ done
 cc -Wall -Wextra -Werror "$src/tests/install/c_abi_checks.c" $(pkg-config --cflags --libs relief) -o "$tmp/abi_linked"
 cc -Wall -Wextra -Werror -DRELIEF_DLOPEN "$src/tests/install/c_abi_checks.c" $(pkg-config --cflags relief) \
    -ldl -o "$tmp/abi_dlopen"
-"$tmp/abi_linked"
-"$tmp/abi_dlopen" "$libdir/librelief.so.1"
+run "$tmp/abi_linked"
+run "$tmp/abi_dlopen" "$libdir/librelief.so.1"
 
 step "CMake: find_package(relief CONFIG REQUIRED) out of tree"
 cmake -S "$src/tests/install/consumer" -B "$tmp/consumer" -DCMAKE_PREFIX_PATH="$prefix" \
       -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build "$tmp/consumer" >/dev/null
-"$tmp/consumer/consumer" "$normal" "$tmp/cli_default.exr"
+run "$tmp/consumer/consumer" "$normal" "$tmp/cli_default.exr"
 
 step "Python from the prefix, and every door against the CLI"
-PYTHONPATH=$pyroot "$python" - "$normal" "$tmp" <<'PY'
+PYTHONPATH=$pyroot run "$python" - "$normal" "$tmp" <<'PY'
 import os, sys
 import numpy as np
 import relief
