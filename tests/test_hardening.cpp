@@ -276,7 +276,7 @@ TEST_CASE("hardening: a 16384^2 tiling map peaks under 24 bytes a texel and its 
 TEST_CASE("hardening: an axis too long for Bluestein's FFT is refused, clip rays walk instead", "[cli][errors]")
 {
     const fs::path dir = test::scratch("hardening/bluestein");
-    const int w = 3, h = 25013;  // prime
+    const int w = 40, h = 25013;  // prime; wide enough for clip's FFT interior at radius 8
     std::vector<float> px(std::size_t(w) * h * 3);
     for (std::size_t i = 0; i < px.size(); i += 3) {
         px[i] = 0.5f + 0.1f * float(std::sin(0.01 * double(i)));
