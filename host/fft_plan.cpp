@@ -2,6 +2,7 @@
 // plan time; it is confined to this file.
 #include "fft_plan.h"
 
+#include <array>
 #include <clocale>
 #include <cstring>
 #include <map>
@@ -282,6 +283,35 @@ void FftPlan::inverse(cl::Buffer& buffer)
         p.transpose_to(p.work, int(p.columns), int(p.n1), buffer);
     }
     p.rows->run(p.c.queue, buffer, 1);
+}
+
+float* read_real_result(ComputeContext::Impl& c, cl::Buffer& grid, cl::Buffer& spare, std::size_t stride,
+                        int w, int h, const std::function<float*()>& sink)
+{
+    const std::size_t n = std::size_t(w) * std::size_t(h);
+    if (w == 1) {  // one column: gathered out of the transform's row
+        cl::Kernel gather(c.program("poisson.cl"), "poisson_gather");
+        int a = 0;
+        gather.setArg(a++, grid);
+        gather.setArg(a++, cl_int(stride));
+        gather.setArg(a++, cl_int(h));  // n0: the transform ran along y
+        gather.setArg(a++, cl_int(1));  // n1
+        gather.setArg(a++, cl_int(w));
+        gather.setArg(a++, cl_int(1));  // transposed
+        gather.setArg(a++, spare);
+        c.queue.enqueueNDRangeKernel(gather, cl::NullRange, cl::NDRange(padded(n)), cl::NDRange(kGroupSize));
+        float* out = sink();
+        c.queue.enqueueReadBuffer(spare, CL_TRUE, 0, sizeof(float) * n, out);
+        return out;
+    }
+    // Rows out of the padded grid straight into the result.
+    spare = cl::Buffer();
+    float* out = sink();
+    const std::array<std::size_t, 3> origin{0, 0, 0};
+    const std::array<std::size_t, 3> region{sizeof(float) * std::size_t(w), std::size_t(h), 1};
+    c.queue.enqueueReadBufferRect(grid, CL_TRUE, origin, origin, region, sizeof(float) * stride, 0,
+                                  sizeof(float) * std::size_t(w), 0, out);
+    return out;
 }
 
 } // namespace relief::host

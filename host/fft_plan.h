@@ -16,6 +16,7 @@
 #include <CL/opencl.hpp>
 
 #include <cstddef>
+#include <functional>
 #include <memory>
 
 #include "opencl_context.h"
@@ -49,5 +50,13 @@ private:
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };
+
+// The real w x h result of an inverse transform, read out of `grid` (rows
+// `stride` floats apart) into the memory `sink` gives. A one-texel-wide map
+// (a 1-D transform along y, in one row) is gathered through `spare` (at
+// least w * h floats); otherwise `spare` is freed before `sink` is called.
+// The caller holds c.mutex.
+float* read_real_result(ComputeContext::Impl& c, cl::Buffer& grid, cl::Buffer& spare, std::size_t stride,
+                        int w, int h, const std::function<float*()>& sink);
 
 } // namespace relief::host

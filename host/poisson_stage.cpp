@@ -108,29 +108,7 @@ void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const Pois
         fft.reset();
         dct.reset();
 
-        if (transposed) {  // one column: gathered out of the transform's row
-            cl::Buffer& out = gy;  // no longer needed; at least n floats
-            cl::Kernel gather(prog, "poisson_gather");
-            a = 0;
-            gather.setArg(a++, gx);
-            gather.setArg(a++, cl_int(stride));
-            gather.setArg(a++, cl_int(n0));
-            gather.setArg(a++, cl_int(n1));
-            gather.setArg(a++, cl_int(w));
-            gather.setArg(a++, cl_int(transposed));
-            gather.setArg(a++, out);
-            c.queue.enqueueNDRangeKernel(gather, cl::NullRange, cl::NDRange(grid),
-                                         cl::NDRange(kGroupSize));
-            height_out = sink();
-            c.queue.enqueueReadBuffer(out, CL_TRUE, 0, sizeof(float) * n, height_out);
-        } else {  // rows out of the padded grid straight into the result
-            gy = cl::Buffer();
-            height_out = sink();
-            const std::array<std::size_t, 3> origin{0, 0, 0};
-            const std::array<std::size_t, 3> region{sizeof(float) * std::size_t(w), std::size_t(h), 1};
-            c.queue.enqueueReadBufferRect(gx, CL_TRUE, origin, origin, region, sizeof(float) * stride,
-                                          0, sizeof(float) * std::size_t(w), 0, height_out);
-        }
+        height_out = read_real_result(c, gx, gy, stride, w, h, sink);
     } catch (const cl::Error& e) {
         throw Error(std::string("OpenCL error in the Poisson stage: ") + e.what() + " (" +
                     std::to_string(e.err()) + ")");

@@ -301,7 +301,6 @@ void fft_ray_sums(ComputeContext::Impl& c, DeviceSlopes& slopes, bool consume, c
         value_x[t] = float(tap_x[t]);
         value_y[t] = float(tap_y[t]);
     }
-    float* height_out = nullptr;
     try {
         cl::Program& spectral = c.program("poisson.cl");  // split and gather
         cl::Program& prog = c.program("rays_fft.cl");
@@ -372,27 +371,7 @@ void fft_ray_sums(ComputeContext::Impl& c, DeviceSlopes& slopes, bool consume, c
         kernel_grid = cl::Buffer();
         plan.reset();
 
-        if (transposed) {  // one column: gathered out of the transform's row
-            cl::Kernel gather(spectral, "poisson_gather");
-            a = 0;
-            gather.setArg(a++, gx);
-            gather.setArg(a++, cl_int(stride));
-            gather.setArg(a++, cl_int(n0));
-            gather.setArg(a++, cl_int(n1));
-            gather.setArg(a++, cl_int(w));
-            gather.setArg(a++, cl_int(transposed));
-            gather.setArg(a++, gy);  // no longer needed; at least n floats
-            c.queue.enqueueNDRangeKernel(gather, cl::NullRange, cl::NDRange(padded(n)), local);
-            height_out = sink();
-            c.queue.enqueueReadBuffer(gy, CL_TRUE, 0, sizeof(float) * n, height_out);
-        } else {  // rows out of the padded grid straight into the result
-            gy = cl::Buffer();
-            height_out = sink();
-            const std::array<std::size_t, 3> origin{0, 0, 0};
-            const std::array<std::size_t, 3> region{sizeof(float) * std::size_t(w), std::size_t(h), 1};
-            c.queue.enqueueReadBufferRect(gx, CL_TRUE, origin, origin, region, sizeof(float) * stride,
-                                          0, sizeof(float) * std::size_t(w), 0, height_out);
-        }
+        read_real_result(c, gx, gy, stride, w, h, sink);
         if (progress)
             progress(1.0);
     } catch (const cl::Error& e) {
