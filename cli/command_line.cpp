@@ -152,6 +152,9 @@ Environment:
   RELIEF_DEVICE_MAX_ALLOC=BYTES  the largest device buffer to allocate (default
                         and upper bound: the device's own limit); larger
                         needs are refused with the numbers
+  RELIEF_MEMORY_LIMIT=SIZE  the most memory a map may need (bytes, or with
+                        K, M, G, T); maps and heights that need more, or more
+                        than the machine or device has, are refused first
   RELIEF_CACHE_DIR=DIR  where compiled kernels are kept between runs (default
                         $XDG_CACHE_HOME/relief or ~/.cache/relief; off: none)
 Examples:
