@@ -20,7 +20,6 @@ public:
     int width() const { return width_; }
     int height() const { return height_; }
     Impl& impl() const { return *impl_; }
-    bool empty() const { return !impl_; }
     // Lets go of the device buffer (freed once no queued work uses it).
     void release() { impl_.reset(); }
 
