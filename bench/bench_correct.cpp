@@ -1,4 +1,4 @@
-// Distortion correction benchmark (DESIGN.md §4.5; not run by ctest):
+// Distortion correction benchmark (docs/design.md §4.5; not run by ctest):
 //  - iterations per second per megatexel (single resolution, no skipping);
 //  - time to get within 1% of the converged energy (99% of the achievable
 //    energy decrease: E <= E* + 0.01 (E0 - E*), E* = the coarse-to-fine
@@ -151,7 +151,7 @@ struct Scored {
 // The total energy of an offset map (centre nodes, texture units; each
 // node's two owned triangles [p, p+(1,0), p+(1,-1)] and [p, p+(1,-1),
 // p+(0,-1)], wrapping when periodic, else only those inside the map), in
-// double, written here from DESIGN.md §4.5 and independent of the library:
+// double, written here from docs/design.md §4.5 and independent of the library:
 // E = Q/(4 A3 Auv) ((A3^2 + Auv^2)/(A3 Auv))^theta.
 Scored score(const std::vector<float>& h, int w, int ht, const std::vector<float>& off, double scale,
              double theta, bool periodic)

@@ -1,4 +1,4 @@
-// Run time against error for every integration method (issue 3, DESIGN §5).
+// Run time against error for every integration method (issue 3, docs/design.md §5).
 //
 //   bench_height [--sizes 512,1024,2048,4096] [--runs 3] [--budget 120]
 //                [--out bench-results] [--no-real] [--only METHOD]
@@ -10,7 +10,7 @@
 //   rays     RMSE against h - mean_disk_R(h) (exact via Bessel J1), / std
 //   poisson  RMSE against h - mean(h), / std; highpass against the filtered h
 // With ../shared/data present, the real normal/height pairs there are run
-// too and scored by NRMSE after the best affine fit (DESIGN §5).
+// too and scored by NRMSE after the best affine fit (docs/design.md §5).
 // Reference-kernel runs predicted to take longer than --budget seconds are
 // listed as skipped. Writes results.csv, results.md and plot.gp (gnuplot:
 // run time against error, log axes, one curve per method) into --out.

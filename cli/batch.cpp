@@ -6,14 +6,20 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <system_error>
 
 #include "command_line.h"
+#include "relief/imageio.h"
 
 namespace relief::cli {
 
 std::vector<std::string> split_words(const std::string& line)
 {
+    // A NUL would cut a name short at the system call (PNG bytes once went
+    // into "nul.exr" from `-o nul.exr<NUL>.png`).
+    if (line.find('\0') != std::string::npos)
+        throw UsageError("the line holds a NUL byte, which no file name can");
     std::vector<std::string> words;
     std::string word;
     bool in_word = false;
@@ -62,6 +68,8 @@ std::vector<std::string> split_words(const std::string& line)
 
 std::vector<Job> read_jobs(const std::string& path)
 {
+    if (std::string why = relief::input_file_problem(path); !why.empty() && why != "the file is empty")
+        throw UsageError("--batch " + path + ": " + (why == "no such file" ? "cannot read it: " + why : why));
     std::ifstream in(path);
     if (!in)
         throw UsageError("--batch " + path + ": cannot read it");
@@ -146,9 +154,16 @@ std::string padded_frame(int frame, std::size_t width)
 // says whether it had any.
 std::string with_frame(const std::string& arg, int frame, bool& found)
 {
-    std::string out;
-    for (std::size_t i = 0; i < arg.size();) {
+    // Only the file-name part: a folder "shots/#12" or "/mnt/a@b" is kept.
+    const std::size_t slash = arg.rfind('/');
+    std::string out = slash == std::string::npos ? std::string() : arg.substr(0, slash + 1);
+    for (std::size_t i = out.size(); i < arg.size();) {
         const char c = arg[i];
+        if (c == '%' && i + 1 < arg.size() && (arg[i + 1] == '#' || arg[i + 1] == '@')) {
+            out += arg[i + 1];  // %# and %@: a literal # or @
+            i += 2;
+            continue;
+        }
         if (c == '#' || c == '@') {
             std::size_t n = 0;
             while (i + n < arg.size() && arg[i + n] == c)
@@ -198,9 +213,105 @@ bool is_input(const std::vector<std::string>& args, std::size_t i)
     return i == 0 || std::find(takes_value.begin(), takes_value.end(), args[i - 1]) == takes_value.end();
 }
 
+constexpr std::size_t kMaxExpandedBytes = std::size_t(64) << 20;  // 100000 frames of 670 bytes
+
+// The UDIM tiles (1001-1999) that exist for a name holding <UDIM>. A line
+// with --frames asks once per frame: each folder is listed once and its
+// names matched against the pattern, where 999 existence checks per frame
+// took minutes for 100000 frames.
+class TileFinder {
+public:
+    std::vector<int> tiles(const std::string& pattern)
+    {
+        const std::size_t slash = pattern.rfind('/');
+        const std::string folder_pattern = slash == std::string::npos ? "" : pattern.substr(0, slash + 1);
+        const std::string name_pattern = pattern.substr(folder_pattern.size());
+        std::vector<std::string> pieces;  // the name around its tokens
+        for (std::size_t from = 0;;) {
+            const std::size_t at = name_pattern.find(kToken, from);
+            pieces.push_back(name_pattern.substr(from, at - from));
+            if (at == std::string::npos)
+                break;
+            from = at + kToken.size();
+        }
+        std::vector<int> found;
+        for (const auto& [folder_tile, folder] : folders(folder_pattern)) {
+            if (pieces.size() == 1) {  // the token is in the folder only
+                std::error_code ec;
+                if (std::filesystem::exists(folder + name_pattern, ec))
+                    found.push_back(folder_tile);
+                continue;
+            }
+            std::size_t length = 4 * (pieces.size() - 1);
+            for (const std::string& p : pieces)
+                length += p.size();
+            const std::vector<std::string>& names = listing(folder);
+            for (auto it = std::lower_bound(names.begin(), names.end(), pieces[0]);
+                 it != names.end() && it->compare(0, pieces[0].size(), pieces[0]) == 0; ++it) {
+                const std::string& name = *it;
+                int tile = 0;
+                const char* digits = name.data() + pieces[0].size();
+                if (name.size() != length ||
+                    std::from_chars(digits, digits + 4, tile).ptr != digits + 4 || tile < 1001 || tile > 1999 ||
+                    (folder_tile != 0 && tile != folder_tile) || with_udim(name_pattern, tile) != name)
+                    continue;
+                std::error_code ec;  // (a dangling link is listed but does not exist)
+                if (std::filesystem::exists(folder + name, ec))
+                    found.push_back(tile);
+            }
+        }
+        std::sort(found.begin(), found.end());
+        found.erase(std::unique(found.begin(), found.end()), found.end());
+        return found;
+    }
+
+private:
+    static inline const std::string kToken = "<UDIM>";
+
+    // (tile, folder) for each folder the pattern names: tile 0 and the
+    // folder itself when it holds no token.
+    const std::vector<std::pair<int, std::string>>& folders(const std::string& pattern)
+    {
+        auto [it, added] = folders_.try_emplace(pattern);
+        if (added) {
+            if (pattern.find(kToken) == std::string::npos) {
+                it->second.emplace_back(0, pattern);
+            } else {
+                for (int t = 1001; t <= 1999; ++t) {
+                    std::error_code ec;
+                    if (std::filesystem::is_directory(with_udim(pattern, t), ec))
+                        it->second.emplace_back(t, with_udim(pattern, t));
+                }
+            }
+        }
+        return it->second;
+    }
+
+    // The names in `folder` ("" = the working folder), sorted; none where
+    // it cannot be read.
+    const std::vector<std::string>& listing(const std::string& folder)
+    {
+        auto [it, added] = listings_.try_emplace(folder);
+        if (added) {
+            std::error_code ec;
+            for (std::filesystem::directory_iterator d(folder.empty() ? "." : folder, ec), end; !ec && d != end;
+                 d.increment(ec))
+                it->second.push_back(d->path().filename().string());
+            std::sort(it->second.begin(), it->second.end());
+        }
+        return it->second;
+    }
+
+    std::map<std::string, std::vector<std::pair<int, std::string>>> folders_;
+    std::map<std::string, std::vector<std::string>> listings_;
+};
+
 // One argument list per UDIM tile of `args` (frames already substituted),
-// or `args` alone when no argument holds <UDIM>.
-std::vector<std::vector<std::string>> expand_udim(const std::vector<std::string>& args)
+// or `args` alone when no argument holds <UDIM>. Where there is none, says
+// why in `error` and returns nothing (a line of many frames meets this once
+// a frame: no exception there).
+std::vector<std::vector<std::string>> expand_udim(const std::vector<std::string>& args, TileFinder& finder,
+                                                  std::string& error)
 {
     bool udim = false;
     std::vector<int> tiles;
@@ -210,18 +321,19 @@ std::vector<std::vector<std::string>> expand_udim(const std::vector<std::string>
         udim = true;
         if (!is_input(args, i))
             continue;
-        std::error_code ec;
-        for (int t = 1001; t <= 1999; ++t)
-            if (std::filesystem::exists(with_udim(args[i], t), ec))
-                tiles.push_back(t);
-        if (tiles.empty())
-            throw UsageError("no UDIM tile (1001-1999) exists for '" + args[i] + "'");
+        tiles = finder.tiles(args[i]);
+        if (tiles.empty()) {
+            error = "no UDIM tile (1001-1999) exists for '" + args[i] + "'";
+            return {};
+        }
         break;
     }
     if (!udim)
         return {args};
-    if (tiles.empty())
-        throw UsageError("<UDIM> in an output needs an input file name holding <UDIM> (its tiles are the ones made)");
+    if (tiles.empty()) {
+        error = "<UDIM> in an output needs an input file name holding <UDIM> (its tiles are the ones made)";
+        return {};
+    }
     std::vector<std::vector<std::string>> jobs;
     for (const int tile : tiles) {
         jobs.push_back(args);
@@ -237,7 +349,19 @@ std::vector<std::vector<std::string>> expand_names(const std::vector<std::string
 {
     std::vector<std::string> args;
     std::vector<int> frames;
-    bool frames_given = false;
+    bool frames_given = std::find(given.begin(), given.end(), "--frames") != given.end();
+    // The manifest and the log are one file for the whole run: a token in
+    // them would silently name only the first tile's or frame's.
+    for (std::size_t i = 0; i + 1 < given.size(); ++i)
+        if (given[i] == "--batch" || given[i] == "--log") {
+            bool frame_token = false;
+            with_frame(given[i + 1], 0, frame_token);
+            if (given[i + 1].find("<UDIM>") != std::string::npos || (frames_given && frame_token))
+                throw UsageError(given[i] + " " + given[i + 1] +
+                                 ": names one file for the whole run; <UDIM> and frame tokens are not expanded "
+                                 "there (with --frames, write %# or %@ for a literal # or @)");
+        }
+    frames_given = false;
     for (std::size_t i = 0; i < given.size(); ++i) {
         if (given[i] == "--frames") {
             if (frames_given)
@@ -250,10 +374,17 @@ std::vector<std::vector<std::string>> expand_names(const std::vector<std::string
             args.push_back(given[i]);
         }
     }
-    if (!frames_given)
-        return expand_udim(args);
+    TileFinder finder;
+    std::string error;
+    if (!frames_given) {
+        auto jobs = expand_udim(args, finder, error);
+        if (!error.empty())
+            throw UsageError(error);
+        return jobs;
+    }
     // Frames outer, tiles inner: each frame's tiles are those that exist for it.
     std::vector<std::vector<std::string>> jobs;
+    std::size_t held = 0;
     bool found = false;
     for (const int f : frames) {
         std::vector<std::string> framed = args;
@@ -261,35 +392,29 @@ std::vector<std::vector<std::string>> expand_names(const std::vector<std::string
             a = with_frame(a, f, found);
         if (!found)
             throw UsageError("--frames: no argument holds a frame token (#, @, %04d)");
-        try {
-            for (auto& job : expand_udim(framed))
-                jobs.push_back(std::move(job));
-        } catch (const UsageError&) {
-            jobs.push_back(framed);  // a frame without tiles: its job fails alone, naming the file
+        auto tiles = expand_udim(framed, finder, error);
+        if (tiles.empty())  // a frame without tiles: its job fails alone, naming the file
+            tiles.push_back(std::move(framed));
+        for (auto& job : tiles) {
+            // The jobs are held in memory at once: 100000 frames of a 64 KiB
+            // line would be 6 GiB.
+            for (const std::string& a : job)
+                held += a.size() + sizeof(std::string);
+            if (held > kMaxExpandedBytes)
+                throw UsageError("--frames: the jobs of this line's " + std::to_string(frames.size()) +
+                                 " frames hold more than " + std::to_string(kMaxExpandedBytes >> 20) +
+                                 " MiB of arguments (fewer frames or tiles per line)");
+            jobs.push_back(std::move(job));
         }
     }
     return jobs;
-}
-
-std::pair<int, int> parse_shard(const std::string& text)
-{
-    const std::size_t slash = text.find('/');
-    int i = -1, n = 0;
-    const char* end = text.data() + text.size();
-    const bool ok = slash != std::string::npos &&
-                    std::from_chars(text.data(), text.data() + slash, i).ptr == text.data() + slash &&
-                    slash + 1 < text.size() &&
-                    std::from_chars(text.data() + slash + 1, end, n).ptr == end;
-    if (!ok || n < 1 || i < 0 || i >= n)
-        throw UsageError("--shard " + text + ": write I/N with 0 <= I < N (e.g. 0/4)");
-    return {i, n};
 }
 
 std::vector<Job> shard_of(const std::vector<Job>& jobs, int index, int count)
 {
     std::vector<Job> mine;
     for (const Job& j : jobs)
-        if (j.index % count == index)
+        if ((j.shard_key >= 0 ? j.shard_key : j.index) % count == index)
             mine.push_back(j);
     return mine;
 }

@@ -12,6 +12,7 @@ struct Job {
     int line = 0;                   // in the manifest, from 1
     std::vector<std::string> args;  // the line's words (names expanded, see expand_names)
     std::string error;              // why the line could not be expanded (the job fails alone)
+    int shard_key = -1;             // what --shard counts when not `index`: a chain's first job
 };
 
 // oiiotool-style names. In every argument, <UDIM> stands for each UDIM tile
@@ -39,11 +40,9 @@ std::vector<std::string> split_words(const std::string& line);
 // cannot be expanded becomes one job carrying the error.
 std::vector<Job> read_jobs(const std::string& path);
 
-// --shard I/N: "I/N" -> (I, N) with 0 <= I < N. Throws UsageError.
-std::pair<int, int> parse_shard(const std::string& text);
-
-// The jobs of shard I of N: those whose index is congruent to I mod N, in
-// manifest order.
+// The jobs of shard I of N: those whose index (or shard_key, where set: a
+// chain of jobs reading each other's outputs goes with its first job) is
+// congruent to I mod N, in manifest order.
 std::vector<Job> shard_of(const std::vector<Job>& jobs, int index, int count);
 
 // A JSON string literal.

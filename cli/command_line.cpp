@@ -1,10 +1,13 @@
 #include "command_line.h"
 
+#include <algorithm>
+#include <charconv>
 #include <cstdio>
 #include <filesystem>
 #include <tuple>
+#include <utility>
 
-#include "batch.h"
+#include "relief/output_files.h"
 
 namespace relief::cli {
 
@@ -119,8 +122,10 @@ Arguments are read left to right over a stack of images, like oiiotool:
                         input normals and the height's, residual share); for
                         --correct energy, iterations, anisotropy and area
                         ratio before/after; times. Written when the job ends
-  --device DEV          auto (default: a GPU if any, else the CPU), gpu, cpu,
-                        or PLATFORM:DEVICE as --list-devices numbers them
+  --device DEV          auto (default: $RELIEF_DEVICE if set, else the best
+                        device: a hardware GPU, then a CPU, then others,
+                        simulators last; fp64 and more memory first), gpu,
+                        cpu, or PLATFORM:DEVICE as --list-devices numbers them
   --list-devices        list the OpenCL devices and exit
   --batch JOBS.txt      run the file's jobs in this process, one relief
                         command line per line (shell-like quoting, no
@@ -130,21 +135,27 @@ Arguments are read left to right over a stack of images, like oiiotool:
                         end); -v and --device apply to every job
   --shard I/N           with --batch: only the jobs whose index (from 0, in
                         file order) is I modulo N, so N processes share a file
-  --log FILE.jsonl      one JSON object per job: job, line, args, inputs,
-                        outputs, status (ok|skipped|failed), seconds, message
+  --log FILE.jsonl      append one JSON object per job: job, line, args,
+                        inputs, outputs, status (ok|skipped|failed), seconds,
+                        message; whole lines, so batches may share a log
   --update              make-like: skip a job whose outputs all exist and
                         record the digest it would write (relief:digest, a
                         hash of its input files' bytes, every operation and
                         modifier, and relief's kernels); only headers are read
   --dry-run             list the jobs as --log lines on stdout (status
                         pending, or skipped where --update would skip), run none
-  --frames A-B[,C-D...] run once per frame: in every argument # alone is the
+  --frames A-B[,C-D...] run once per frame: in every file name # alone is the
                         frame number in 4 digits, a run of # or @ one digit
-                        each (@@@ = 3 digits), %04d as printf
+                        each (@@@ = 3 digits), %04d as printf; %# and %@ are
+                        a literal # and @; folder names are kept as they are
 Names: <UDIM> in an argument runs once per UDIM tile (1001-1999) that exists
 for the first input file name holding it, e.g.
   relief 'in/n.<UDIM>.png' --height -o 'out/h.<UDIM>.exr'
 Such runs, and --batch, share one device context and report per job.
+Files: a run that would write over a file it reads (or write one file twice)
+is refused before any work; an image over its own input is allowed. Outputs
+are written to a hidden temporary file and renamed when whole; SIGTERM and
+SIGINT remove it (exit 128+signal).
   -v                    say what was chosen (device, convention), progress,
                         times, and the image libraries' own diagnostics
   --help, --version
@@ -157,6 +168,11 @@ Environment:
                         than the machine or device has, are refused first
   RELIEF_CACHE_DIR=DIR  where compiled kernels are kept between runs (default
                         $XDG_CACHE_HOME/relief or ~/.cache/relief; off: none)
+  RELIEF_DEVICE=DEV     what --device auto means (gpu, cpu, PLATFORM:DEVICE)
+  RELIEF_FP64=auto|on|off  double accumulations where the device has fp64
+                        (auto), required (on), or the float paths (off)
+  RELIEF_MAX_WORK_GROUP_SIZE=N, RELIEF_LOCAL_MEM_SIZE=SIZE  lower the device's
+                        launch limits (to run as a smaller GPU would)
 Examples:
   relief normal.png --height -o height.exr
   relief height.png --correct:scale=0.05:nodes=center -o offsets.exr
@@ -202,6 +218,8 @@ std::string text_output(const std::string& option, const std::string& path)
     if (path.empty() || fs::is_directory(path, ec) ||
         !fs::is_directory(folder.empty() ? fs::path(".") : folder, ec))
         throw UsageError(option + " " + path + ": not a writable file path (its folder must exist)");
+    if (const std::string why = relief::output_name_problem(path); !why.empty())
+        throw UsageError(option + " " + why);
     return path;
 }
 
@@ -258,9 +276,9 @@ Program parse_command_line(const std::vector<std::string>& args, bool check_inpu
             prog.report = text_output(a, value_of(i));
         } else if (a == "--batch") {
             prog.batch = value_of(i);
-            std::error_code ec;
-            if (!fs::is_regular_file(prog.batch, ec))
-                throw UsageError("--batch " + prog.batch + ": no such file");
+            if (const std::string why = relief::input_file_problem(prog.batch);
+                !why.empty() && why != "the file is empty")
+                throw UsageError("--batch " + prog.batch + ": " + why);
         } else if (a == "--log") {
             prog.log = text_output(a, value_of(i));
         } else if (a == "--shard") {
@@ -297,9 +315,10 @@ Program parse_command_line(const std::vector<std::string>& args, bool check_inpu
         } else if (!a.empty() && a[0] == '-' && a != "-") {
             throw UsageError("unknown option '" + a + "' (see relief --help)");
         } else {
-            std::error_code ec;
-            if (check_inputs && !fs::exists(a, ec))
-                throw UsageError("cannot read '" + a + "': no such file");
+            // Empty files are the read's to refuse, with the other damage.
+            if (const std::string why = check_inputs ? relief::input_file_problem(a) : std::string();
+                !why.empty() && why != "the file is empty")
+                throw UsageError("cannot read '" + a + "': " + why);
             prog.steps.push_back(make_step(Step::Kind::Read, a, a));
             ++depth;
         }
@@ -311,15 +330,25 @@ Program parse_command_line(const std::vector<std::string>& args, bool check_inpu
         throw UsageError("--shard takes a share of --batch's jobs; give --batch JOBS.txt");
     if (!prog.batch.empty() && !prog.report.empty())
         throw UsageError("--report names one file: give it in the job's line of the --batch file");
-    // The report holds one object per reporting operation, keyed by its name.
-    int heights = 0, corrections = 0;
-    for (const Step& s : prog.steps) {
-        heights += s.kind == Step::Kind::Operation && s.operation == "height";
-        corrections += s.kind == Step::Kind::Operation && s.operation == "correct";
+    // The report holds one object per reporting operation (OperationInfo::
+    // report), keyed by its name.
+    if (!prog.report.empty()) {
+        std::string names, counts;
+        int total = 0, most = 0;
+        for (const OperationInfo& op : operations()) {
+            if (op.report.empty())
+                continue;
+            int n = 0;
+            for (const Step& s : prog.steps)
+                n += s.kind == Step::Kind::Operation && s.operation == op.name;
+            total += n;
+            most = std::max(most, n);
+            names += (names.empty() ? "--" : " or --") + op.name;
+            counts += (counts.empty() ? "" : " and ") + std::to_string(n) + " --" + op.name;
+        }
+        if (total == 0 || most > 1)
+            throw UsageError("--report needs one " + names + ", at most one of each; there are " + counts);
     }
-    if (!prog.report.empty() && (heights + corrections == 0 || heights > 1 || corrections > 1))
-        throw UsageError("--report needs one --height or --correct, at most one of each; there are " +
-                         std::to_string(heights) + " --height and " + std::to_string(corrections) + " --correct");
     for (Step& s : prog.steps) {
         s.correct.exec.device = prog.device;
         s.bake.exec.device = prog.device;
@@ -329,6 +358,20 @@ Program parse_command_line(const std::vector<std::string>& args, bool check_inpu
         s.tessellation.exec.device = prog.device;
     }
     return prog;
+}
+
+std::pair<int, int> parse_shard(const std::string& text)
+{
+    const std::size_t slash = text.find('/');
+    int i = -1, n = 0;
+    const char* end = text.data() + text.size();
+    const bool ok = slash != std::string::npos &&
+                    std::from_chars(text.data(), text.data() + slash, i).ptr == text.data() + slash &&
+                    slash + 1 < text.size() &&
+                    std::from_chars(text.data() + slash + 1, end, n).ptr == end;
+    if (!ok || n < 1 || i < 0 || i >= n)
+        throw UsageError("--shard " + text + ": write I/N with 0 <= I < N (e.g. 0/4)");
+    return {i, n};
 }
 
 } // namespace relief::cli

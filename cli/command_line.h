@@ -46,6 +46,9 @@ struct Program {
     std::string label;           // set by --batch: "job 3: ", before each message
 };
 
+// --shard I/N: "I/N" -> (I, N) with 0 <= I < N. Throws UsageError.
+std::pair<int, int> parse_shard(const std::string& text);
+
 // Throws UsageError with a one-line explanation. `check_inputs` false: an
 // input file need not exist yet (the options of a command line whose tiles
 // or frames are each parsed, and checked, as jobs of their own).

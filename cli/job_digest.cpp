@@ -2,6 +2,8 @@
 
 #include <xxhash.h>
 
+#include "relief/imageio.h"
+
 #include <cstdio>
 #include <memory>
 #include <stdexcept>
@@ -25,6 +27,8 @@ public:
 
     void file(const std::string& path)
     {
+        if (const std::string why = relief::input_file_problem(path); !why.empty())
+            throw std::runtime_error("cannot read '" + path + "': " + why);
         std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), std::fclose);
         if (!f)
             throw std::runtime_error("cannot read '" + path + "'");

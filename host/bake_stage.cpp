@@ -45,8 +45,7 @@ void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch,
                     plane[i] = src[i * nch + ch];
             c.queue.enqueueWriteBuffer(in, CL_TRUE, 0, sizeof(float) * values,
                                        planar ? plane.data() : src);
-            c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(n)),
-                                         cl::NDRange(kGroupSize));
+            c.launch(k, n);
             c.queue.enqueueReadBuffer(out, CL_TRUE, 0, sizeof(float) * values,
                                       planar ? plane.data() : dst);
             if (planar)
@@ -54,8 +53,7 @@ void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch,
                     dst[i * nch + ch] = plane[i];
         }
     } catch (const cl::Error& e) {
-        throw Error(std::string("OpenCL error in the bake stage: ") + e.what() + " (" +
-                    std::to_string(e.err()) + ")");
+        throw opencl_error("bake", e);
     }
 }
 

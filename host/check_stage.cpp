@@ -18,12 +18,6 @@ std::size_t texels(int w, int ht)
     return std::size_t(w) * std::size_t(ht);
 }
 
-Error opencl_error(const cl::Error& e)
-{
-    return Error(std::string("OpenCL error in the check stage: ") + e.what() + " (" +
-                 std::to_string(e.err()) + ")");
-}
-
 } // namespace
 
 void height_normals(ComputeContext& ctx, const float* h, int w, int ht, bool periodic, float scale,
@@ -44,10 +38,10 @@ void height_normals(ComputeContext& ctx, const float* h, int w, int ht, bool per
         k.setArg(4, cl_float(scale));
         k.setArg(5, cl_float(directx ? 1.0f : -1.0f));
         k.setArg(6, normals);
-        c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(n)), cl::NDRange(kGroupSize));
+        c.launch(k, n);
         c.queue.enqueueReadBuffer(normals, CL_TRUE, 0, 3 * sizeof(float) * n, out);
     } catch (const cl::Error& e) {
-        throw opencl_error(e);
+        throw opencl_error("check", e);
     }
 }
 
@@ -73,11 +67,11 @@ RoundTrip round_trip(ComputeContext& ctx, const DeviceSlopes& slopes, const floa
             k.setArg(4, cl_int(periodic));
             k.setArg(5, a);
             k.setArg(6, r);
-            c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(n)), cl::NDRange(kGroupSize));
+            c.launch(k, n);
             c.queue.enqueueReadBuffer(a, CL_TRUE, 0, sizeof(float) * n, angle.data());
             c.queue.enqueueReadBuffer(r, CL_TRUE, 0, 2 * sizeof(float) * n, residual.data());
         } catch (const cl::Error& e) {
-            throw opencl_error(e);
+            throw opencl_error("check", e);
         }
     }
     RoundTrip t;
@@ -109,14 +103,25 @@ std::vector<std::uint8_t> tessellation_levels(ComputeContext& ctx, const float* 
     const int px = (w + patch - 1) / patch, py = (ht + patch - 1) / patch;
     // At most w x h patches, which texels() keeps under 2^31 for the kernel.
     const std::size_t patches = std::size_t(px) * std::size_t(py);
-    const bool per_patch = launch == TessellationLaunch::PerPatch ||
-                           (launch == TessellationLaunch::Auto && patches >= kPatchesForPerPatch);
+    // A work-item's loops: per patch, the flat test and up to every level
+    // (each a pass over the patch's rows and texels); per level, one of them.
+    auto& c = ctx.impl();
+    std::lock_guard<std::mutex> lock(c.mutex);
+    const std::uint64_t pass = std::uint64_t(patch) * std::uint64_t(patch) + std::uint64_t(patch);
+    const bool patch_fits = c.loops_fit(pass * std::uint64_t(kMaxTessellationLevel + 1));
+    if (!c.loops_fit(2 * pass))
+        throw Error("tessellation patches of " + std::to_string(patch) + " texels need " +
+                    std::to_string(2 * pass) + " loop iterations per work-item, more than this "
+                    "device lets a work-item loop (it stops loops after " +
+                    std::to_string(c.loop_limit()) + " iterations, as Mesa's llvmpipe does); use a "
+                    "smaller patch or another OpenCL device");
+    // Per patch only where the device lets its work-items loop that long.
+    const bool per_patch = patch_fits && (launch == TessellationLaunch::PerPatch ||
+                                          (launch == TessellationLaunch::Auto && patches >= kPatchesForPerPatch));
     // Few patches: 64 work-items each (patches x 64 stays far below 2^31).
     const std::size_t items = per_patch ? patches : patches * kMaxTessellationLevel;
     std::vector<std::uint8_t> out_bytes(items);
-    auto& c = ctx.impl();
     {
-        std::lock_guard<std::mutex> lock(c.mutex);
         try {
             cl::Buffer in = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n,
                                      "the tessellation levels", h);
@@ -131,10 +136,10 @@ std::vector<std::uint8_t> tessellation_levels(ComputeContext& ctx, const float* 
             k.setArg(6, cl_int(px));
             k.setArg(7, cl_int(patches));
             k.setArg(8, out);
-            c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(items)), cl::NDRange(kGroupSize));
+            c.launch(k, items);
             c.queue.enqueueReadBuffer(out, CL_TRUE, 0, items, out_bytes.data());
         } catch (const cl::Error& e) {
-            throw opencl_error(e);
+            throw opencl_error("check", e);
         }
     }
     if (per_patch)

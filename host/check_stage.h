@@ -1,5 +1,5 @@
 #pragma once
-// Checking a result (DESIGN.md §9, kernels/check.cl): a height's normals,
+// Checking a result (docs/design.md §9, kernels/check.cl): a height's normals,
 // its round trip against the slopes it came from, tessellation levels.
 #include <cstddef>
 #include <cstdint>
@@ -33,7 +33,11 @@ constexpr int kMaxTessellationLevel = 64;
 // How tessellation_levels() spreads the work: one work-item per patch
 // (scanning the levels upward), or one per patch and level. Auto: per
 // patch when there are at least kPatchesForPerPatch patches (enough to fill
-// a device), else per patch and level. Both give the same levels.
+// a device), else per patch and level. Both give the same levels. Per
+// patch is taken only where the device lets a work-item loop over every
+// level (ComputeContext::Impl::loops_fit; not on Mesa's llvmpipe beyond
+// 31-texel patches); patches too large for even one level there are
+// refused.
 enum class TessellationLaunch { Auto, PerPatch, PerLevel };
 constexpr std::size_t kPatchesForPerPatch = 4096;
 

@@ -1,5 +1,5 @@
 #pragma once
-// The node grids of distortion correction (DESIGN.md §4.5) and the plain CPU
+// The node grids of distortion correction (docs/design.md §4.5) and the plain CPU
 // operations between them: node heights from texel heights, the
 // coarse-to-fine pyramid (area downsampling, offset upsampling) and the
 // per-texel offsets that are the stage's output. No OpenCL here.

@@ -1,5 +1,5 @@
 #pragma once
-// Stage 3, distortion correction (DESIGN.md §4.5): a height map -> per-texel
+// Stage 3, distortion correction (docs/design.md §4.5): a height map -> per-texel
 // texture-coordinate offsets, by per-node descent with a line search (Brent's,
 // golden-section or ternary) and over-relaxation (kernels/correct.cl), coarse
 // to fine.

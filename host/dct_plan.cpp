@@ -34,14 +34,13 @@ DctPlan::DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1)
 
 void DctPlan::launch(cl::Kernel& kernel, std::size_t items)
 {
-    c_.queue.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(padded(items)),
-                                  cl::NDRange(kGroupSize));
+    c_.launch(kernel, items);
 }
 
 void DctPlan::forward(cl::Buffer& buffer)
 {
     reorder_.setArg(0, buffer);
-    launch(reorder_, n0_ * n1_);
+    launch(reorder_, FftPlan::row_stride(n0_) * n1_);
     fft_->forward(work_);
     post_.setArg(3, buffer);
     launch(post_, n0_ * n1_);

@@ -1,4 +1,5 @@
 #include "memory_budget.h"
+#include "environment.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -21,27 +22,10 @@ namespace {
 
 constexpr Bytes kUnlimited = std::numeric_limits<Bytes>::max();
 
-// "<n>", "<n>K", "<n>M", "<n>G", "<n>T" (powers of 1024); 0 when unset.
+// RELIEF_MEMORY_LIMIT, or 0 when unset.
 Bytes limit_from_environment()
 {
-    const char* text = std::getenv("RELIEF_MEMORY_LIMIT");
-    if (!text || !*text)
-        return 0;
-    char* end = nullptr;
-    errno = 0;
-    const double v = std::strtod(text, &end);
-    Bytes scale = 1;
-    switch (*end) {
-    case 'k': case 'K': scale = Bytes(1) << 10; ++end; break;
-    case 'm': case 'M': scale = Bytes(1) << 20; ++end; break;
-    case 'g': case 'G': scale = Bytes(1) << 30; ++end; break;
-    case 't': case 'T': scale = Bytes(1) << 40; ++end; break;
-    default: break;
-    }
-    if (end == text || *end || errno || !(v > 0) || v * double(scale) > 1e18)
-        throw Error(std::string("RELIEF_MEMORY_LIMIT must be a size in bytes > 0 (suffix K, M, G "
-                                "or T allowed), not '") + text + "'");
-    return Bytes(v * double(scale));
+    return size_from_environment("RELIEF_MEMORY_LIMIT");
 }
 
 // MemAvailable from /proc/meminfo (kB), else the free pages.

@@ -1,5 +1,7 @@
 #include "plan_cache.h"
 
+#include "poisson_stage.h"
+
 #include "setup_times.h"
 
 namespace relief::host {

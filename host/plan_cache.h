@@ -4,7 +4,7 @@
 // a loop) does not plan again: planning costs VkFFT a kernel build each
 // time, more than the whole transform of a 512^2 map. Small plans only
 // (their buffers stay allocated); the least recently used go first.
-// Thread-safe: prepare_height() fills it on a thread of its own while a
+// Thread-safe: prepare_height() (poisson_stage.h) fills it on a thread of its own while a
 // stage may be running. Included only by host/*.cpp.
 #include <CL/opencl.hpp>
 
@@ -55,11 +55,5 @@ private:
     mutable std::recursive_mutex mutex_;
     std::list<Entry> entries_;  // most recently used first
 };
-
-// Builds ahead what a Poisson height of width x height will need (relief's
-// kernels for it, and the FFT and DCT plans of that size), so that a front
-// end can overlap it with reading the map. Errors are left for the height
-// itself to meet and report.
-void prepare_height(ComputeContext& ctx, int width, int height);
 
 } // namespace relief::host

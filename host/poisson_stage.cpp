@@ -60,7 +60,6 @@ void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const Pois
         cl::Program& prog = c.program("poisson.cl");
         cl::Buffer gx = c.buffer(CL_MEM_READ_WRITE, bytes, "the Poisson stage");
         cl::Buffer gy = c.buffer(CL_MEM_READ_WRITE, bytes, "the Poisson stage");
-        const std::size_t grid = padded(std::size_t(n0) * n1);
 
         cl::Kernel split(prog, "poisson_split");
         int a = 0;
@@ -73,8 +72,7 @@ void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const Pois
         split.setArg(a++, cl_int(!periodic));
         split.setArg(a++, gx);
         split.setArg(a++, gy);
-        c.queue.enqueueNDRangeKernel(split, cl::NullRange, cl::NDRange(grid),
-                                     cl::NDRange(kGroupSize));
+        c.launch(split, stride * std::size_t(n1));
         if (consume) {
             split = cl::Kernel();  // the kernel holds its arguments too
             slopes.release();      // freed once the split has run
@@ -97,9 +95,7 @@ void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const Pois
         divide.setArg(2, cl_int(n0));
         divide.setArg(3, cl_int(n1));
         divide.setArg(4, sigma);
-        c.queue.enqueueNDRangeKernel(divide, cl::NullRange,
-                                     cl::NDRange(padded(std::size_t(n0 / 2 + 1) * n1)),
-                                     cl::NDRange(kGroupSize));
+        c.launch(divide, std::size_t(n0 / 2 + 1) * n1);
         if (periodic)
             fft->inverse(gx);
         else
@@ -110,8 +106,7 @@ void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const Pois
 
         height_out = read_real_result(c, gx, gy, stride, w, h, sink);
     } catch (const cl::Error& e) {
-        throw Error(std::string("OpenCL error in the Poisson stage: ") + e.what() + " (" +
-                    std::to_string(e.err()) + ")");
+        throw opencl_error("Poisson", e);
     }
     // The transforms already drop the mean; this removes their rounding.
     remove_mean(height_out, n);

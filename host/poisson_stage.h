@@ -1,5 +1,5 @@
 #pragma once
-// Stage 2, least-squares (Poisson) integration (DESIGN.md §4.4):
+// Stage 2, least-squares (Poisson) integration (docs/design.md §4.4):
 // slopes -> height, by Frankot–Chellappa projection with FFTs (periodic) or
 // DCTs (free) on the device.
 #include <cstdint>
@@ -51,5 +51,12 @@ std::uint64_t poisson_device_bytes(int w, int h, const PoissonParams& params, bo
 
 // Gaussian sigma (texels) of the relief-balance filter for `highpass` texels.
 double highpass_sigma(double highpass);
+
+// Builds ahead what a Poisson height of width x height will need (relief's
+// kernels for it, and the FFT and DCT plans of that size), so that a front
+// end can overlap it with reading the map. Errors are left for the height
+// itself to meet and report.
+// (Defined in plan_cache.cpp, beside the plans it fills.)
+void prepare_height(ComputeContext& ctx, int width, int height);
 
 } // namespace relief::host

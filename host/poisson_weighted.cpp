@@ -37,7 +37,6 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
     // whichever way round; the transforms want it along axis 0.
     const int n0 = w == 1 ? h : w, n1 = w == 1 ? 1 : h;
     const std::size_t stride = periodic ? FftPlan::row_stride(n0) : std::size_t(n0);
-    const std::size_t groups = padded(n) / kGroupSize;
     auto& c = ctx.impl();
 
     // The masked slopes s g, and their spectral (unmasked-path) solution.
@@ -55,11 +54,9 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
         k.setArg(2, cl_int(n));
         k.setArg(3, kExcludedEdgeWeight);
         k.setArg(4, masked->buffer);
-        c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(n)),
-                                     cl::NDRange(kGroupSize));
+        c.launch(k, n);
     } catch (const cl::Error& e) {
-        throw Error(std::string("OpenCL error in the weighted Poisson stage: ") + e.what() + " (" +
-                    std::to_string(e.err()) + ")");
+        throw opencl_error("weighted Poisson", e);
     }
     const DeviceSlopes sg(w, h, masked);
     std::vector<float> spectral(n);
@@ -80,6 +77,11 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
                                 "the weighted Poisson stage", spectral.data());
         cl::Buffer r = buffer(sizeof(float) * n), z = buffer(sizeof(float) * n);
         cl::Buffer d = buffer(sizeof(float) * n), q = buffer(sizeof(float) * n);
+        // The dot products' partial sums, one per work-group (summed on the
+        // host in double, in order: deterministic).
+        cl::Kernel dot_k(prog, "weighted_dot");
+        const std::size_t dot_group = c.group_size(dot_k, sizeof(float));
+        const std::size_t groups = (n + dot_group - 1) / dot_group;
         cl::Buffer partial = buffer(sizeof(float) * groups);
         cl::Buffer grid = buffer(sizeof(float) * stride * n1);
         std::shared_ptr<FftPlan> fft;
@@ -88,11 +90,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
             fft = c.plans->fft(c, n0, n1, grid);
         else
             dct = c.plans->dct(c, n0, n1);
-        const cl::NDRange global(padded(n)), local(kGroupSize);
-        auto run = [&](cl::Kernel& k, std::size_t items = 0) {
-            c.queue.enqueueNDRangeKernel(k, cl::NullRange, items ? cl::NDRange(padded(items)) : global,
-                                         local);
-        };
+        auto run = [&](cl::Kernel& k, std::size_t items = 0) { c.launch(k, items ? items : n); };
 
         cl::Kernel edges(prog, "weighted_edges");
         auto set_edges = [&](int unit) {
@@ -121,14 +119,14 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
         apply.setArg(2, cl_int(w));
         apply.setArg(3, cl_int(h));
         apply.setArg(4, cl_int(periodic));
-        cl::Kernel dot_k(prog, "weighted_dot");
         std::vector<float> partial_host(groups);
         auto dot = [&](cl::Buffer& a, cl::Buffer& b) {
             dot_k.setArg(0, a);
             dot_k.setArg(1, b);
             dot_k.setArg(2, cl_int(n));
             dot_k.setArg(3, partial);
-            run(dot_k);
+            dot_k.setArg(4, cl::Local(sizeof(float) * dot_group));
+            c.launch(dot_k, n, sizeof(float));
             c.queue.enqueueReadBuffer(partial, CL_TRUE, 0, sizeof(float) * groups,
                                       partial_host.data());
             double s = 0.0;
@@ -152,7 +150,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
             to_grid.setArg(2, cl_int(n1));
             to_grid.setArg(3, cl_int(stride));
             to_grid.setArg(4, grid);
-            run(to_grid);
+            run(to_grid, stride * std::size_t(n1));
             periodic ? fft->forward(grid) : dct->forward(grid);
             divide.setArg(0, grid);
             divide.setArg(1, cl_int(n0));
@@ -220,8 +218,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
             *report = rep;
         c.queue.enqueueReadBuffer(x, CL_TRUE, 0, sizeof(float) * n, height_out);
     } catch (const cl::Error& e) {
-        throw Error(std::string("OpenCL error in the weighted Poisson stage: ") + e.what() + " (" +
-                    std::to_string(e.err()) + ")");
+        throw opencl_error("weighted Poisson", e);
     }
     remove_mean(height_out, n);
 }

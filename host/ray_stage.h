@@ -1,5 +1,5 @@
 #pragma once
-// Stage 2, radial ray integration (DESIGN.md §4.2): slopes -> displacement.
+// Stage 2, radial ray integration (docs/design.md §4.2): slopes -> displacement.
 #include <cstdint>
 #include <functional>
 
@@ -23,7 +23,7 @@ struct RayParams {
     bool force_float = false;
     int float_reanchor = 32;  // chain steps between re-anchors in float
     // Skip tiles whose slopes, and all slopes within the ray radius, are
-    // exactly zero (DESIGN.md §6); the result is bit-identical either way.
+    // exactly zero (docs/design.md §6); the result is bit-identical either way.
     bool skip_flat = true;
     // Fast kernel, periodic boundary: integrate as one FFT convolution (the
     // cost of two Poisson solves, whatever J and R) rather than along chains.
@@ -51,7 +51,7 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
                               const RayParams& params, float* height_out,
                               const Progress& progress = {}, RayReport* report = nullptr);
 
-// The fast kernel (DESIGN.md §4.3): same result as integrate_rays_reference
+// The fast kernel (docs/design.md §4.3): same result as integrate_rays_reference
 // to rounding, at a cost independent of the radius. Periodic boundaries (with
 // periodic_by_fft): one FFT convolution, either direction set. Clip (or
 // periodic_by_fft off): rational directions, chain windows; with

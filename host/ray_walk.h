@@ -1,5 +1,5 @@
 #pragma once
-// Per-direction walk tables for radial ray integration (DESIGN.md §4.2).
+// Per-direction walk tables for radial ray integration (docs/design.md §4.2).
 //
 // A ray from a texel centre in direction d crosses a sequence of texels; the
 // sequence (as offsets from the origin texel) and the segment lengths are the
@@ -29,7 +29,7 @@ enum class DirectionSet { Exact, Rational };
 // Ray angles: Exact gives 2*pi*(j + phase)/rays, j = 0..rays-1.
 std::vector<double> ray_angles(int rays, double phase, DirectionSet set);
 
-// A rational direction (DESIGN.md §4.3): the primitive integer step (a, b);
+// A rational direction (docs/design.md §4.3): the primitive integer step (a, b);
 // the ray through a texel centre passes through the centre of the texel
 // (a, b) further on after one period of length |(a, b)|.
 struct RationalDirection {

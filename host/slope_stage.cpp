@@ -22,14 +22,13 @@ void measure_curl(ComputeContext::Impl& cl_, const cl::Buffer& slopes, int w, in
     if (w < 2 || h < 2)
         return;  // no cell: both norms stay 0 and the choice is ambiguous
     int cell_rows = h - 1;
-    cl::Buffer sums(cl_.context, CL_MEM_WRITE_ONLY, sizeof(cl_float2) * cell_rows);
+    cl::Buffer sums = cl_.buffer(CL_MEM_WRITE_ONLY, sizeof(cl_float2) * cell_rows, "the DDM stage");
     cl::Kernel k(cl_.program("ddm.cl"), "curl_row_sums");
     k.setArg(0, slopes);
     k.setArg(1, w);
     k.setArg(2, cell_rows);
     k.setArg(3, sums);
-    cl_.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(cell_rows)),
-                                   cl::NDRange(kGroupSize));
+    cl_.launch(k, cell_rows);
     std::vector<cl_float2> host(cell_rows);
     cl_.queue.enqueueReadBuffer(sums, CL_TRUE, 0, sizeof(cl_float2) * cell_rows, host.data());
     double gl = 0.0, dx = 0.0;
@@ -104,8 +103,7 @@ DeviceSlopes derive_slopes(ComputeContext& ctx, const NormalRows& rows, const Sl
             c.queue.enqueueWriteBuffer(in, CL_TRUE, 0, per_row * std::size_t(band_rows), staging.data());
             k.setArg(2, cl_int(first));
             k.setArg(3, cl_int(count));
-            c.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(padded(count)),
-                                         cl::NDRange(kGroupSize));
+            c.launch(k, count);
         }
         c.queue.enqueueReadBuffer(counters, CL_TRUE, 0, sizeof(zero), zero);
         stats.invalid = zero[0];
@@ -126,14 +124,12 @@ DeviceSlopes derive_slopes(ComputeContext& ctx, const NormalRows& rows, const Sl
             cl::Kernel f(c.program("ddm.cl"), "flip_row_slope");
             f.setArg(0, impl->buffer);
             f.setArg(1, texels);
-            c.queue.enqueueNDRangeKernel(f, cl::NullRange, cl::NDRange(padded(n)),
-                                         cl::NDRange(kGroupSize));
+            c.launch(f, n);
         }
         c.queue.finish();
         return DeviceSlopes(p.width, p.height, impl);
     } catch (const cl::Error& e) {
-        throw Error(std::string("OpenCL error in the slope stage: ") + e.what() + " (" +
-                    std::to_string(e.err()) + ")");
+        throw opencl_error("slope", e);
     }
 }
 

@@ -1,5 +1,5 @@
 #pragma once
-// Stage 1, DDM derivation (DESIGN.md §4.1): normals -> slopes on the device.
+// Stage 1, DDM derivation (docs/design.md §4.1): normals -> slopes on the device.
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -7,31 +7,9 @@
 #include <string>
 
 #include "compute_context.h"
+#include "device_slopes.h"
 
 namespace relief::host {
-
-// A slope field resident on a device: 2 floats (gx, gy) per texel, row-major.
-// Opaque so that callers outside host/ never see OpenCL types.
-class DeviceSlopes {
-public:
-    struct Impl;
-    DeviceSlopes(int width, int height, std::shared_ptr<Impl> impl)
-        : width_(width), height_(height), impl_(std::move(impl)) {}
-    int width() const { return width_; }
-    int height() const { return height_; }
-    Impl& impl() const { return *impl_; }
-    // Lets go of the device buffer (freed once no queued work uses it).
-    void release() { impl_.reset(); }
-
-private:
-    int width_, height_;
-    std::shared_ptr<Impl> impl_;
-};
-
-// Where an integration stage puts its width*height floats of height: called
-// once, when the result is ready on the device, so that the host memory for
-// it is taken only after the stage's own grids have been freed.
-using HeightSink = std::function<float*()>;
 
 enum class GreenConvention { Auto, OpenGL, DirectX };
 
@@ -57,7 +35,7 @@ struct SlopeStats {
     std::int64_t clamped = 0;   // grazing normals clamped to max_angle
 };
 
-// Below this ratio of the two curl norms the choice is a guess (DESIGN §3).
+// Below this ratio of the two curl norms the choice is a guess (docs/design.md §3).
 constexpr double kAmbiguousCurlRatio = 1.15;
 
 // Decodes `normals` (width*height*channels floats, as read from the image)

@@ -1,4 +1,4 @@
-// Baking the correction (DESIGN.md §4.5, "Application"): the texel at u
+// Baking the correction (docs/design.md §4.5, "Application"): the texel at u
 // takes the texture's value at u + c(u), a gather (no inversion needed).
 // Texel-centre coordinates: texel i's centre is u = (i + 0.5)/W, so u + c
 // lands at texel coordinate i + c.u * W. Zero offsets read every texel

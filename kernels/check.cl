@@ -1,4 +1,4 @@
-// Checking a result (DESIGN.md §9): a height's own normals (the inverse of
+// Checking a result (docs/design.md §9): a height's own normals (the inverse of
 // the DDM, §4.1), the round trip against the slopes a height came from, and
 // per-patch tessellation levels.
 //

@@ -1,7 +1,7 @@
 // Shared by every relief kernel. The host prepends this text to each program,
 // so kernels do not #include it (no include paths are needed at run time).
 //
-// Conventions (DESIGN.md §3): x = column (right), y = row (down, as stored);
+// Conventions (docs/design.md §3): x = column (right), y = row (down, as stored);
 // images are row-major, texel (x, y) at index y * width + x.
 
 #ifndef RELIEF_KERNELS_COMMON_H

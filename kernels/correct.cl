@@ -1,5 +1,5 @@
 // Distortion correction by per-node descent with a line search (Brent's,
-// golden-section or ternary) and over-relaxation (DESIGN.md §4.5, after
+// golden-section or ternary) and over-relaxation (docs/design.md §4.5, after
 // Zirr & Ritschel, HPG 2019).
 //
 // Nodes form an nx × ny grid. Node p has a texture offset c[p] (float2, in
@@ -308,7 +308,10 @@ inline NodeSearch correct_prepare(global const float2* c, global const float* z,
         const int q = correct_node(i + offs[k].x, j + offs[k].y, nx, ny);
         const float2 o = convert_float2(offs[k]);
         e[k] = o + c[q] - cp;
-        f[k] = (float3)(o, z[q] - zp);
+        // Component by component: a float3 made of a float2 and a float
+        // crashes Oclgrind's uninitialised-value checks on unoptimised code
+        // (tests/portability/float3_from_float2.cpp).
+        f[k] = (float3)(o.x, o.y, z[q] - zp);
     }
 
     // The six fan triangles [p, Na, Nb] in lanes 0-5 (Na, Nb = neighbours
@@ -452,7 +455,9 @@ kernel void correct_phase(global float2* c, global const float* z, global const 
                           int moved_slot, float theta, int itheta, float relax,
                           global energy_t* gain)
 {
-    const int tile = get_group_id(1) * tiles_x + get_group_id(0);
+    // A tile is 8 / CORRECT_NODES x 8 work-items (16 x 16 nodes); a
+    // work-group lies within one.
+    const int tile = (get_global_id(1) / 8) * tiles_x + get_global_id(0) / (8 / CORRECT_NODES);
     if (!active[tile])
         return;
     const int j = 2 * get_global_id(1) + (class_y == 1);

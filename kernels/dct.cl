@@ -20,14 +20,16 @@ inline int dct_source(int m, int n)
     return m < (n + 1) / 2 ? 2 * m : 2 * (n - 1 - m) + 1;
 }
 
+// One work-item per float of the padded grid: the padding is set to 0, as
+// the transform reads it.
 __kernel void dct_reorder(__global const float* x, int n0, int n1, int stride,
                           __global float* v)
 {
     int gid = get_global_id(0);
-    if (gid >= n0 * n1)
+    if (gid >= stride * n1)
         return;
-    int m0 = gid % n0, m1 = gid / n0;
-    v[m1 * stride + m0] = x[dct_source(m1, n1) * n0 + dct_source(m0, n0)];
+    int m0 = gid % stride, m1 = gid / stride;
+    v[gid] = m0 < n0 ? x[dct_source(m1, n1) * n0 + dct_source(m0, n0)] : 0.0f;
 }
 
 __kernel void dct_unreorder(__global const float* v, int n0, int n1, int stride,

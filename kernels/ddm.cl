@@ -1,4 +1,4 @@
-// DDM derivation (DESIGN.md §4.1): decoded normal map -> per-texel slopes.
+// DDM derivation (docs/design.md §4.1): decoded normal map -> per-texel slopes.
 // common.h is prepended by the host.
 
 // One work-item per texel, over the texels [first, first + count): `normals`

@@ -1,5 +1,5 @@
 // Least-squares (Poisson) integration by Frankot–Chellappa projection
-// (DESIGN.md §4.4). common.h is prepended by the host; host/fft_plan (R2C)
+// (docs/design.md §4.4). common.h is prepended by the host; host/fft_plan (R2C)
 // and host/dct_plan (DCT-II) do the transforms between these kernels.
 //
 // The solve works on an n0 x n1 grid: the texture itself, or its transpose
@@ -25,14 +25,22 @@ inline float2 texel_slope(__global const float2* slopes, int width, int i, int j
     return transposed ? (float2)(g.y, g.x) : g;
 }
 
+// One work-item per float of the n1 rows of `stride` floats: the padding
+// past n0 (the R2C rows' last one or two) is set to 0, as the transform
+// reads it.
 __kernel void poisson_split(__global const float2* slopes, int width, int n0, int n1,
                             int transposed, int stride, int alternate, __global float* gx,
                             __global float* gy)
 {
     int gid = get_global_id(0);
-    if (gid >= n0 * n1)
+    if (gid >= stride * n1)
         return;
-    int i = gid % n0, j = gid / n0;
+    int i = gid % stride, j = gid / stride;
+    if (i >= n0) {
+        gx[gid] = 0.0f;
+        gy[gid] = 0.0f;
+        return;
+    }
     float2 g = texel_slope(slopes, width, i, j, transposed);
     if (alternate) {  // free: the (-1)^x and (-1)^y of the sine series
         g.x = (i & 1) ? -g.x : g.x;

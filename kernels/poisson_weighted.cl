@@ -1,4 +1,4 @@
-// Weighted least-squares integration (DESIGN.md §4.4, masks and confidence
+// Weighted least-squares integration (docs/design.md §4.4, masks and confidence
 // weights), solved by preconditioned conjugate gradients. common.h is
 // prepended by the host; the preconditioner's transforms are host/fft_plan's
 // (periodic) and host/dct_plan's (free).
@@ -110,16 +110,17 @@ __kernel void weighted_apply(__global const float* h, __global const float2* c, 
     out[p] = v;
 }
 
-// Partial sums of a.b per work-group of 64 (the host adds them in a fixed
-// order, in double: deterministic whatever the device's threads).
+// Partial sums of a.b per work-group, whose size is a power of two that the
+// host chose from the device's limits, with `s` one float per work-item
+// (the host adds the partials in a fixed order, in double: deterministic
+// whatever the device's threads).
 __kernel void weighted_dot(__global const float* a, __global const float* b, int n,
-                           __global float* partial)
+                           __global float* partial, __local float* s)
 {
-    __local float s[64];
     int i = get_global_id(0), l = get_local_id(0);
     s[l] = i < n ? a[i] * b[i] : 0.0f;
     barrier(CLK_LOCAL_MEM_FENCE);
-    for (int span = 32; span > 0; span >>= 1) {
+    for (int span = get_local_size(0) / 2; span > 0; span >>= 1) {
         if (l < span)
             s[l] += s[l + span];
         barrier(CLK_LOCAL_MEM_FENCE);
@@ -144,13 +145,16 @@ __kernel void weighted_xpby(__global float* p, __global const float* z, float be
         p[i] = z[i] + beta * p[i];
 }
 
-// Dense n0 x n1 <-> padded transform grid.
+// Dense n0 x n1 <-> padded transform grid. to_grid has one work-item per
+// float of the grid and sets the padding to 0, as the transform reads it.
 __kernel void weighted_to_grid(__global const float* v, int n0, int n1, int stride,
                                __global float* grid)
 {
-    int i = get_global_id(0);
-    if (i < n0 * n1)
-        grid[(i / n0) * stride + i % n0] = v[i];
+    int g = get_global_id(0);
+    if (g >= stride * n1)
+        return;
+    int i = g % stride, j = g / stride;
+    grid[g] = i < n0 ? v[j * n0 + i] : 0.0f;
 }
 
 __kernel void weighted_from_grid(__global const float* grid, int n0, int n1, int stride,

@@ -1,4 +1,4 @@
-// Radial ray integration, fast kernels (DESIGN.md §4.3). common.h is
+// Radial ray integration, fast kernels (docs/design.md §4.3). common.h is
 // prepended by the host. Same answer as rays_reference.cl with rational
 // directions, at a cost that does not grow with the radius.
 //

@@ -1,4 +1,4 @@
-// Radial ray integration of periodic textures as one convolution (DESIGN.md
+// Radial ray integration of periodic textures as one convolution (docs/design.md
 // §4.3, periodic boundaries). common.h is prepended by the host.
 //
 // A texel's weighted ray sum A(p) is linear in the slopes and, on a torus,

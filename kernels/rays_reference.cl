@@ -1,4 +1,4 @@
-// Radial ray integration, reference kernel (DESIGN.md §4.2).
+// Radial ray integration, reference kernel (docs/design.md §4.2).
 // common.h is prepended by the host.
 //
 // Every ray of one direction crosses the same texel offsets with the same

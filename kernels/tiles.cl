@@ -1,4 +1,4 @@
-// Which tiles of the slope field have any non-zero slope (DESIGN.md §6:
+// Which tiles of the slope field have any non-zero slope (docs/design.md §6:
 // content that needs no integration is skipped). common.h is prepended by
 // the host. One work-item per tile of tile x tile texels.
 __kernel void nonflat_tiles(__global const float2* slopes, int width, int height, int tile,

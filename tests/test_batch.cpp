@@ -64,6 +64,9 @@ TEST_CASE("batch: manifest lines split like a shell, without expansion", "[batch
     CHECK_THROWS_AS(relief::cli::split_words("'open"), UsageError);
     CHECK_THROWS_AS(relief::cli::split_words("\"open"), UsageError);
     CHECK_THROWS_AS(relief::cli::split_words("tail\\"), UsageError);
+    // a NUL would cut the name short at open(): refused, quoted or not
+    CHECK_THROWS_AS(relief::cli::split_words(std::string("in.png -o nul.exr\0.png", 22)), UsageError);
+    CHECK_THROWS_AS(relief::cli::split_words(std::string("-o 'a\0b'", 8)), UsageError);
 }
 
 TEST_CASE("batch: shards take the jobs congruent to I mod N, every job exactly once", "[batch][parse]")
@@ -125,7 +128,7 @@ TEST_CASE("batch: jobs run in one process, a failed job alone fails, the log say
         f << kDem << " --slopes:normal=directx -o " << (d / "s4.exr").string() << "\n";
     }
     const fs::path log = d / "log.jsonl";
-    auto r = run_cli("--device cpu --batch '" + m.string() + "' --log '" + log.string() + "'");
+    auto r = run_cli("--device auto --batch '" + m.string() + "' --log '" + log.string() + "'");
     INFO(r.err);
     CHECK(r.rc == 1);
     CHECK(r.err.find("job 2 (" + m.string() + ":4): error: cannot read") != std::string::npos);
@@ -261,6 +264,15 @@ TEST_CASE("names: <UDIM>, # @ %0Nd and --frames expand as oiiotool's", "[names][
              {(d / "t.1001.0002.png").string(), "-o", "o.1001.0002.exr"},
              {(d / "t.<UDIM>.0003.png").string(), "-o", "o.<UDIM>.0003.exr"}});  // no tile: fails alone
     CHECK(expand_names({"a%%b%d.png", "--frames", "5"}) == VV{{"a%b5.png"}});
+    // only the file-name part: folders keep their # and @; %# and %@ are a literal # and @
+    CHECK(expand_names({"shots/#12/a@b/n.#.png", "--frames", "5"}) == VV{{"shots/#12/a@b/n.0005.png"}});
+    CHECK(expand_names({"n.%#%@.@@.png", "--frames", "5"}) == VV{{"n.#@.05.png"}});
+    // the manifest and the log are one file for the whole run: tokens there are refused
+    CHECK_THROWS_WITH(expand_names({"--batch", "j#.txt", "--frames", "1-3"}),
+                      Catch::Contains("--batch j#.txt: names one file for the whole run"));
+    CHECK_THROWS_WITH(expand_names({in, "--slopes", "-o", "s.<UDIM>.exr", "--log", "l.<UDIM>.jsonl"}),
+                      Catch::Contains("--log l.<UDIM>.jsonl: names one file"));
+    CHECK(expand_names({"--batch", "j#.txt"}) == VV{{"--batch", "j#.txt"}});  // literal without --frames
     // the tiles are those of the first input holding <UDIM>, not of an output
     // (an earlier output with tiles of its own: o.1005.exr)
     std::ofstream(d / "o.1005.exr") << "x";
@@ -285,9 +297,57 @@ TEST_CASE("names: <UDIM>, # @ %0Nd and --frames expand as oiiotool's", "[names][
     CHECK(jobs[4].error.empty());
 }
 
+TEST_CASE("names: the tiles of <UDIM> are the files that exist, the token in a folder or twice in a name", "[names][parse]")
+{
+    using V = std::vector<std::string>;
+    using relief::cli::expand_names;
+    const fs::path d = scratch("tiles");
+    // near misses: five digits, out of range, not digits, another prefix
+    for (const char* f : {"n.1001.png", "n.1999.png", "n.10010.png", "n.0999.png", "n.2000.png", "n.1a01.png",
+                          "m.1002.png", "n.1003.png.bak"})
+        std::ofstream(d / f) << "x";
+    fs::create_directory(d / "n.1004.png");  // a folder is a name that exists, as before
+    fs::create_symlink(d / "gone.png", d / "n.1005.png");  // a dangling link is not
+    const auto tiles_of = [](const std::string& pattern) {
+        V firsts;
+        for (const V& job : expand_names({pattern, "-o", "o.<UDIM>.exr"}))
+            firsts.push_back(job.back());
+        return firsts;
+    };
+    CHECK(tiles_of((d / "n.<UDIM>.png").string()) == V{"o.1001.exr", "o.1004.exr", "o.1999.exr"});
+    // the token twice: both the same tile
+    std::ofstream(d / "a1002_b1002.png") << "x";
+    std::ofstream(d / "a1002_b1003.png") << "x";
+    CHECK(tiles_of((d / "a<UDIM>_b<UDIM>.png").string()) == V{"o.1002.exr"});
+    // in a folder, and in the folder and the name
+    // (1013/n1011.png: a name's tile that is not its folder's)
+    for (const char* f : {"1011/n.png", "1012/n.png", "1012/n1012.png", "1013/x.png", "1013/n1011.png"}) {
+        fs::create_directories((d / f).parent_path());
+        std::ofstream(d / f) << "x";
+    }
+    std::ofstream(d / "1014") << "x";  // a file, not a folder
+    CHECK(tiles_of((d / "<UDIM>/n.png").string()) == V{"o.1011.exr", "o.1012.exr"});
+    CHECK(tiles_of((d / "<UDIM>/n<UDIM>.png").string()) == V{"o.1012.exr"});
+    CHECK(tiles_of((d / "<UDIM>").string()) == V{"o.1011.exr", "o.1012.exr", "o.1013.exr", "o.1014.exr"});
+    // a name without a folder is in the working folder
+    const fs::path was = fs::current_path();
+    fs::current_path(d);
+    CHECK(tiles_of("n.<UDIM>.png") == V{"o.1001.exr", "o.1004.exr", "o.1999.exr"});
+    fs::current_path(was);
+    // many frames and tiles: each folder is listed once, so this is quick
+    V line = {"--frames", "1-20000", (d / "n.<UDIM>.png").string(), "-o", "o.<UDIM>.#.exr"};
+    const auto jobs = expand_names(line);
+    REQUIRE(jobs.size() == 60000);
+    CHECK(jobs.back() == V{(d / "n.1999.png").string(), "-o", "o.1999.20000.exr"});
+    // a line held once per frame may not grow past 64 MiB
+    line.push_back(std::string(3000, 'x'));
+    line[1] = "1-99999";
+    CHECK_THROWS_WITH(expand_names(line), Catch::Contains("frames hold more than 64 MiB of arguments"));
+}
+
 TEST_CASE("names: a <UDIM> set and a # sequence run one job per existing tile and frame, each as its own run", "[names][cli]")
 {
-    const fs::path d = scratch("tiles");
+    const fs::path d = scratch("tile-runs");
     write_crop(kNormal, d / "n.1001.png", 0);
     write_crop(kNormal, d / "n.1002.png", 96);
     write_crop(kDem, d / "n.1012.png", 0);
@@ -331,6 +391,7 @@ TEST_CASE("update: a job is skipped exactly when its outputs record the digest i
     manifest("", "float");
     const fs::path log = d / "log.jsonl";
     auto run = [&](const std::string& extra = "", const std::string& env = "") {
+        fs::remove(log);  // --log appends: each run's lines alone
         return relief::test::run_cli("--batch jobs.txt --update --log log.jsonl " + extra, env + " cd '" + d.string() + "' &&");
     };
     using S = std::vector<std::string>;
@@ -376,6 +437,7 @@ TEST_CASE("update: a job is skipped exactly when its outputs record the digest i
     CHECK(statuses((run(), log)) == S{"skipped", "ok", "skipped", "skipped"});
     CHECK(statuses((run(), log)) == S{"skipped", "skipped", "skipped", "skipped"});
     // without --update every job runs
+    fs::remove(log);
     CHECK(statuses((relief::test::run_cli("--batch jobs.txt --log log.jsonl", "cd '" + d.string() + "' &&"), log)) ==
           S{"ok", "ok", "ok", "ok"});
 

@@ -29,6 +29,7 @@
 #include "relief/imageio.h"
 #include "relief/mesh.h"
 #include "relief/preview.h"
+#include "relief/relief_c.h"
 #include "relief/slopes.h"
 #include "support/fields.h"
 #include "support/images.h"
@@ -698,6 +699,70 @@ TEST_CASE("preview: the documented command writes an 8-bit sheet at least 1024 w
     CHECK(fs::exists(d / "r.json"));
 }
 
+TEST_CASE("preview: any size lays out, from 1x1 to 65536x1, in the CLI, a batch and the C ABI",
+          "[check][preview][cli][errors]")
+{
+    // Panels under about 60 texels tall aborted in OIIO's render_text (the
+    // statistics ran off the sheet's bottom), taking a batch's later jobs
+    // and a C host with them.
+    const fs::path d = test::scratch("check_preview_sizes");
+    struct Size {
+        int w, h;
+    };
+    const std::vector<Size> sizes = {{1, 1}, {6, 1}, {100, 16}, {1000, 50}, {4096, 128}, {65536, 1}, {1, 4096}};
+    std::ofstream manifest(d / "jobs.txt");
+    std::vector<std::vector<float>> maps;
+    for (const Size& z : sizes) {
+        // Gentle bumps: unit normals of h = 0.3 sin(x / 3) cos(y / 5).
+        std::vector<float> n(std::size_t(z.w) * z.h * 3);
+        for (int y = 0; y < z.h; ++y)
+            for (int x = 0; x < z.w; ++x) {
+                const float gx = 0.1f * std::cos(x / 3.0f) * std::cos(y / 5.0f),
+                            gy = -0.06f * std::sin(x / 3.0f) * std::sin(y / 5.0f);
+                const float inv = 1.0f / std::sqrt(1.0f + gx * gx + gy * gy);
+                float* p = &n[3 * (std::size_t(y) * z.w + x)];
+                p[0] = -gx * inv;
+                p[1] = -gy * inv;
+                p[2] = inv;
+            }
+        maps.push_back(n);
+        const std::string name = "n" + std::to_string(z.w) + "x" + std::to_string(z.h);
+        REQUIRE(write_image(test::image(z.w, z.h, 3, n), (d / (name + ".exr")).string()));
+        manifest << name << ".exr --dup --height --preview -o " << name << ".sheet.png\n";
+    }
+    manifest.close();
+    // One command line each.
+    for (const Size& z : sizes) {
+        const std::string name = "n" + std::to_string(z.w) + "x" + std::to_string(z.h);
+        INFO(name);
+        const auto r = run_cli("-v " + name + ".exr --dup --height --preview -o " + name + ".cli.png",
+                               "cd '" + d.string() + "' &&");
+        INFO(r.err);
+        CHECK(r.rc == 0);
+        auto in = OIIO::ImageInput::open((d / (name + ".cli.png")).string());
+        REQUIRE(in);
+        CHECK(in->spec().width >= 3 * 344);
+        CHECK(in->spec().height >= 2 * 100);
+    }
+    // A batch: every job ends, none takes the others with it.
+    const auto r = run_cli("--batch jobs.txt", "cd '" + d.string() + "' &&");
+    INFO(r.err);
+    CHECK(r.rc == 0);
+    CHECK(r.err.find(std::to_string(sizes.size()) + " ok, 0 skipped, 0 failed") != std::string::npos);
+    // The C ABI: the host survives and gets a sheet.
+    for (std::size_t i = 0; i < sizes.size(); ++i) {
+        const Size z = sizes[i];
+        INFO(z.w << "x" << z.h);
+        relief_image normals = {z.w, z.h, 3, RELIEF_FLOAT, maps[i].data(), nullptr}, h{}, sheet{};
+        REQUIRE(relief_run("height", "", &normals, 1, &h) == RELIEF_OK);
+        const relief_image both[2] = {normals, h};
+        CHECK(relief_run("preview", "", both, 2, &sheet) == RELIEF_OK);
+        CHECK(sheet.width >= 3 * 344);
+        relief_image_free(&h);
+        relief_image_free(&sheet);
+    }
+}
+
 TEST_CASE("preview: a height's own normals light as the height does, and the light comes from where it says", "[check][preview]")
 {
     // A ramp rising to the right (free edges): its normals lean to -x.
@@ -792,6 +857,7 @@ TEST_CASE("mesh and tessellation outputs: --update skips an unchanged mesh, inte
     const std::string h = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
     const std::string log = (d / "log.jsonl").string();
     auto run = [&](const std::string& error) {
+        fs::remove(log);  // --log appends: each run's line alone
         return run_cli("--update --log '" + log + "' '" + h + "' --mesh:error=" + error + ":out='" + (d / "m.ply").string() +
                        "' --tessellation:error=" + error + " -d uint8 -o '" + (d / "levels.png").string() + "'");
     };

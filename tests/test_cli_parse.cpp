@@ -316,6 +316,17 @@ TEST_CASE("parse: nonsense is a usage error naming the argument", "[cli][parse][
         {{kIn, "--correct:fix=height:x:1"}, "not a number"},
         {{kIn, "--correct:fix=nothing.png"}, "no such file"},
         {{kIn, "--correct:scale=-1"}, "scale=-1"},
+        // overflowing numbers are out of range, with the range; NaN is not a number
+        {{kIn, "--height:phase=inf"}, "phase=inf is out of range; it must be in"},
+        {{kIn, "--height:phase=1e999"}, "phase=1e999 is out of range; it must be in"},
+        {{kIn, "--height:phase=-inf"}, "phase=-inf is out of range"},
+        {{kIn, "--height:phase=nan"}, "phase=nan is not a number"},
+        // only regular files are read: a device or FIFO would never end
+        {{kIn, "--height:mask=/dev/zero"}, "mask=/dev/zero: not a regular file (a character device)"},
+        {{kIn, "--correct:fix=/dev/null"}, "fix=/dev/null: not a regular file (a character device)"},
+        {{kIn, kIn, "--preview:env=/tmp"}, "env=/tmp: it is a folder"},
+        {{"--batch", "/tmp"}, "--batch /tmp: it is a folder"},
+        {{"--batch", "/dev/zero"}, "--batch /dev/zero: not a regular file (a character device)"},
         {{kIn, "--bake"}, "needs 2 image(s)"},
         {{kIn, kIn, "--bake", "--bake"}, "needs 2 image(s) on the stack, has 1"},
         {{kIn, "--height:highpass=8:mask=alpha"}, "highpass cannot be combined with a mask"},

@@ -1,6 +1,6 @@
 // Distortion correction: the energy against an SVD, the gradient against
 // finite differences, the device against the double golden model, and the
-// properties of DESIGN.md §4.5 (energy never rises, flat = zero, symmetry,
+// properties of docs/design.md §4.5 (energy never rises, flat = zero, symmetry,
 // seams, determinism).
 #include <catch2/catch.hpp>
 
@@ -227,7 +227,10 @@ TEST_CASE("correct: one device iteration equals the golden model's", "[correct]"
         CHECK(largest > 1e-2);
         CHECK(worst <= search.agreement * largest);
         const double e_dev = ref::total_energy(g, dev), e_gold = ref::total_energy(g, c);
-        CHECK(std::abs(e_dev - e_gold) <= (search.host == host::CorrectParams::Search::Brent ? 1e-4 : 1e-5) * e_gold);
+        // Golden and ternary steps compare two energies: a device whose
+        // built-ins (pow, sqrt) round otherwise may take the other side
+        // (Rusticl's llvmpipe: 3e-5 of the energy at 20x19).
+        CHECK(std::abs(e_dev - e_gold) <= 1e-4 * e_gold);
     }
 }
 

@@ -126,6 +126,13 @@ std::vector<std::filesystem::path> files_in(const std::filesystem::path& dir)
     return v;
 }
 
+// Rusticl (Mesa 22.3) panics on a program binary it did not write, which
+// aborts the process, instead of returning CL_INVALID_BINARY.
+bool refuses_foreign_binaries_by_aborting()
+{
+    return choose_device("auto").platform == "rusticl";
+}
+
 } // namespace
 
 TEST_CASE("compiled programs are kept on disk and a damaged entry is rebuilt", "[host][cache]")
@@ -171,12 +178,17 @@ TEST_CASE("compiled programs are kept on disk and a damaged entry is rebuilt", "
     }
     CHECK(BinaryCache::load(bake.stem().string()).has_value());
     // an intact entry that the driver refuses: built from source, stored anew
-    BinaryCache::store(bake.stem().string(), "not a program binary");
-    {
-        ComputeContext ctx(choose_device("auto"));
-        CHECK(kernels(ctx, "bake.cl").find("ddm_slopes") == std::string::npos);
+    // (Rusticl 22.3 aborts the process on a binary it did not write, a Rust
+    // panic inside clCreateProgramWithBinary; relief's entries are keyed by
+    // the driver's version, so only a hand-made entry meets that)
+    if (!refuses_foreign_binaries_by_aborting()) {
+        BinaryCache::store(bake.stem().string(), "not a program binary");
+        {
+            ComputeContext ctx(choose_device("auto"));
+            CHECK(kernels(ctx, "bake.cl").find("ddm_slopes") == std::string::npos);
+        }
+        CHECK(BinaryCache::load(bake.stem().string()).value() != "not a program binary");
     }
-    CHECK(BinaryCache::load(bake.stem().string()).value() != "not a program binary");
     CHECK(entries().size() == 2);  // no temporary files left behind
 
     // off: nothing stored
@@ -225,11 +237,13 @@ TEST_CASE("VkFFT's programs are kept on disk too, and an unusable entry falls ba
         CHECK(relief::test::slurp(vkfft[i]) == stamps[i]);
 
     // entries the driver refuses: built from source, stored anew
-    for (const fs::path& p : vkfft)
-        BinaryCache::store(p.stem().string(), "not a program binary");
-    CHECK(transform() == first);
-    for (const fs::path& p : vkfft)
-        CHECK(BinaryCache::load(p.stem().string()).value() != "not a program binary");
+    if (!refuses_foreign_binaries_by_aborting()) {
+        for (const fs::path& p : vkfft)
+            BinaryCache::store(p.stem().string(), "not a program binary");
+        CHECK(transform() == first);
+        for (const fs::path& p : vkfft)
+            CHECK(BinaryCache::load(p.stem().string()).value() != "not a program binary");
+    }
     // entries the driver takes but VkFFT cannot use (another program's
     // binary, with no VkFFT_main): dropped, planned from source
     {

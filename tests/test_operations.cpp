@@ -418,3 +418,54 @@ TEST_CASE("prepare: set-up ahead, beside a running height, changes nothing but t
     relief::prepare("auto", 0, -3);
     CHECK(relief::geterror() == error);
 }
+
+TEST_CASE("operations: what a front end asks of a call, answered by the table without its name", "[operations][parse]")
+{
+    const std::string dir = std::string(RELIEF_TEST_TMP) + "/operations";
+    std::filesystem::create_directories(dir);
+    const std::string file = dir + "/weights.exr";
+    REQUIRE(write_image(test::image(4, 4, 1, std::vector<float>(16, 1.0f)), file));
+    const auto call = [](const std::string& op, const std::string& mods) {
+        OperationCall c;
+        REQUIRE(parse_modifiers(c, op, mods));
+        return c;
+    };
+    using V = std::vector<std::string>;
+    // files read: paths only, not the words (alpha, none, sky, height:H0:DH)
+    CHECK(files_read(call("height", "mask=" + file)) == V{file});
+    CHECK(files_read(call("height", "mask=alpha")).empty());
+    CHECK(files_read(call("height", "")).empty());
+    CHECK(files_read(call("correct", "fix=" + file)) == V{file});
+    CHECK(files_read(call("correct", "fix=height:0:1")).empty());
+    CHECK(files_read(call("preview", "env=" + file)) == V{file});
+    CHECK(files_read(call("preview", "env=sky")).empty());
+    // an image given in memory is no file
+    OperationCall in_memory = call("height", "");
+    const ImageBuf weights = test::image(4, 4, 1, std::vector<float>(16, 1.0f));
+    in_memory.height.mask = &weights;
+    CHECK(files_read(in_memory).empty());
+    // files written besides the result: mesh's out=
+    CHECK(files_written(call("mesh", "out=" + dir + "/m.obj")) == V{dir + "/m.obj"});
+    for (const char* op : {"slopes", "height", "correct", "normals", "tessellation"})
+        CHECK(files_written(call(op, "")).empty());
+    // set-up ahead: Poisson's plans depend on the size only; rays' do not
+    CHECK(sets_up_ahead(call("height", "")));
+    CHECK(sets_up_ahead(call("height", "method=poisson:boundary=free")));
+    CHECK_FALSE(sets_up_ahead(call("height", "method=rays")));
+    CHECK_FALSE(sets_up_ahead(call("slopes", "")));
+    CHECK_FALSE(sets_up_ahead(call("correct", "")));
+    // -v's description: what height resolves, nothing for the others
+    CHECK(describe(call("height", "method=rays:rays=16")) == describe(call("height", "method=rays:rays=16").height));
+    CHECK_FALSE(describe(call("height", "")).empty());
+    CHECK(describe(call("slopes", "")).empty());
+    // reports: the two operations that have one, under their own names
+    V reporting;
+    for (const OperationInfo& op : operations())
+        if (!op.report.empty())
+            reporting.push_back(op.name + "=" + op.report);
+    CHECK(reporting == V{"height=height", "correct=correct"});
+    OperationCall unknown;
+    unknown.operation = "nonesuch";
+    CHECK(files_read(unknown).empty());
+    CHECK_FALSE(sets_up_ahead(unknown));
+}

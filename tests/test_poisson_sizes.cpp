@@ -122,6 +122,38 @@ TEST_CASE("Poisson at every kind of FFT size equals the analytic field", "[poiss
             }
 }
 
+TEST_CASE("VkFFT under a GPU's limits: one and several passes, Bluestein, the DCT", "[poisson]")
+{
+    // With 32 KiB of local memory (Rusticl's llvmpipe, many GPUs) VkFFT does
+    // 4096 complex points in one pass; 8192 and 16384 along a thin map take
+    // more than one. 4099 is prime (Bluestein), 4004 = 2^2 7 11 13; free
+    // boundaries go through the DCT (Makhoul), periodic through the R2C FFT
+    // (strided: along y). The suite runs this on every device it runs on.
+    const int lengths[] = {4096, 8192, 16384, 4099, 4004};
+    for (int n : lengths)
+        for (bool along_x : {true, false})
+            for (bool periodic : {false, true}) {
+                const int w = along_x ? n : 2, h = along_x ? 2 : n;
+                INFO(w << "x" << h << (periodic ? " periodic" : " free"));
+                Field f(w, h, periodic);
+                CHECK(relative_rmse(solve(f.slopes, w, h, periodic), f.height) <= 1e-4);
+            }
+}
+
+TEST_CASE("a prime length along the strided axis goes through transposes", "[poisson]")
+{
+    // VkFFT's Bluestein along a strided axis crashed (SIGSEGV at 16x4099):
+    // such a plan transforms rows, transposes and transforms rows again.
+    // The full sweep of sizes is the stress test above; this is its cheap
+    // sentinel, so the unlabelled suite catches a plan that takes the
+    // strided path for every height.
+    for (bool periodic : {false, true}) {
+        INFO("16x4099" << (periodic ? " periodic" : " free"));
+        Field f(16, 4099, periodic);
+        CHECK(relative_rmse(solve(f.slopes, 16, 4099, periodic), f.height) <= 1e-4);
+    }
+}
+
 TEST_CASE("Poisson on large prime-sized maps equals the analytic field", "[poisson][stress]")
 {
     struct Size {

@@ -1,4 +1,4 @@
-// Rational directions and the fast ray kernel (DESIGN.md §4.3): the reference
+// Rational directions and the fast ray kernel (docs/design.md §4.3): the reference
 // kernel with rational directions against the golden model, and the fast
 // kernel against the reference kernel for the same direction set.
 #include <catch2/catch.hpp>

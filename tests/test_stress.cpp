@@ -1,4 +1,4 @@
-// Numerical stability under stress (issue 3 §4): awkward sizes and fields,
+// Numerical stability under stress (issue 3, part 4): awkward sizes and fields,
 // long chains, a very large map, and thread-count determinism. Every output
 // must be finite and within the stated bounds.
 #include <catch2/catch.hpp>
@@ -192,7 +192,7 @@ TEST_CASE("stress: 16K-long chains, fast kernel against the golden model in doub
         for (int variant : {0, 1, 2}) {
             // 0: chains in fp64, 1: chains in float (re-anchored), 2: FFT.
             const bool force_float = variant == 1;
-            if ((variant == 0 && !ctx->device().has_fp64) || (variant == 2 && !periodic))
+            if ((variant == 0 && !ctx->fp64()) || (variant == 2 && !periodic))
                 continue;
             host::RayParams p;
             p.rays = 4;
@@ -321,7 +321,7 @@ TEST_CASE("stress: 65536-texel rays, reference kernel against the golden model i
         largest = std::max(largest, std::abs(v));
     REQUIRE(largest > 0.1);
     for (bool force_float : {false, true}) {
-        if (!force_float && !ctx->device().has_fp64)
+        if (!force_float && !ctx->fp64())
             continue;
         host::RayParams p;
         p.rays = 4;

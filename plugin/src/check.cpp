@@ -1,4 +1,4 @@
-// relief::normals and relief::tessellation — checking a height (DESIGN §9).
+// relief::normals and relief::tessellation — checking a height (docs/design.md §9).
 #include "relief/check.h"
 
 #include <algorithm>

@@ -4,10 +4,8 @@
 #include "relief/mesh.h"
 
 #include <tiny_gltf.h>
-#include <unistd.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cfloat>
 #include <cstdio>
 #include <cstring>
@@ -16,6 +14,8 @@
 #include <stdexcept>
 
 #include "error_state.h"
+#include "relief/output_files.h"
+#include "temporary_file.h"
 #include "relief/version.h"
 
 namespace relief {
@@ -172,6 +172,8 @@ std::string mesh_path_problem(const std::string& path)
     std::error_code ec;
     if (path.empty())
         return "a mesh needs a file name (out=FILE.obj|.ply|.gltf|.glb)";
+    if (const std::string why = output_name_problem(path); !why.empty())
+        return "cannot write " + why;
     if (!fs::is_directory(folder, ec))
         return "cannot write '" + path + "': the folder '" + folder.string() + "' does not exist";
     if (fs::is_directory(target, ec))
@@ -189,17 +191,10 @@ bool write_mesh(const Mesh& m, const std::string& path, const std::string& diges
         detail::set_error(problem);
         return false;
     }
-    const fs::path target(path);
-    static std::atomic<int> counter{0};
-    const fs::path tmp = target.parent_path() / (target.stem().string() + ".relief-tmp-" +
-                                                 std::to_string(::getpid()) + "-" +
-                                                 std::to_string(counter++) + target.extension().string());
     const std::string e = extension(path);
-    std::error_code ec;
     try {
-        std::FILE* f = std::fopen(tmp.c_str(), "wb");
-        if (!f)
-            throw std::runtime_error(std::strerror(errno));
+        detail::TemporaryFile tmp{fs::path(path)};
+        std::FILE* f = tmp.stream();
         std::setvbuf(f, nullptr, _IOFBF, 1 << 20);
         if (e == ".obj")
             write_obj(m, f, digest);
@@ -210,15 +205,9 @@ bool write_mesh(const Mesh& m, const std::string& path, const std::string& diges
             std::fwrite(bytes.data(), 1, bytes.size(), f);
         }
         // Every write, the flush and the sync checked: a full disk fails here.
-        const bool ok = !std::ferror(f) && std::fflush(f) == 0 && ::fsync(::fileno(f)) == 0;
-        if (std::fclose(f) != 0 || !ok)
-            throw std::runtime_error("write error (is the disk full?)");
-        fs::rename(tmp, target, ec);
-        if (ec)
-            throw std::runtime_error("rename failed: " + ec.message());
+        tmp.commit();
         return true;
     } catch (const std::exception& x) {
-        fs::remove(tmp, ec);
         detail::set_error("cannot write '" + path + "': " + x.what());
         return false;
     }

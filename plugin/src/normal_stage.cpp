@@ -95,7 +95,7 @@ DerivedSlopes derive_slopes(const ImageBuf& normals, ROI roi, const NormalDecodi
     if (is_unorm(stored) || unsigned_float) {
         p.scale = 2.0f;
         p.bias = -1.0f;
-        // The codes either side of the midpoint mean flat (DESIGN §3 notes).
+        // The codes either side of the midpoint mean flat (docs/design.md §3 notes).
         if (is_unorm(stored))
             p.zero_band = float(1.001 / (std::ldexp(1.0, int(stored.size() * 8)) - 1.0));
     } else {

@@ -1,5 +1,5 @@
 // relief::preview — a labelled sheet that shows whether a height is right
-// (DESIGN §9). The device derives the slopes, the height's normals and the
+// (docs/design.md §9). The device derives the slopes, the height's normals and the
 // round trip (the same code as --normals and --report); lighting and
 // layout are display work on the host.
 #include "relief/preview.h"
@@ -114,20 +114,28 @@ ImageBuf fit(const std::vector<float>& rgb, int w, int h, int pw, int ph)
     return dst;
 }
 
+// The sheet: 3 x 2 cells, each a caption, a panel of pw x ph and room for
+// a colour bar. Cells are at least kMinCell wide and tall whatever the
+// panels (a 65536x1 map has panels 1 texel tall): the captions and the
+// statistics' text must fall inside the image (OIIO 2.4's render_text
+// aborts on text that runs off its bottom).
+constexpr int kMinCellWidth = 344, kMinCellHeight = 100;
+
 class Sheet {
 public:
-    Sheet(int pw, int ph) : pw_(pw), ph_(ph)
+    Sheet(int pw, int ph)
+        : ph_(ph), cw_(std::max(pw, kMinCellWidth)), ch_(std::max(ph, kMinCellHeight))
     {
-        const int cell_h = kCaption + ph + kBar;
-        ImageSpec spec(3 * pw + 4 * kMargin, 2 * cell_h + 3 * kMargin, 3, TypeDesc::FLOAT);
+        const int cell_h = kCaption + ch_ + kBar;
+        ImageSpec spec(3 * cw_ + 4 * kMargin, 2 * cell_h + 3 * kMargin, 3, TypeDesc::FLOAT);
         image_.reset(spec);
         const float background[3] = {0.13f, 0.13f, 0.14f};
         IBA::fill(image_, background);
     }
 
     // Cell (col, row)'s top-left corner.
-    int x(int col) const { return kMargin + col * (pw_ + kMargin); }
-    int y(int row) const { return kMargin + row * (kCaption + ph_ + kBar + kMargin); }
+    int x(int col) const { return kMargin + col * (cw_ + kMargin); }
+    int y(int row) const { return kMargin + row * (kCaption + ch_ + kBar + kMargin); }
 
     void panel(int col, int row, const std::string& caption, const ImageBuf& pixels)
     {
@@ -141,8 +149,10 @@ public:
     void bar(int col, int row, const std::vector<Rgb>& stops, double lo, double hi, const std::string& unit)
     {
         const int top = y(row) + kCaption + ph_ + 8, height = 14;
-        for (int i = 0; i < pw_; ++i) {
-            const Rgb c = ramp(stops, double(i) / std::max(1, pw_ - 1));
+        // As wide as the cell: a panel a few texels wide still gets a
+        // readable scale.
+        for (int i = 0; i < cw_; ++i) {
+            const Rgb c = ramp(stops, double(i) / std::max(1, cw_ - 1));
             const float v[3] = {c.r, c.g, c.b};
             for (int j = 0; j < height; ++j)
                 image_.setpixel(x(col) + i, top + j, v);
@@ -151,7 +161,7 @@ public:
             const double value = lo + (hi - lo) * k / 4.0;
             char label[48];
             std::snprintf(label, sizeof label, "%.3g%s", value, k == 4 ? (" " + unit).c_str() : "");
-            const int px = x(col) + int(std::lround((pw_ - 1) * k / 4.0));
+            const int px = x(col) + int(std::lround((cw_ - 1) * k / 4.0));
             text(px, top + height + 18, label, 14,
                  k == 0 ? OIIO::ImageBufAlgo::TextAlignX::Left
                         : k == 4 ? OIIO::ImageBufAlgo::TextAlignX::Right : OIIO::ImageBufAlgo::TextAlignX::Center);
@@ -170,7 +180,7 @@ public:
     ImageBuf& image() { return image_; }
 
 private:
-    int pw_, ph_;
+    int ph_, cw_, ch_;
     ImageBuf image_;
 };
 

@@ -1,5 +1,5 @@
 #pragma once
-// Golden model of the checks of a height (DESIGN §9), in double: its normal
+// Golden model of the checks of a height (docs/design.md §9), in double: its normal
 // map, the round trip against slopes, and per-patch tessellation errors.
 #include <vector>
 

@@ -1,5 +1,5 @@
 #pragma once
-// Golden model of distortion correction (DESIGN.md §4.5), in double, written
+// Golden model of distortion correction (docs/design.md §4.5), in double, written
 // for clarity: the per-triangle energy, the total energy, the analytic fan
 // gradient and one full iteration of the four-phase ternary-search scheme.
 // Offsets and heights are in texels; nodes are given directly (the caller

@@ -1,5 +1,5 @@
 #pragma once
-// Golden model of the DDM derivation (DESIGN.md §4.1), plain C++ in double.
+// Golden model of the DDM derivation (docs/design.md §4.1), plain C++ in double.
 #include <cstdint>
 #include <vector>
 

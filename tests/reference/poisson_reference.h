@@ -1,5 +1,5 @@
 #pragma once
-// Golden model of least-squares integration (DESIGN.md §4.4): Frankot–
+// Golden model of least-squares integration (docs/design.md §4.4): Frankot–
 // Chellappa projection in double with plain separable DFTs (O(N^3), for
 // small test fields). Free boundaries integrate the even (mirror) extension
 // of the texture on a 2W x 2H torus and crop it, which is what the device's

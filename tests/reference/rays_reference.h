@@ -1,5 +1,5 @@
 #pragma once
-// Golden model of radial ray integration (DESIGN.md §4.2), plain C++ in
+// Golden model of radial ray integration (docs/design.md §4.2), plain C++ in
 // double. It walks every ray of every texel on its own, finding the texels
 // crossed from the sorted grid-line crossings (not from per-direction tables
 // as the kernel does), so the two share no traversal code.
@@ -12,7 +12,7 @@ struct RaySettings {
     double radius = 64.0;
     double phase = 0.5;
     bool periodic = true;
-    // Rational directions (DESIGN.md §4.3): the primitive integer step closest
+    // Rational directions (docs/design.md §4.3): the primitive integer step closest
     // in angle, |a|, |b| <= max(2, ceil(rays/4)); the walk is split at every
     // period boundary t = m*|(a, b)|.
     bool rational = false;

@@ -1,6 +1,6 @@
 #pragma once
 // Baking a distortion correction into a texture: the texel at u takes the
-// texture's value at u + c(u) (DESIGN.md §4.5, "Application").
+// texture's value at u + c(u) (docs/design.md §4.5, "Application").
 #include <OpenImageIO/imagebuf.h>
 
 #include <string>

@@ -1,6 +1,6 @@
 #pragma once
 // Distortion correction: displacement (height) map -> texture-coordinate
-// offset map (DESIGN.md §4.5, after Zirr & Ritschel, "Distortion-Free
+// offset map (docs/design.md §4.5, after Zirr & Ritschel, "Distortion-Free
 // Displacement Mapping", HPG 2019).
 #include <OpenImageIO/imagebuf.h>
 

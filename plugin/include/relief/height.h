@@ -12,7 +12,7 @@ namespace relief {
 
 // Auto: Poisson with an automatic boundary, unless ray options are given.
 enum class HeightMethod { Auto, Rays, Poisson };
-// Fast: cost independent of the radius (DESIGN.md §4.3), rational directions
+// Fast: cost independent of the radius (docs/design.md §4.3), rational directions
 // only. Reference: walks every ray (§4.2), either direction set.
 enum class RayImpl { Fast, Reference };
 // Rational: primitive integer steps (a, b) closest to the uniform angles.
@@ -66,7 +66,7 @@ struct HeightOptions {
     // excluded: the texel's slopes are ignored and its height filled
     // smoothly; Knald-style): channel 0 of `mask` (same size as the
     // normals' roi; not owned), or the normal map's alpha with mask_alpha.
-    // Weighted solves are the discrete least squares of DESIGN §4.4 by
+    // Weighted solves are the discrete least squares of docs/design.md §4.4 by
     // conjugate gradients; an all-ones mask changes nothing.
     const OIIO::ImageBuf* mask = nullptr;
     bool mask_alpha = false;

@@ -18,6 +18,12 @@ namespace relief {
 // a missing, empty, truncated or non-image file.
 RELIEF_API bool read_image(OIIO::ImageBuf& dst, const std::string& path);
 
+// Why `path` cannot be read as an input file, without opening it: "no such
+// file", "it is a folder", "not a regular file (a FIFO)" (devices and FIFOs
+// never end: relief reads regular files only), "the file is empty"; "" when
+// it can. read_image() checks this first.
+RELIEF_API std::string input_file_problem(const std::string& path);
+
 // Whether an image could be written to `path`: its folder exists, it is not
 // a folder, and its extension names a format OIIO can write. Returns false
 // and sets geterror() otherwise. write_image() checks this first; front ends
@@ -55,7 +61,9 @@ RELIEF_API bool write_image(const OIIO::ImageBuf& image, const std::string& path
                  const WriteOptions& options = {});
 
 // The relief:digest that the image file at `path` records, read from its
-// header without decoding pixels; "" when it records none or cannot be read.
+// header; "" when it records none or cannot be read, or when its pixels
+// are cut short (a truncated file keeps its header): the last scanline is
+// read (a PNG's closing chunk checked), not the whole image.
 RELIEF_API std::string recorded_digest(const std::string& path);
 
 } // namespace relief

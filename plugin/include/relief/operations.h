@@ -54,6 +54,7 @@ struct OperationInfo {
     std::vector<ImageSlot> inputs;   // in the order they are pushed (the top last)
     std::vector<ImageSlot> outputs;
     std::vector<ModifierInfo> modifiers;
+    std::string report;  // the key of the object it adds to --report ("" = none)
 };
 
 RELIEF_API const std::vector<OperationInfo>& operations();
@@ -83,7 +84,26 @@ struct OperationCall {
     PreviewOptions preview;
     std::string mask_file;  // height: mask=FILE, read by run_operation() unless height.mask is set
     std::string fix_file;   // correct: fix=FILE, read by run_operation() unless correct.fix_mask is set
+    // Set by the caller, for an operation with a report (OperationInfo::
+    // report): run_operation() writes the report there as a JSON object.
+    std::string* report_json = nullptr;
+    // Recorded in the file an operation writes (an Output modifier's), as
+    // the relief:digest an -o image records: what --update compares.
+    std::string file_digest;
 };
+
+// What a front end needs to know of a call without naming its operation:
+// the files it reads besides its input images (File modifiers: mask=FILE,
+// fix=FILE, env=FILE) and those it writes besides its result (Output
+// modifiers: mesh's out=FILE), as its modifiers name them.
+RELIEF_API std::vector<std::string> files_read(const OperationCall& call);
+RELIEF_API std::vector<std::string> files_written(const OperationCall& call);
+// Whether prepare() for the map's size (devices.h) shortens the call: what
+// the command line starts on a second thread while it reads the map.
+RELIEF_API bool sets_up_ahead(const OperationCall& call);
+// The call's choices in words, as -v prints them ("" when the operation has
+// nothing to add to its modifiers).
+RELIEF_API std::string describe(const OperationCall& call);
 
 // Every modifier of call.operation as "key=value", joined by ':' in the
 // table's order, defaults included: the call written out in full. Two calls

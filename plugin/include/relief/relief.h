@@ -9,6 +9,7 @@
 #include "relief/correct.h"
 #include "relief/height.h"
 #include "relief/imageio.h"
+#include "relief/output_files.h"
 #include "relief/mesh.h"
 #include "relief/operations.h"
 #include "relief/options.h"

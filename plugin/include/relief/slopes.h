@@ -13,7 +13,7 @@ struct SlopeOptions {
     Execution exec;
 };
 
-// Derives the slope field (DESIGN.md §4.1) of the normal map `normals`
+// Derives the slope field (docs/design.md §4.1) of the normal map `normals`
 // (2, 3 or 4 channels; a 4th channel is ignored; 8/16-bit UNORM, half or
 // float). The result has 2 float channels "gx", "gy": height change per texel
 // step along x (column, right) and y (row, down), in texel units. Metadata:

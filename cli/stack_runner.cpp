@@ -1,0 +1,300 @@
+// The stack runner: one command line's steps over a stack of images.
+#include "stack_runner.h"
+
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imageio.h>
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <future>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "job_digest.h"
+#include "text_file.h"
+#include "relief/relief.h"
+
+namespace relief::cli {
+
+namespace {
+
+using relief::Severity;
+
+// While it lives (unless verbose), the image libraries' own diagnostics on
+// stderr ("libpng error: ...", "OIIO DEBUG: ...") go to /dev/null: relief
+// reports the failure itself, once. Reads and writes run on this thread.
+class QuietLibraries {
+public:
+    explicit QuietLibraries(bool verbose)
+    {
+        if (verbose)
+            return;
+        std::fflush(stderr);
+        saved_ = dup(2);
+        const int null = open("/dev/null", O_WRONLY | O_CLOEXEC);
+        if (saved_ >= 0 && null >= 0)
+            dup2(null, 2);
+        if (null >= 0)
+            close(null);
+    }
+    ~QuietLibraries()
+    {
+        if (saved_ < 0)
+            return;
+        std::fflush(stderr);
+        dup2(saved_, 2);
+        close(saved_);
+    }
+    QuietLibraries(const QuietLibraries&) = delete;
+    QuietLibraries& operator=(const QuietLibraries&) = delete;
+
+private:
+    int saved_ = -1;
+};
+
+class StackRunner {
+public:
+    StackRunner(const Program& prog, std::string digest) : prog_(prog), digest_(std::move(digest)) {}
+
+    void run()
+    {
+        const double prepared = relief::setup_times().prepared;
+        prepare_ahead();
+        for (const Step& s : prog_.steps) {
+            const auto t0 = std::chrono::steady_clock::now();
+            const relief::SetupTimes before = relief::setup_times();
+            run_step(s);
+            if (!prog_.verbose)
+                continue;
+            const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            const relief::SetupTimes after = relief::setup_times();
+            const double device = after.device - before.device, programs = after.programs - before.programs,
+                         plans = after.plans - before.plans;
+            if (s.kind == Step::Kind::Operation)
+                std::fprintf(stderr,
+                             "relief: %s%s: %.3f s (device set-up %.3f, kernel builds %.3f, FFT plans %.3f, "
+                             "the map's own work %.3f)\n",
+                             prog_.label.c_str(), s.text.c_str(), sec, device, programs, plans,
+                             sec - device - programs - plans);
+            else
+                std::fprintf(stderr, "relief: %s%s: %.3f s\n", prog_.label.c_str(),
+                             s.kind == Step::Kind::Read ? ("read " + s.path).c_str() : s.text.c_str(), sec);
+        }
+        if (!prog_.report.empty()) {
+            // One object per reporting operation, in the order they ran.
+            std::string json = "{";
+            for (const auto& [key, object] : report_)
+                json += std::string(json.size() > 1 ? ",\n" : "\n") + "  \"" + key + "\": " +
+                        indented(object);
+            write_text_atomically(prog_.report, json + "\n}\n", "the report");
+        }
+        if (prog_.verbose && ahead_.valid()) {
+            ahead_.wait();
+            std::fprintf(stderr, "relief: %sset up ahead, beside the read: %.3f s\n", prog_.label.c_str(),
+                         relief::setup_times().prepared - prepared);
+        }
+    }
+
+private:
+    // A program that starts by reading a map and taking its Poisson height
+    // (the default: relief::sets_up_ahead) sets up the device, kernels and
+    // FFT plans for that size on a second thread while the map is read and
+    // decoded.
+    void prepare_ahead()
+    {
+        const auto& st = prog_.steps;
+        std::size_t first = 1;  // the first operation (a --dup before it changes nothing)
+        while (first < st.size() && st[first].kind == Step::Kind::Dup)
+            ++first;
+        if (first >= st.size() || st[0].kind != Step::Kind::Read || st[first].kind != Step::Kind::Operation ||
+            !relief::sets_up_ahead(st[first]))
+            return;
+        int width = 0, height = 0;
+        {
+            // The size from the header (about a millisecond), quietly: a
+            // damaged file is the read's to report.
+            QuietLibraries quiet(prog_.verbose);
+            if (auto in = OIIO::ImageInput::open(st[0].path)) {
+                width = in->spec().width;
+                height = in->spec().height;
+            } else {
+                OIIO::geterror();
+                return;
+            }
+        }
+        ahead_ = std::async(std::launch::async,
+                            [device = prog_.device, width, height] { relief::prepare(device, width, height); });
+    }
+
+    void message(Severity s, const std::string& msg) const
+    {
+        if (s == Severity::Warning)
+            std::fprintf(stderr, "relief: %swarning: %s\n", prog_.label.c_str(), msg.c_str());
+        else if (s == Severity::Notice || prog_.verbose)
+            std::fprintf(stderr, "relief: %s%s\n", prog_.label.c_str(), msg.c_str());
+    }
+
+    relief::Execution execution(const Step& s) const
+    {
+        relief::Execution e;
+        e.device = prog_.device;
+        e.on_message = [this](Severity sev, const std::string& m) { message(sev, m); };
+        if (prog_.verbose) {
+            auto next = std::make_shared<int>(10);
+            std::string name = s.text.substr(0, s.text.find(':'));
+            e.on_progress = [name, next](double f) {
+                while (f * 100.0 >= *next && *next <= 100) {
+                    std::fprintf(stderr, "relief: %s: %d%%\n", name.c_str(), *next);
+                    *next += 10;
+                }
+            };
+        }
+        return e;
+    }
+
+    bool read(OIIO::ImageBuf& img, const std::string& path) const
+    {
+        QuietLibraries quiet(prog_.verbose);
+        return relief::read_image(img, path);
+    }
+
+    OIIO::ImageBuf pop()
+    {
+        OIIO::ImageBuf top = std::move(stack_.back());
+        stack_.pop_back();
+        return top;
+    }
+
+    void run_step(const Step& s)
+    {
+        switch (s.kind) {
+        case Step::Kind::Read: {
+            OIIO::ImageBuf img;
+            if (!read(img, s.path))
+                throw RunError(relief::geterror());
+            if (prog_.verbose) {
+                const auto& spec = img.spec();
+                std::fprintf(stderr, "relief: read %s: %dx%d, %d channel(s), %s\n", s.path.c_str(),
+                             spec.width, spec.height, spec.nchannels, img.nativespec().format.c_str());
+            }
+            stack_.push_back(std::move(img));
+            break;
+        }
+        case Step::Kind::Operation: {
+            const relief::OperationInfo& op = *relief::find_operation(s.operation);
+            relief::OperationCall call = s;
+            // Mask and fixation files are read here, quietly like every read.
+            OIIO::ImageBuf mask, fix;
+            if (!s.mask_file.empty()) {
+                if (!read(mask, s.mask_file))
+                    throw RunError("mask: " + relief::geterror());
+                call.height.mask = &mask;
+            }
+            if (!s.fix_file.empty()) {
+                if (!read(fix, s.fix_file))
+                    throw RunError("fix: " + relief::geterror());
+                call.correct.fix_mask = &fix;
+            }
+            // A file it writes (mesh's out=) records its digest, as -o images do.
+            // (Numbered as output_files() lists them: one file per operation today.)
+            const std::size_t written = relief::files_written(s).size();
+            if (written > 0)
+                call.file_digest = output_digest(digest_, outputs_);
+            outputs_ += int(written);
+            // A height's round trip costs a pass: only when it is reported or shown.
+            std::string report;
+            if (!op.report.empty() && (!prog_.report.empty() || prog_.verbose))
+                call.report_json = &report;
+            if (const std::string choices = prog_.verbose ? relief::describe(call) : ""; !choices.empty())
+                message(Severity::Info, op.name + ": " + choices);
+            // The inputs are the top of the stack, the first input deepest.
+            std::vector<OIIO::ImageBuf> in(op.inputs.size());
+            for (std::size_t i = in.size(); i-- > 0;)
+                in[i] = pop();
+            std::vector<const OIIO::ImageBuf*> inputs;
+            for (const OIIO::ImageBuf& b : in)
+                inputs.push_back(&b);
+            OIIO::ImageBuf out;
+            if (!relief::run_operation(out, call, inputs, execution(s)))
+                throw RunError(relief::geterror());
+            if (call.report_json)
+                report_.emplace_back(op.report, report);
+            stack_.push_back(std::move(out));
+            break;
+        }
+        case Step::Kind::Dup: {
+            OIIO::ImageBuf copy;
+            if (!copy.copy(stack_.back()))
+                throw RunError("--dup: " + copy.geterror());
+            stack_.push_back(std::move(copy));
+            break;
+        }
+        case Step::Kind::Write: {
+            relief::WriteOptions w;
+            w.format = s.format;
+            const OIIO::ImageBuf& top = stack_.back();
+            // Without -d a baked texture keeps its file's pixel type.
+            const std::string native = top.spec().get_string_attribute("relief:native_format");
+            if (!s.format_given && !native.empty())
+                w.format = OIIO::TypeDesc(native);
+            if (w.format == OIIO::TypeDesc::HALF && top.spec().get_string_attribute("relief:method") == "correct" &&
+                std::max(top.spec().width, top.spec().height) > 2048)
+                std::fprintf(stderr, "relief: warning: %s: half offsets above 2048 texels are coarser than 1/8 texel; prefer float\n",
+                             s.path.c_str());
+            w.compression = s.compression;
+            const std::string digest = output_digest(digest_, outputs_++);
+            if (digest.empty())
+                stack_.back().specmod().erase_attribute("relief:digest");
+            else
+                stack_.back().specmod().attribute("relief:digest", digest);
+            // The integer mapping is needed to read the file back: always say it.
+            w.on_message = [](Severity, const std::string& m) {
+                std::fprintf(stderr, "relief: %s\n", m.c_str());
+            };
+            if (!relief::write_image(stack_.back(), s.path, w))
+                throw RunError(relief::geterror());
+            if (prog_.verbose)
+                std::fprintf(stderr, "relief: wrote %s\n", s.path.c_str());
+            break;
+        }
+        }
+    }
+
+    // A JSON object's text indented one level (after its first line), without its last newline.
+    static std::string indented(std::string object)
+    {
+        while (!object.empty() && object.back() == '\n')
+            object.pop_back();
+        std::string out;
+        for (char c : object) {
+            out += c;
+            if (c == '\n')
+                out += "  ";
+        }
+        return out;
+    }
+
+    const Program& prog_;
+    const std::string digest_;
+    // (OperationInfo::report, its JSON object) in the order they ran;
+    // --report allows one operation of each report.
+    std::vector<std::pair<std::string, std::string>> report_;
+    int outputs_ = 0;          // outputs (-o images, --mesh files) written so far
+    std::future<void> ahead_;  // prepare_ahead(); its destructor waits for it
+    std::vector<OIIO::ImageBuf> stack_;
+};
+
+} // namespace
+
+void run_steps(const Program& prog, const std::string& digest)
+{
+    StackRunner(prog, digest).run();
+}
+
+} // namespace relief::cli

@@ -1,0 +1,22 @@
+#pragma once
+// Running one command line's steps, left to right over a stack of images as
+// oiiotool does: a read pushes, an operation pops its inputs and pushes its
+// result, -o writes the top; the --report file is written at the end.
+#include <stdexcept>
+#include <string>
+
+#include "command_line.h"
+
+namespace relief::cli {
+
+// A failure while running (a file, the device, an operation): exit status 1,
+// where a UsageError is 2.
+struct RunError : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+// Runs `prog`'s steps. `digest` is the job's (job_digest.h): the k-th file
+// written records output_digest(digest, k), "" none. Throws RunError.
+void run_steps(const Program& prog, const std::string& digest);
+
+} // namespace relief::cli

@@ -1,0 +1,277 @@
+#pragma once
+// One coarse-to-fine level of distortion correction on the device
+// (docs/design.md §4.5; kernels/correct.cl): its buffers, the phases that
+// move the nodes, the energy and gain reductions, tile skipping. Included
+// only by correct_stage.cpp, which drives the levels.
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "correct_grid.h"
+#include "correct_stage.h"
+#include "errors.h"
+#include "opencl_context.h"
+
+namespace relief::host {
+
+inline constexpr int kTile = 16;  // nodes per tile side, CORRECT_TILE in correct.cl
+// Tolerances from this up follow the energy by the nodes' summed falls;
+// tighter ones recompute the energy every iteration.
+inline constexpr double kGainTolerance = 1e-6;
+// Quads per work-item on CPUs (CORRECT_NODES: line searches in lockstep,
+// to overlap their dependency chains). Measured on PoCL with Brent's search
+// (1024^2, 12 iterations, 2 cores): 1 quad 1.28-1.33 s, 2 quads 1.07-1.28 s,
+// 4 quads 1.10-1.36 s, 8 quads 1.07-1.17 s, so 2.
+inline constexpr int kCpuNodesPerItem = 2;
+
+// One level's device state and the kernels that work on it.
+class LevelSolver {
+public:
+    LevelSolver(ComputeContext& ctx, const NodeGrid& g, const std::vector<float>& z,
+                const std::vector<float>& fix, const CorrectParams& p)
+        : c_(ctx.impl()), g_(g), p_(p), fp64_(ctx.fp64()),
+          nodes_per_item_(ctx.device().is_gpu ? 1 : kCpuNodesPerItem),
+          nodes_(std::size_t(g.nx) * g.ny), use_fix_(!fix.empty())
+    {
+        const bool whole = p.theta == std::floor(p.theta);
+        cl::Program& prog = c_.program(
+            "correct.cl", std::string(fp64_ ? "-DRELIEF_FP64" : "") +
+                              (whole ? " -DCORRECT_ITHETA=" + std::to_string(int(p.theta)) : "") +
+                              " -DCORRECT_NODES=" + std::to_string(nodes_per_item_) +
+                              " -DCORRECT_SEARCH=" + std::to_string(int(p.search)));
+        energy_k_ = cl::Kernel(prog, "correct_energy");
+        phase_k_ = cl::Kernel(prog, "correct_phase");
+        active_k_ = cl::Kernel(prog, "correct_active");
+        gain_sum_k_ = cl::Kernel(prog, "correct_gain_sum");
+        const std::size_t esize = fp64_ ? sizeof(double) : sizeof(float);
+        // The sums' work-groups: powers of two from the device's limits, with
+        // one energy_t of local memory per work-item.
+        energy_group_ = c_.group_size(energy_k_, esize);
+        phase_group_ = c_.group_shape(phase_k_, 8 / nodes_per_item_, 8);
+        sum_group_ = c_.group_size(gain_sum_k_, esize);
+        groups_ = std::max((nodes_ + energy_group_ - 1) / energy_group_, (nodes_ + sum_group_ - 1) / sum_group_);
+        c_buf_ = c_.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * nodes_, "distortion correction");
+        z_buf_ = c_.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * nodes_, "distortion correction", z.data());
+        fix_buf_ = use_fix_ ? c_.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                                        sizeof(float) * nodes_, "distortion correction", fix.data())
+                            : c_.buffer(CL_MEM_READ_ONLY, sizeof(float), "distortion correction");
+        partial_ = c_.buffer(CL_MEM_READ_WRITE, esize * groups_, "distortion correction");
+        gain_ = c_.buffer(CL_MEM_READ_WRITE, esize * nodes_, "distortion correction");
+        tiles_x_ = (g.nx + kTile - 1) / kTile;
+        tiles_y_ = (g.ny + kTile - 1) / kTile;
+        for (int cy = 0; cy < (g.periodic && (g.ny & 1) && g.ny > 1 ? 3 : 2); ++cy)
+            for (int cx = 0; cx < (g.periodic && (g.nx & 1) && g.nx > 1 ? 3 : 2); ++cx)
+                phases_.push_back({cx, cy});
+        const std::size_t tiles = std::size_t(tiles_x_) * tiles_y_;
+        moved_ = c_.buffer(CL_MEM_READ_WRITE, tiles * phases_.size(), "distortion correction");
+        active_ = c_.buffer(CL_MEM_READ_WRITE, tiles, "distortion correction");
+        itheta_ = p.theta == std::floor(p.theta) ? int(p.theta) : -1;
+    }
+
+    // Offsets in texels of this level (float2 per node).
+    void upload(const std::vector<float>& c)
+    {
+        c_.queue.enqueueWriteBuffer(c_buf_, CL_TRUE, 0, sizeof(cl_float2) * nodes_, c.data());
+    }
+    void download(std::vector<float>& c)
+    {
+        c.resize(2 * nodes_);
+        c_.queue.enqueueReadBuffer(c_buf_, CL_TRUE, 0, sizeof(cl_float2) * nodes_, c.data());
+    }
+
+    // Total energy; with `stats`, per owned triangle (anisotropy, area ratio).
+    // The statistics (16 bytes per node) come in chunks of at most one
+    // device buffer; the partial sums are added in the same order whatever
+    // the chunking.
+    double energy(std::vector<float>* aniso = nullptr, std::vector<float>* area = nullptr)
+    {
+        const bool want = aniso != nullptr;
+        const std::size_t esize = fp64_ ? sizeof(double) : sizeof(float);
+        const std::size_t g = energy_group_;
+        std::size_t chunk = round_up(nodes_, g);
+        if (want) {
+            aniso->clear();
+            area->clear();
+            const std::size_t fit = c_.buffer_limit() / sizeof(cl_float4) / g * g;
+            chunk = std::min(chunk, std::max(fit, g));
+        }
+        cl::Buffer stats = c_.buffer(CL_MEM_WRITE_ONLY, want ? sizeof(cl_float4) * chunk : 16,
+                                     "distortion correction's statistics");
+        std::vector<float> st(want ? 4 * chunk : 0);
+        double sum = 0.0;
+        for (std::size_t first = 0; first < nodes_; first += chunk) {
+            const std::size_t count = std::min(chunk, round_up(nodes_ - first, g));
+            int a = 0;
+            energy_k_.setArg(a++, c_buf_);
+            energy_k_.setArg(a++, z_buf_);
+            energy_k_.setArg(a++, fix_buf_);
+            energy_k_.setArg(a++, cl_int(use_fix_));
+            energy_k_.setArg(a++, cl_int(g_.nx));
+            energy_k_.setArg(a++, cl_int(g_.ny));
+            energy_k_.setArg(a++, cl_int(g_.periodic));
+            energy_k_.setArg(a++, float(p_.theta));
+            energy_k_.setArg(a++, cl_int(itheta_));
+            energy_k_.setArg(a++, partial_);
+            energy_k_.setArg(a++, cl::Local(esize * g));
+            energy_k_.setArg(a++, stats);
+            energy_k_.setArg(a++, cl_int(want));
+            energy_k_.setArg(a++, cl_int(first));
+            c_.queue.enqueueNDRangeKernel(energy_k_, cl::NullRange, cl::NDRange(count), cl::NDRange(g));
+            add_partials(count / g, sum);
+            if (want) {
+                const std::size_t real = std::min(count, nodes_ - first);
+                c_.queue.enqueueReadBuffer(stats, CL_TRUE, 0, sizeof(cl_float4) * real, st.data());
+                for (std::size_t i = 0; i < real; ++i)
+                    for (int t = 0; t < 2; ++t)
+                        if (!std::isnan(st[4 * i + 2 * t])) {
+                            aniso->push_back(st[4 * i + 2 * t]);
+                            area->push_back(st[4 * i + 2 * t + 1]);
+                        }
+            }
+        }
+        return sum;
+    }
+
+    // The energy fall of the last iteration: the sum of the nodes' gains.
+    double gain_sum()
+    {
+        int a = 0;
+        gain_sum_k_.setArg(a++, gain_);
+        gain_sum_k_.setArg(a++, cl_int(nodes_));
+        gain_sum_k_.setArg(a++, partial_);
+        gain_sum_k_.setArg(a++, cl::Local((fp64_ ? sizeof(double) : sizeof(float)) * sum_group_));
+        c_.queue.enqueueNDRangeKernel(gain_sum_k_, cl::NullRange, cl::NDRange(round_up(nodes_, sum_group_)),
+                                      cl::NDRange(sum_group_));
+        double sum = 0.0;
+        add_partials((nodes_ + sum_group_ - 1) / sum_group_, sum);
+        return sum;
+    }
+
+    // Adds the first `groups` work-group partial sums to `sum`, in order.
+    void add_partials(std::size_t groups, double& sum)
+    {
+        if (fp64_) {
+            std::vector<double> part(groups);
+            c_.queue.enqueueReadBuffer(partial_, CL_TRUE, 0, sizeof(double) * groups, part.data());
+            for (double v : part)
+                sum += v;
+        } else {
+            std::vector<float> part(groups);
+            c_.queue.enqueueReadBuffer(partial_, CL_TRUE, 0, sizeof(float) * groups, part.data());
+            for (float v : part)
+                sum += v;
+        }
+    }
+
+    // Iterates; returns what happened.
+    // on_iteration(it, rel): after iteration it, with the relative energy
+    // change it made.
+    // start_energy: the energy of the uploaded offsets when the caller has
+    // it (else NaN); with measure_end false the caller measures the end
+    // energy itself (energy_end is left NaN).
+    CorrectLevel solve(const std::function<void(int, double)>& on_iteration, double tolerance,
+                       double start_energy, bool measure_end)
+    {
+        CorrectLevel lv;
+        lv.width = g_.width;
+        lv.height = g_.height;
+        const std::size_t tiles = std::size_t(tiles_x_) * tiles_y_;
+        // Every tile runs the first time round.
+        c_.fill(moved_, cl_uchar(1), 0, tiles * phases_.size());
+        double e = std::isnan(start_energy) ? energy() : start_energy;
+        lv.energy_start = e;
+        std::vector<cl_uchar> act(tiles);
+        const int limit = p_.iterations > 0 ? p_.iterations : p_.max_iterations;
+        // The energy falls by the sum of the nodes' falls (float fan
+        // energies: exact to ~1e-7 of the energy); below that, a tolerance
+        // needs the energy itself each iteration.
+        const bool from_gains =
+            !p_.energy_each_iteration && (p_.iterations > 0 || tolerance >= kGainTolerance);
+        for (int it = 1; it <= limit; ++it) {
+            if (from_gains && fp64_)
+                c_.fill(gain_, cl_double(0), 0, sizeof(double) * nodes_);
+            else if (from_gains)
+                c_.fill(gain_, cl_float(0), 0, sizeof(float) * nodes_);
+            for (std::size_t ph = 0; ph < phases_.size(); ++ph) {
+                int a = 0;
+                if (p_.skip_tiles) {
+                    active_k_.setArg(a++, moved_);
+                    active_k_.setArg(a++, cl_int(phases_.size()));
+                    active_k_.setArg(a++, cl_int(tiles_x_));
+                    active_k_.setArg(a++, cl_int(tiles_y_));
+                    active_k_.setArg(a++, cl_int(g_.periodic));
+                    active_k_.setArg(a++, active_);
+                    c_.launch(active_k_, tiles);
+                    c_.queue.enqueueReadBuffer(active_, CL_TRUE, 0, tiles, act.data());
+                    for (cl_uchar v : act)
+                        lv.tile_phases_run += v != 0;
+                } else {
+                    c_.fill(active_, cl_uchar(1), 0, tiles);
+                    lv.tile_phases_run += tiles;
+                }
+                lv.tile_phases += tiles;
+                c_.fill(moved_, cl_uchar(0), ph * tiles, tiles);
+                a = 0;
+                phase_k_.setArg(a++, c_buf_);
+                phase_k_.setArg(a++, z_buf_);
+                phase_k_.setArg(a++, fix_buf_);
+                phase_k_.setArg(a++, cl_int(use_fix_));
+                phase_k_.setArg(a++, cl_int(g_.nx));
+                phase_k_.setArg(a++, cl_int(g_.ny));
+                phase_k_.setArg(a++, cl_int(g_.periodic));
+                phase_k_.setArg(a++, cl_int(phases_[ph].first));
+                phase_k_.setArg(a++, cl_int(phases_[ph].second));
+                phase_k_.setArg(a++, cl_int(tiles_x_));
+                phase_k_.setArg(a++, active_);
+                phase_k_.setArg(a++, moved_);
+                phase_k_.setArg(a++, cl_int(ph * tiles));
+                phase_k_.setArg(a++, float(p_.theta));
+                phase_k_.setArg(a++, cl_int(itheta_));
+                phase_k_.setArg(a++, float(p_.relax));
+                phase_k_.setArg(a++, gain_);
+                // One tile is 8 / nodes_per_item x 8 work-items; the
+                // kernel finds its tile from its global id, so the group
+                // may be smaller where the device wants it so.
+                c_.queue.enqueueNDRangeKernel(phase_k_, cl::NullRange,
+                                              cl::NDRange(std::size_t(tiles_x_) * 8 / nodes_per_item_,
+                                                          std::size_t(tiles_y_) * 8),
+                                              phase_group_);
+            }
+            const double next = from_gains ? e - gain_sum() : energy();
+            const double rel = (e - next) / std::max(std::abs(e), 1e-300);
+            e = next;
+            lv.iterations = it;
+            if (on_iteration)
+                on_iteration(it, rel);
+            // An infinite energy (a flipped start, or one beyond the
+            // device's range without fp64) is never "converged".
+            if (p_.iterations == 0 && std::isfinite(e) && std::isfinite(rel) && rel < tolerance) {
+                lv.converged = true;
+                break;
+            }
+        }
+        lv.energy_end = !measure_end ? std::numeric_limits<double>::quiet_NaN() : from_gains ? energy() : e;
+        return lv;
+    }
+
+private:
+    ComputeContext::Impl& c_;
+    NodeGrid g_;
+    const CorrectParams& p_;
+    bool fp64_;
+    int nodes_per_item_;
+    std::size_t nodes_;
+    bool use_fix_;
+    std::size_t groups_ = 0;        // partial sums the buffer holds
+    std::size_t energy_group_ = 1;  // work-group of correct_energy
+    std::size_t sum_group_ = 1;     // work-group of correct_gain_sum
+    cl::NDRange phase_group_;       // of correct_phase: within one tile
+    int tiles_x_ = 0, tiles_y_ = 0, itheta_ = -1;
+    std::vector<std::pair<int, int>> phases_;
+    cl::Kernel energy_k_, phase_k_, active_k_, gain_sum_k_;
+    cl::Buffer c_buf_, z_buf_, fix_buf_, partial_, moved_, active_, gain_;
+};
+
+} // namespace relief::host

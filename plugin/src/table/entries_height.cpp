@@ -1,0 +1,170 @@
+// The operation table's entries for --slopes and --height: each operation's slots,
+// modifiers (what users see, how they set the option structs) and run.
+#include "schema.h"
+
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "relief/height.h"
+#include "relief/slopes.h"
+
+namespace relief::table {
+
+Operation slopes_operation()
+{
+    Operation op;
+    op.info = {"slopes",
+               "normal map -> slopes (2 channels gx, gy: height change per texel step along x "
+               "and y, in texels)",
+               {kNormals},
+               {{"slopes", 2, 2, "gx, gy in texels per texel"}},
+               {},
+               ""};
+    op.modifiers = decoding_modifiers([](auto& c) -> auto& { return c.slopes.normals; });
+    op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
+        return relief::slopes(dst, *in[0], c.slopes);
+    };
+    return op;
+}
+
+Operation height_operation()
+{
+    Operation op;
+    op.info = {"height",
+               "normal map -> displacement (1 channel, texel units: 1.0 = one texel's width; "
+               "bumps positive, zero mean)",
+               {kNormals},
+               {{"height", 1, 1, "height in texels"}},
+               {},
+               "height"};
+    auto h = [](auto& c) -> auto& { return c.height; };
+    op.modifiers = decoding_modifiers([h](auto& c) -> auto& { return h(c).normals; });
+    const char* rays = "method=rays";
+    const char* poisson = "method=poisson";
+    std::vector<Modifier> more = {
+        choice("method", [h](auto& c) -> auto& { return h(c).method; },
+               std::vector<std::pair<std::string, HeightMethod>>{
+                   {"auto", HeightMethod::Auto},
+                   {"poisson", HeightMethod::Poisson},
+                   {"rays", HeightMethod::Rays}},
+               "",
+               "poisson: least squares (Frankot-Chellappa); rays: radial ray integration; "
+               "auto: poisson, or rays when a ray modifier is given"),
+        [h] {
+            Modifier m = choice("boundary", [h](auto& c) -> auto& { return h(c).boundary; },
+                                std::vector<std::pair<std::string, Boundary>>{
+                                    {"auto", Boundary::Auto},
+                                    {"periodic", Boundary::Periodic},
+                                    {"free", Boundary::Free},
+                                    {"clip", Boundary::Free}},
+                                "",
+                                "periodic: the texture tiles; free (clip for rays): it does not; auto: "
+                                "periodic when the slopes are continuous across the wrap seams");
+            // Written as each method takes it: rays refuse "free".
+            m.get = [h, get = m.get](const OperationCall& c) {
+                const std::string name = get(c);
+                return name == "free" && h(c).method == HeightMethod::Rays ? std::string("clip") : name;
+            };
+            return m;
+        }(),
+        number("highpass", ModifierType::Number, [h](auto& c) -> auto& { return h(c).highpass; },
+               0, false, 1e9, false, "R", "texels", poisson,
+               "relief balance: remove structure larger than R texels (0 = off)"),
+        [h] {
+            Modifier m;
+            m.info.name = "mask";
+            m.info.type = ModifierType::File;
+            // "none", the default, is what modifier_text writes for no mask:
+            // the call written out in full must parse back to itself.
+            m.info.choices = {"alpha", "none"};
+            m.info.placeholder = "FILE";
+            m.info.applies_to = "method=poisson";
+            m.info.meaning = "per-texel weights in [0,1] (channel 0 of FILE, or the normal "
+                             "map's alpha); 0 excludes a texel's slopes";
+            m.set = [h](OperationCall& c, const std::string& text, double) {
+                h(c).mask_alpha = text == "alpha";
+                c.mask_file = text == "alpha" || text == "none" ? std::string() : text;
+            };
+            m.path = [](const OperationCall& c) { return c.mask_file; };
+            m.get = [h](const OperationCall& c) {
+                return h(c).mask_alpha ? std::string("alpha")
+                       : !c.mask_file.empty() ? c.mask_file
+                       : h(c).mask ? std::string("image")
+                                   : std::string("none");
+            };
+            return m;
+        }(),
+        choice("impl", [h](auto& c) -> auto& { return h(c).impl; },
+               std::vector<std::pair<std::string, RayImpl>>{{"fast", RayImpl::Fast},
+                                                            {"reference", RayImpl::Reference}},
+               rays, "fast: cost independent of the radius; reference: walks every ray"),
+        number("rays", ModifierType::Integer, [h](auto& c) -> auto& { return h(c).rays; }, 1,
+               false, 4096, false, "J", "", rays, "ray directions per texel"),
+        number("radius", ModifierType::Number, [h](auto& c) -> auto& { return h(c).radius; }, 0,
+               true, 65536, false, "R", "texels", rays, "ray length"),
+        number("phase", ModifierType::Number, [h](auto& c) -> auto& { return h(c).phase; }, 0,
+               false, 1, true, "PHI", "", rays, "ray angles are 2 pi (j + PHI) / J"),
+        choice("directions", [h](auto& c) -> auto& { return h(c).directions; },
+               std::vector<std::pair<std::string, RayDirections>>{
+                   {"rational", RayDirections::Rational}, {"exact", RayDirections::Exact}},
+               rays,
+               "rational: integer steps nearest the angles; exact: the angles (impl=reference)"),
+        choice("skip", [h](auto& c) -> auto& { return h(c).skip_flat; }, kOnOff, rays,
+               "skip tiles whose rays meet only zero slopes (the result is identical)"),
+    };
+    op.modifiers.insert(op.modifiers.end(), more.begin(), more.end());
+    op.finish = [](OperationCall& c, const std::map<std::string, std::string>& given,
+                   const std::vector<Modifier>& modifiers) {
+        HeightOptions& o = c.height;
+        bool ray_option = false, poisson_option = false;
+        std::vector<std::string> ray_names, poisson_names;
+        for (const Modifier& m : modifiers) {
+            const bool rays = m.info.applies_to == "method=rays";
+            const bool poisson = m.info.applies_to == "method=poisson";
+            if (rays)
+                ray_names.push_back(m.info.name);
+            if (poisson)
+                poisson_names.push_back(m.info.name);
+            ray_option |= rays && given.count(m.info.name);
+            poisson_option |= poisson && given.count(m.info.name);
+        }
+        if (o.method == HeightMethod::Auto && ray_option)
+            o.method = HeightMethod::Rays;
+        if (o.method == HeightMethod::Rays && poisson_option)
+            throw std::invalid_argument(listed(poisson_names) + " apply to method=poisson, not to rays");
+        if (o.highpass > 0.0f && (o.mask_alpha || !c.mask_file.empty()))
+            throw std::invalid_argument("highpass cannot be combined with a mask yet");
+        if (o.method == HeightMethod::Poisson && ray_option)
+            throw std::invalid_argument(listed(ray_names) + " apply to method=rays");
+        const auto b = given.find("boundary");
+        const std::string boundary = b == given.end() ? "auto" : b->second;
+        if (o.method == HeightMethod::Rays && boundary == "free")
+            throw std::invalid_argument("rays take boundary=periodic, clip or auto");
+        if (o.method != HeightMethod::Rays && boundary == "clip")
+            throw std::invalid_argument("method=poisson takes boundary=periodic, free or auto");
+        if (o.method == HeightMethod::Rays && o.impl == RayImpl::Fast &&
+            o.directions == RayDirections::Exact)
+            throw std::invalid_argument("impl=fast needs directions=rational (or use impl=reference)");
+    };
+    op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
+        HeightOptions o = c.height;
+        ImageBuf mask;
+        o.mask = file_image(o.mask, c.mask_file, "mask", mask);
+        HeightReport report;
+        if (c.report_json && !o.report)
+            o.report = &report;
+        if (!relief::height(dst, *in[0], o))
+            return false;
+        if (c.report_json)
+            *c.report_json = o.report->to_json();
+        return true;
+    };
+    // Poisson's device, kernels and FFT plans depend on the size only.
+    op.sets_up_ahead = [](const OperationCall& c) { return c.height.method != HeightMethod::Rays; };
+    op.describe = [](const OperationCall& c) { return relief::describe(c.height); };
+    return op;
+}
+
+} // namespace relief::table

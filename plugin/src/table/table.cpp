@@ -1,0 +1,261 @@
+// The operation table: the entries gathered, looked up, parsed from
+// modifiers and run. Each family's entries are in entries_*.cpp, the schema
+// they are written with in schema.h; the JSON listing is operations_json.cpp.
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "error_state.h"
+#include "operation_table.h"
+#include "schema.h"
+
+namespace relief::table {
+
+const std::vector<Operation>& entries()
+{
+    static const std::vector<Operation> ops = [] {
+        std::vector<Operation> v = {slopes_operation(), height_operation(), correct_operation(),
+                                    bake_operation(), normals_operation(), tessellation_operation(),
+                                    mesh_operation(), preview_operation()};
+        const OperationCall defaults;
+        for (Operation& op : v)
+            for (Modifier& m : op.modifiers) {
+                m.info.default_value = m.get(defaults);
+                op.info.modifiers.push_back(m.info);
+            }
+        return v;
+    }();
+    return ops;
+}
+
+const Operation* find(const std::string& name)
+{
+    for (const Operation& op : entries())
+        if (op.info.name == name)
+            return &op;
+    return nullptr;
+}
+
+const Operation& find_or_throw(const std::string& name)
+{
+    if (const Operation* op = find(name))
+        return *op;
+    std::string known;
+    for (const Operation& op : entries())
+        known += (known.empty() ? "" : ", ") + op.info.name;
+    throw std::invalid_argument("unknown operation '" + name + "' (known: " + known + ")");
+}
+
+} // namespace relief::table
+
+namespace relief {
+
+using table::entries;
+using table::find;
+using table::find_or_throw;
+using table::Modifier;
+using table::Operation;
+using table::check_value;
+using table::word_prefix;
+using OIIO::ImageBuf;
+
+namespace {
+
+// "key=value:key=value" -> pairs; fix=height:H0:DH keeps its colons.
+std::vector<std::pair<std::string, std::string>> split(const Operation& op, const std::string& text)
+{
+    std::vector<std::pair<std::string, std::string>> kv;
+    if (text.empty())
+        return kv;
+    std::size_t pos = 0;
+    for (bool last = false; !last;) {
+        const std::size_t next = text.find(':', pos);
+        last = next == std::string::npos;
+        const std::string item = text.substr(pos, last ? next : next - pos);
+        pos = next + 1;
+        const std::size_t eq = item.find('=');
+        // A word with arguments (fix=height:H0:DH) takes the items after it.
+        bool continues = false;
+        if (eq == std::string::npos && !item.empty() && !kv.empty())
+            for (const Modifier& m : op.modifiers)
+                if (m.info.name == kv.back().first)
+                    for (const auto& w : m.info.choices)
+                        continues |= !word_prefix(w).empty() &&
+                                     kv.back().second.rfind(w.substr(0, w.find(':')), 0) == 0;
+        if (continues)
+            kv.back().second += ":" + item;
+        else if (item.empty() || eq == std::string::npos || eq == 0)
+            throw std::invalid_argument("modifier '" + item + "' is not key=value");
+        else
+            kv.emplace_back(item.substr(0, eq), item.substr(eq + 1));
+    }
+    return kv;
+}
+
+void parse(OperationCall& call, const Operation& op,
+           const std::vector<std::pair<std::string, std::string>>& modifiers)
+{
+    OperationCall c;
+    c.operation = op.info.name;
+    std::map<std::string, std::string> given;
+    for (const auto& [key, value] : modifiers) {
+        const Modifier* m = nullptr;
+        for (const Modifier& candidate : op.modifiers)
+            if (candidate.info.name == key)
+                m = &candidate;
+        if (!m) {
+            std::string known;
+            for (const Modifier& candidate : op.modifiers)
+                known += (known.empty() ? "" : ", ") + candidate.info.name;
+            throw std::invalid_argument("unknown modifier '" + key + "' (known: " + known + ")");
+        }
+        if (!given.emplace(key, value).second)
+            throw std::invalid_argument("modifier '" + key + "' given twice");
+        m->set(c, value, check_value(m->info, value));
+    }
+    if (op.finish)
+        op.finish(c, given, op.modifiers);
+    call = std::move(c);
+}
+
+// The paths a call's modifiers of `type` name (Modifier::path): none for
+// their words (alpha, none, sky, height:H0:DH) or an image given in memory.
+std::vector<std::string> modifier_paths(const OperationCall& call, ModifierType type)
+{
+    std::vector<std::string> paths;
+    const Operation* op = find(call.operation);
+    if (!op)
+        return paths;
+    for (const Modifier& m : op->modifiers)
+        if (m.info.type == type && m.path)
+            if (std::string path = m.path(call); !path.empty())
+                paths.push_back(std::move(path));
+    return paths;
+}
+
+} // namespace
+
+std::string input_problem(const std::string& operation, const ImageSlot& slot, int width, int height,
+                          int channels)
+{
+    const std::string what = operation + ": input '" + slot.name + "'";
+    if (width <= 0 || height <= 0)
+        return what + " is " + std::to_string(width) + "x" + std::to_string(height) +
+               " texels; both must be > 0";
+    if (channels < slot.min_channels || channels > slot.max_channels)
+        return what + " has " + std::to_string(channels) + " channel(s); " + operation + " takes " +
+               std::to_string(slot.min_channels) + " to " + std::to_string(slot.max_channels);
+    return "";
+}
+
+const std::vector<OperationInfo>& operations()
+{
+    static const std::vector<OperationInfo> infos = [] {
+        std::vector<OperationInfo> v;
+        for (const Operation& op : entries())
+            v.push_back(op.info);
+        return v;
+    }();
+    return infos;
+}
+
+const OperationInfo* find_operation(const std::string& name)
+{
+    for (const OperationInfo& op : operations())
+        if (op.name == name)
+            return &op;
+    return nullptr;
+}
+
+bool parse_modifiers(OperationCall& call, const std::string& operation,
+                     const std::vector<std::pair<std::string, std::string>>& modifiers)
+{
+    try {
+        parse(call, find_or_throw(operation), modifiers);
+        return true;
+    } catch (const std::exception& e) {
+        detail::set_error(e.what());
+        return false;
+    }
+}
+
+bool parse_modifiers(OperationCall& call, const std::string& operation, const std::string& modifiers)
+{
+    try {
+        const Operation& op = find_or_throw(operation);
+        parse(call, op, split(op, modifiers));
+        return true;
+    } catch (const std::exception& e) {
+        detail::set_error(e.what());
+        return false;
+    }
+}
+
+bool run_operation(ImageBuf& dst, const OperationCall& call,
+                   const std::vector<const ImageBuf*>& inputs, const Execution& exec)
+{
+    try {
+        const Operation& op = find_or_throw(call.operation);
+        if (inputs.size() != op.info.inputs.size())
+            throw std::invalid_argument(op.info.name + " takes " +
+                                        std::to_string(op.info.inputs.size()) + " image(s), got " +
+                                        std::to_string(inputs.size()));
+        // Channel counts are the operations' own to check (their messages say
+        // what the channels mean); the C ABI and Python check them against the
+        // table's slots before converting.
+        for (std::size_t i = 0; i < inputs.size(); ++i)
+            if (!inputs[i])
+                throw std::invalid_argument(op.info.name + ": input '" + op.info.inputs[i].name +
+                                            "' is missing (null)");
+        OperationCall c = call;
+        c.slopes.exec = c.height.exec = c.correct.exec = c.bake.exec = exec;
+        c.normals.exec = c.tessellation.exec = c.mesh.tessellation.exec = c.preview.exec = exec;
+        return op.run(dst, c, inputs);
+    } catch (const std::exception& e) {
+        detail::set_error(e.what());
+        return false;
+    }
+}
+
+std::vector<std::string> files_read(const OperationCall& call)
+{
+    return modifier_paths(call, ModifierType::File);
+}
+
+std::vector<std::string> files_written(const OperationCall& call)
+{
+    return modifier_paths(call, ModifierType::Output);
+}
+
+bool sets_up_ahead(const OperationCall& call)
+{
+    const Operation* op = find(call.operation);
+    return op && op->sets_up_ahead && op->sets_up_ahead(call);
+}
+
+std::string describe(const OperationCall& call)
+{
+    const Operation* op = find(call.operation);
+    return op && op->describe ? op->describe(call) : std::string();
+}
+
+std::string modifier_text(const OperationCall& call)
+{
+    std::string text;
+    for (const Modifier& m : find_or_throw(call.operation).modifiers)
+        text += (text.empty() ? "" : ":") + m.info.name + "=" + m.get(call);
+    return text;
+}
+
+void detail::check_modifier_values(const std::string& operation, const OperationCall& call)
+{
+    for (const Modifier& m : find_or_throw(operation).modifiers) {
+        if (m.info.type == ModifierType::File || m.info.type == ModifierType::Output)
+            continue;  // images come as pointers here; fix's tent is checked by correct(), paths by their writers
+        check_value(m.info, m.get(call));
+    }
+}
+
+} // namespace relief
