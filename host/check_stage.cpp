@@ -98,8 +98,7 @@ std::vector<std::uint8_t> tessellation_levels(ComputeContext& ctx, const float* 
                                               TessellationLaunch launch)
 {
     const std::size_t n = texels(w, ht);
-    if (patch < 1)
-        throw Error("the tessellation patch must be at least 1 texel");
+    expects(patch >= 1, "a tessellation patch of at least 1 texel");
     const int px = (w + patch - 1) / patch, py = (ht + patch - 1) / patch;
     // At most w x h patches, which texels() keeps under 2^31 for the kernel.
     const std::size_t patches = std::size_t(px) * std::size_t(py);

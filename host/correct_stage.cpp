@@ -30,18 +30,11 @@ void validate(const CorrectParams& p, int w, int h)
     if (w < 1 || h < 1)
         throw Error("distortion correction needs a non-empty height map");
     check_index_range(w, h, "correct");
-    if (!(p.scale > 0.0) || !std::isfinite(p.scale))
-        throw Error("the displacement scale must be > 0");
-    if (!(p.theta >= 0.0 && p.theta <= 20.0))
-        throw Error("theta (the area exponent) must be in [0, 20]");
-    if (!(p.tolerance > 0.0) || !(p.tolerance < 1.0))
-        throw Error("the tolerance must be in (0, 1)");
-    if (p.iterations < 0 || p.max_iterations < 1 || p.levels < 0)
-        throw Error("iterations and levels must be >= 0");
-    if (!(p.threshold >= 0.0))
-        throw Error("the distortion threshold must be >= 0");
-    if (!(p.relax >= 1.0 && p.relax < 2.0))
-        throw Error("the over-relaxation factor must be in [1, 2)");
+    // The ranges are relief::validate()'s; these are what the solver relies on.
+    expects(p.scale > 0.0 && std::isfinite(p.scale) && p.theta >= 0.0 && p.tolerance > 0.0 &&
+                p.tolerance < 1.0 && p.iterations >= 0 && p.max_iterations >= 1 && p.levels >= 0 &&
+                p.threshold >= 0.0 && p.relax >= 1.0 && p.relax < 2.0,
+            "CorrectParams within relief::validate()'s ranges");
 }
 
 DistortionStats summarise(std::vector<float>& v)

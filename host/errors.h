@@ -26,6 +26,18 @@ private:
     std::string log_;
 };
 
+// A promise the host's callers make broken: the plugin checks every option
+// (relief::validate()) before it calls the host, so this is a bug in relief,
+// not bad input. `invariant` says what should have held.
+struct InternalError : std::logic_error {
+    using std::logic_error::logic_error;
+};
+inline void expects(bool holds, const char* invariant)
+{
+    if (!holds)
+        throw InternalError(std::string("internal error: expected ") + invariant);
+}
+
 // The kernels index texels (and padded transform grids, nodes at texel
 // corners) with 32-bit ints: a map whose (w + 2) x (h + 2) passes 2^31 - 1
 // (46338^2 fits) is refused with the numbers rather than overflowing.

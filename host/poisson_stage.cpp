@@ -28,8 +28,7 @@ namespace {
 void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const PoissonParams& p,
              const HeightSink& sink, PoissonReport* report)
 {
-    if (p.highpass < 0.0 || !std::isfinite(p.highpass))
-        throw Error("highpass must be a radius >= 0 texels");
+    expects(p.highpass >= 0.0 && std::isfinite(p.highpass), "PoissonParams: a highpass radius >= 0");
     const int w = slopes.width(), h = slopes.height();
     const std::size_t n = std::size_t(w) * std::size_t(h);
     if (n == 1) {  // one texel: nothing to integrate
@@ -37,8 +36,7 @@ void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const Pois
         return;
     }
     if (p.weights) {
-        if (p.highpass > 0.0)
-            throw Error("highpass cannot be combined with a mask yet");
+        expects(p.highpass == 0.0, "PoissonParams: no highpass with weights");
         integrate_poisson_weighted(ctx, slopes, p, sink(), report);
         return;
     }

@@ -30,8 +30,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
     const int w = slopes.width(), h = slopes.height();
     const std::size_t n = std::size_t(w) * h;
     for (std::size_t i = 0; i < n; ++i)
-        if (!(p.weights[i] >= 0.0f && p.weights[i] <= 1.0f))
-            throw Error("mask weights must be in [0, 1] (texel " + std::to_string(i) + ")");
+        expects(p.weights[i] >= 0.0f && p.weights[i] <= 1.0f, "PoissonParams: weights in [0, 1]");
     const bool periodic = p.boundary == PoissonBoundary::Periodic;
     // The Laplacian of a one-texel-wide texture is the same path graph
     // whichever way round; the transforms want it along axis 0.

@@ -8,10 +8,17 @@
 #include <functional>
 #include <vector>
 
+#include "errors.h"
 #include "opencl_context.h"
 #include "ray_stage.h"
 
 namespace relief::host {
+
+// What every ray integrator needs (relief::validate() checks the options).
+inline void expect_ray_params(const RayParams& p)
+{
+    expects(p.rays >= 1 && p.radius > 0.0, "RayParams: rays >= 1 and radius > 0");
+}
 
 // Calls fn(j, offsets, data) with direction j's packed walk, one direction
 // at a time: all directions' walks at once reached ~25 GB at rays=4096,

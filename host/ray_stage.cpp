@@ -20,8 +20,7 @@ void integrate_rays_fast(ComputeContext& ctx, DeviceSlopes&& slopes, const RayPa
 {
     DeviceSlopes taken = std::move(slopes);
     if (p.boundary == RayBoundary::Periodic && p.periodic_by_fft) {
-        if (p.rays < 1 || !(p.radius > 0.0))
-            throw Error("ray integration needs rays >= 1 and radius > 0");
+        expect_ray_params(p);
         integrate_rays_by_fft(ctx, taken, true, p, out, progress, report);
         return;
     }
@@ -32,14 +31,12 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
                          float* height_out, const Progress& progress, RayReport* report)
 {
     if (p.boundary == RayBoundary::Periodic && p.periodic_by_fft) {
-        if (p.rays < 1 || !(p.radius > 0.0))
-            throw Error("ray integration needs rays >= 1 and radius > 0");
+        expect_ray_params(p);
         DeviceSlopes shared = slopes;
         integrate_rays_by_fft(ctx, shared, false, p, [&] { return height_out; }, progress, report);
         return;
     }
-    if (p.rays < 1 || !(p.radius > 0.0))
-        throw Error("ray integration needs rays >= 1 and radius > 0");
+    expect_ray_params(p);
     integrate_rays_chains(ctx, slopes, p, height_out, progress, report);
 }
 

@@ -90,8 +90,7 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
                               const RayParams& p, float* height_out, const Progress& progress,
                               RayReport* report)
 {
-    if (p.rays < 1 || !(p.radius > 0.0))
-        throw Error("ray integration needs rays >= 1 and radius > 0");
+    expect_ray_params(p);
     const int w = slopes.width(), h = slopes.height();
     const std::size_t n = std::size_t(w) * std::size_t(h);
     auto& c = ctx.impl();

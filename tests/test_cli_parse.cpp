@@ -312,8 +312,9 @@ TEST_CASE("parse: nonsense is a usage error naming the argument", "[cli][parse][
         {{kIn, "--correct:relax=2"}, "relax=2"},
         {{kIn, "--correct:relax=0.9"}, "relax=0.9"},
         {{kIn, "--correct:search=newton"}, "search=newton"},
-        {{kIn, "--correct:fix=height:1:0"}, "DH must be > 0"},
-        {{kIn, "--correct:fix=height:x:1"}, "not a number"},
+        {{kIn, "--correct:fix=height:1:0"}, "tent half-width DH > 0"},
+        {{kIn, "--correct:fix=height:x:1"}, "write fix=height:H0:DH"},
+        {{kIn, "--correct:fix=height:1:inf"}, "write fix=height:H0:DH"},
         {{kIn, "--correct:fix=nothing.png"}, "no such file"},
         {{kIn, "--correct:scale=-1"}, "scale=-1"},
         // overflowing numbers are out of range, with the range; NaN is not a number

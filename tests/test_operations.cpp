@@ -251,11 +251,11 @@ TEST_CASE("operations: modifier strings parse as on the command line", "[operati
         {"correct", "scale=0", "scale=0 is out of range; it must be in (0, 1e+09] or auto"},
         {"bake", "colour=red", "unknown modifier 'colour' (known: filter, colorspace, kind, wrap)"},
         {"warp", "", "unknown operation 'warp' (known: slopes, height, correct, bake, normals, tessellation, mesh, preview)"},
-        {"mesh", "patch=8", "give the mesh file: out=FILE.obj|.ply|.gltf|.glb"},
+        {"mesh", "patch=8", "a mesh needs a file name (out=FILE.obj|.ply|.gltf|.glb)"},
         {"mesh", "out=m.stl", "unknown mesh format '.stl'"},
         {"mesh", "out=/nonexistent-folder/m.obj", "the folder '/nonexistent-folder' does not exist"},
         {"preview", "light=45", "write light=AZ,EL"},
-        {"preview", "light=45,0", "light elevation=0 is out of range; it must be in (0, 90] degrees"},
+        {"preview", "light=45,0", "light=45,0 needs AZ in [-360, 360] degrees and EL in (0, 90] degrees"},
         {"normals", "normal=auto", "normal=auto is not one of opengl|directx"},
         {"tessellation", "patch=0", "patch=0 must be an integer in [1, 4096] texels"},
     };
@@ -468,4 +468,96 @@ TEST_CASE("operations: what a front end asks of a call, answered by the table wi
     unknown.operation = "nonesuch";
     CHECK(files_read(unknown).empty());
     CHECK_FALSE(sets_up_ahead(unknown));
+}
+
+TEST_CASE("validate: a rule reads the same from validate(), the modifiers and the operation itself",
+          "[operations][errors]")
+{
+    // Each rule once, in one wording: the table (command line, C ABI,
+    // Python) and the C++ API reach the same validate().
+    struct Case {
+        const char* operation;
+        const char* modifiers;
+        std::function<void(OperationCall&)> set;
+        const char* message;
+    };
+    const Case cases[] = {
+        {"height", "phase=1", [](OperationCall& c) { c.height.phase = 1.0f; },
+         "phase=1 is out of range; it must be in [0, 1)"},
+        {"height", "rays=0", [](OperationCall& c) { c.height.rays = 0; }, "rays=0 must be an integer in [1, 4096]"},
+        {"height", "max_angle=90", [](OperationCall& c) { c.height.normals.max_angle = 90.0f; },
+         "max_angle=90 is out of range; it must be in (0, 90) degrees"},
+        {"height", "method=rays:directions=exact",
+         [](OperationCall& c) {
+             c.height.method = HeightMethod::Rays;
+             c.height.directions = RayDirections::Exact;
+         },
+         "impl=fast needs directions=rational (or use impl=reference)"},
+        {"height", "highpass=8:mask=alpha",
+         [](OperationCall& c) {
+             c.height.highpass = 8.0f;
+             c.height.mask_alpha = true;
+         },
+         "highpass cannot be combined with a mask yet"},
+        {"height", "rays=8:highpass=4",
+         [](OperationCall& c) {
+             c.height.method = HeightMethod::Rays;
+             c.height.highpass = 4.0f;
+         },
+         "highpass applies to method=poisson, not to rays"},
+        {"correct", "theta=21", [](OperationCall& c) { c.correct.theta = 21.0f; },
+         "theta=21 is out of range; it must be in [0, 20]"},
+        {"correct", "levels=31", [](OperationCall& c) { c.correct.levels = 31; },
+         "levels=31 must be an integer in [1, 30] or auto"},
+        {"correct", "relax=2", [](OperationCall& c) { c.correct.relax = 2.0f; },
+         "relax=2 is out of range; it must be in [1, 2)"},
+        {"normals", "scale=0", [](OperationCall& c) { c.normals.scale = 0.0f; },
+         "scale=0 is out of range; it must be in (0, 1e+09]"},
+        {"tessellation", "patch=0", [](OperationCall& c) { c.tessellation.patch = 0; },
+         "patch=0 must be an integer in [1, 4096] texels"},
+        {"mesh", "error=0", [](OperationCall& c) { c.mesh.tessellation.error = 0.0f; },
+         "error=0 is out of range; it must be in (0, 1e+09] texels x S"},
+        {"mesh", "patch=8", [](OperationCall&) {}, "a mesh needs a file name (out=FILE.obj|.ply|.gltf|.glb)"},
+        {"preview", "light=400,45", [](OperationCall& c) { c.preview.azimuth = 400.0f; },
+         "light=400,45 needs AZ in [-360, 360] degrees and EL in (0, 90] degrees"},
+        {"slopes", "max_angle=0", [](OperationCall& c) { c.slopes.normals.max_angle = 0.0f; },
+         "max_angle=0 is out of range; it must be in (0, 90) degrees"},
+    };
+    const auto validated = [](const OperationCall& c) {
+        const std::string& op = c.operation;
+        return op == "height"         ? validate(c.height)
+               : op == "correct"      ? validate(c.correct)
+               : op == "normals"      ? validate(c.normals)
+               : op == "tessellation" ? validate(c.tessellation)
+               : op == "mesh"         ? validate(c.mesh)
+               : op == "preview"      ? validate(c.preview)
+                                      : validate(c.slopes);
+    };
+    const ImageBuf flat = test::image(8, 8, 3, std::vector<float>(8 * 8 * 3, 0.5f));
+    for (const Case& c : cases) {
+        INFO(c.operation << ":" << c.modifiers);
+        OperationCall parsed;
+        CHECK_FALSE(parse_modifiers(parsed, c.operation, c.modifiers));
+        CHECK(geterror() == c.message);
+        OperationCall direct;
+        direct.operation = c.operation;
+        c.set(direct);
+        CHECK(validated(direct) == c.message);
+        // The operation refuses the options before it looks at the image.
+        ImageBuf dst;
+        std::vector<const ImageBuf*> in(find_operation(c.operation)->inputs.size(), &flat);
+        CHECK_FALSE(run_operation(dst, direct, in));
+        CHECK(geterror() == std::string(c.operation) + ": " + c.message);
+    }
+    // The defaults are valid, and so are words standing for 0 (auto).
+    OperationCall defaults;
+    CHECK(validate(defaults.height).empty());
+    CHECK(validate(defaults.correct).empty());
+    CHECK(validate(defaults.preview).empty());
+    CHECK(validate(defaults.tessellation).empty());
+    defaults.correct.levels = 0;
+    defaults.correct.iterations = 0;
+    CHECK(validate(defaults.correct).empty());
+    defaults.correct.iterations = -1;
+    CHECK(validate(defaults.correct) == "iterations=-1 must be an integer in [1, 1000000] or auto");
 }

@@ -1,4 +1,5 @@
 // relief::bake — resampling a texture at u + c(u), colour-managed.
+#include "relief/validate.h"
 #include "relief/bake.h"
 
 #include <algorithm>
@@ -100,6 +101,8 @@ bool bake(ImageBuf& dst, const ImageBuf& texture, const ImageBuf& offsets, const
           ROI roi, int /*nthreads*/)
 {
     try {
+        if (const std::string problem = validate(options); !problem.empty())
+            throw std::invalid_argument(problem);
         roi = detail::resolve_roi(texture, roi);
         const int w = roi.width(), h = roi.height(), nch = texture.nchannels();
         // Exactly 2 channels, or more only when relief's metadata says they

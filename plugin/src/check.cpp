@@ -1,4 +1,5 @@
 // relief::normals and relief::tessellation — checking a height (docs/design.md §9).
+#include "relief/validate.h"
 #include "relief/check.h"
 
 #include <algorithm>
@@ -8,7 +9,6 @@
 #include "check_stage.h"
 #include "compute_context.h"
 #include "normal_stage.h"
-#include "operation_table.h"
 #include "seams.h"
 
 namespace relief {
@@ -20,9 +20,8 @@ using OIIO::TypeDesc;
 bool normals(ImageBuf& dst, const ImageBuf& height, const NormalsOptions& options, ROI roi, int)
 {
     try {
-        OperationCall call;
-        call.normals = options;
-        detail::check_modifier_values("normals", call);
+        if (const std::string problem = validate(options); !problem.empty())
+            throw std::invalid_argument(problem);
         roi = detail::resolve_roi(height, roi);
         const int w = roi.width(), ht = roi.height();
         const std::vector<float> h = detail::height_channel(height, roi, options.exec, "normals", options.scale);
@@ -62,9 +61,8 @@ bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptio
                   int)
 {
     try {
-        OperationCall call;
-        call.tessellation = options;
-        detail::check_modifier_values("tessellation", call);
+        if (const std::string problem = validate(options); !problem.empty())
+            throw std::invalid_argument(problem);
         roi = detail::resolve_roi(height, roi);
         const int w = roi.width(), ht = roi.height();
         const std::vector<float> h =

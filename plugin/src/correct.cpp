@@ -1,4 +1,5 @@
 // relief::correct — the distortion-correction family (height -> offsets).
+#include "relief/validate.h"
 #include "relief/correct.h"
 
 #include <chrono>
@@ -11,7 +12,6 @@
 #include "correct_stage.h"
 #include "normal_stage.h"
 #include "seams.h"
-#include "operation_table.h"
 
 namespace relief {
 
@@ -28,18 +28,6 @@ const char* search_name(CorrectSearch s)
     return s == CorrectSearch::Ternary ? "ternary" : s == CorrectSearch::Golden ? "golden" : "brent";
 }
 
-void validate(const CorrectOptions& o)
-{
-    OperationCall call;
-    call.correct = o;
-    detail::check_modifier_values("correct", call);
-    if (o.max_iterations < 1)
-        throw std::invalid_argument("max_iterations must be >= 1");
-    if (!(o.fix_width >= 0.0f) || !std::isfinite(o.fix_height))
-        throw std::invalid_argument("fix=height needs a finite height and a width > 0");
-    if (o.fix_mask && o.fix_width > 0.0f)
-        throw std::invalid_argument("give a fixation mask or a height tent, not both");
-}
 
 
 } // namespace
@@ -82,7 +70,8 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
 {
     try {
         const auto t0 = std::chrono::steady_clock::now();
-        validate(options);
+        if (const std::string problem = validate(options); !problem.empty())
+            throw std::invalid_argument(problem);
         roi = detail::resolve_roi(height, roi);
         const int w = roi.width(), h = roi.height();
         const std::vector<float> heights = detail::height_channel(height, roi, options.exec, "correct");

@@ -1,4 +1,5 @@
 // relief::height — the integration family (normal map -> displacement).
+#include "relief/validate.h"
 #include "relief/height.h"
 
 #include <algorithm>
@@ -14,7 +15,6 @@
 #include "check_stage.h"
 #include "memory_budget.h"
 #include "normal_stage.h"
-#include "operation_table.h"
 #include "poisson_stage.h"
 #include "ray_stage.h"
 #include "tiling.h"
@@ -37,25 +37,6 @@ const char* name(Boundary b, bool rays)
     case Boundary::Free: return rays ? "clip" : "free";
     }
     return "?";
-}
-
-void validate(const HeightOptions& o)
-{
-    OperationCall call;
-    call.height = o;
-    detail::check_modifier_values("height", call);
-    if (o.method == HeightMethod::Rays && o.impl == RayImpl::Fast &&
-        o.directions == RayDirections::Exact)
-        throw std::invalid_argument(
-            "impl=fast needs directions=rational (exact angles need impl=reference)");
-    if (o.method == HeightMethod::Rays && o.highpass > 0.0f)
-        throw std::invalid_argument("highpass applies to method=poisson, not to rays");
-    if (o.method == HeightMethod::Rays && (o.mask || o.mask_alpha))
-        throw std::invalid_argument("a mask applies to method=poisson, not to rays");
-    if (o.mask && o.mask_alpha)
-        throw std::invalid_argument("give a mask image or mask_alpha, not both");
-    if ((o.mask || o.mask_alpha) && o.highpass > 0.0f)
-        throw std::invalid_argument("highpass cannot be combined with a mask yet");
 }
 
 // Resolves boundary=auto from the slopes' seams, and says why.
@@ -209,7 +190,8 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
 {
     try {
         const auto t0 = std::chrono::steady_clock::now();
-        validate(options);
+        if (const std::string problem = validate(options); !problem.empty())
+            throw std::invalid_argument(problem);
         roi = detail::resolve_roi(normals, roi);
         HeightOptions chosen = options;
         if (chosen.method == HeightMethod::Auto)

@@ -10,6 +10,7 @@
 // check_level_passes in kernels/check.cl guarantees one side per triangle
 // from level 2 on), and a level-1 patch with extra points becomes a fan
 // around its centre.
+#include "relief/validate.h"
 #include "relief/mesh.h"
 
 #include <algorithm>
@@ -25,7 +26,6 @@
 #include "memory_budget.h"
 #include "error_state.h"
 #include "normal_stage.h"
-#include "operation_table.h"
 #include "relief/errors.h"
 #include "seams.h"
 
@@ -387,9 +387,8 @@ void check_mesh_memory(const std::vector<int>& levels, bool gltf)
 bool build_mesh(Mesh& mesh, const OIIO::ImageBuf& height, const TessellationOptions& options, bool gltf)
 {
     try {
-        OperationCall call;
-        call.tessellation = options;
-        detail::check_modifier_values("tessellation", call);
+        if (const std::string problem = validate(options); !problem.empty())
+            throw std::invalid_argument(problem);
         const OIIO::ROI roi = detail::resolve_roi(height, {});
         const int w = roi.width(), ht = roi.height();
         const std::vector<float> h = detail::height_channel(height, roi, options.exec, "mesh", options.scale);
@@ -476,8 +475,7 @@ bool displaced_mesh(Mesh& mesh, const OIIO::ImageBuf& height, const Tessellation
 bool mesh(OIIO::ImageBuf& dst, const OIIO::ImageBuf& height, const MeshOptions& options)
 {
     try {
-        const std::string problem = mesh_path_problem(options.out);
-        if (!problem.empty())
+        if (const std::string problem = validate(options); !problem.empty())
             throw std::invalid_argument(problem);
         Mesh m;
         const std::string ext = std::filesystem::path(options.out).extension().string();

@@ -2,6 +2,7 @@
 // (docs/design.md §9). The device derives the slopes, the height's normals and the
 // round trip (the same code as --normals and --report); lighting and
 // layout are display work on the host.
+#include "relief/validate.h"
 #include "relief/preview.h"
 
 #include <OpenImageIO/imagebufalgo.h>
@@ -241,8 +242,8 @@ void irradiance(const SphericalHarmonics& sh, const float n[3], float rgb[3])
 bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, const PreviewOptions& o)
 {
     try {
-        if (!(o.elevation > 0.0f && o.elevation <= 90.0f) || !(std::abs(o.azimuth) <= 360.0f))
-            throw std::invalid_argument("light=AZ,EL needs AZ in [-360, 360] and EL in (0, 90] degrees");
+        if (const std::string problem = validate(o); !problem.empty())
+            throw std::invalid_argument(problem);
         const ROI roi = detail::resolve_roi(normals, {});
         const ROI hroi = detail::resolve_roi(height, {});
         const int w = roi.width(), ht = roi.height();

@@ -1,11 +1,11 @@
 // relief::slopes — the DDM derivation family.
+#include "relief/validate.h"
 #include "relief/slopes.h"
 
 #include <exception>
 #include <vector>
 
 #include "normal_stage.h"
-#include "operation_table.h"
 
 namespace relief {
 
@@ -17,9 +17,8 @@ bool slopes(ImageBuf& dst, const ImageBuf& normals, const SlopeOptions& options,
             int /*nthreads*/)
 {
     try {
-        OperationCall call;
-        call.slopes = options;
-        detail::check_modifier_values("slopes", call);
+        if (const std::string problem = validate(options); !problem.empty())
+            throw std::invalid_argument(problem);
         roi = detail::resolve_roi(normals, roi);
         auto derived = detail::derive_slopes(normals, roi, options.normals, options.exec);
         std::vector<float> g(std::size_t(roi.width()) * roi.height() * 2);

@@ -15,4 +15,5 @@
 #include "relief/options.h"
 #include "relief/preview.h"
 #include "relief/slopes.h"
+#include "relief/validate.h"
 #include "relief/version.h"

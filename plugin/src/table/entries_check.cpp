@@ -10,6 +10,7 @@
 #include "relief/check.h"
 #include "relief/mesh.h"
 #include "relief/preview.h"
+#include "relief/validate.h"
 
 namespace relief::table {
 
@@ -29,8 +30,8 @@ Operation normals_operation()
                std::vector<std::pair<std::string, NormalConvention>>{
                    {"opengl", NormalConvention::OpenGL}, {"directx", NormalConvention::DirectX}},
                "", "green convention to store: opengl (Y+, G = -n_y) or directx (Y-, G = +n_y)"),
-        number("scale", ModifierType::Number, [n](auto& c) -> auto& { return n(c).scale; }, 0, true,
-               1e9, false, "S", "", "", "the height (texels) is multiplied by S first"),
+        number(detail::limits::surface_scale, [n](auto& c) -> auto& { return n(c).scale; }, "S", "",
+               "the height (texels) is multiplied by S first"),
         choice("boundary", [n](auto& c) -> auto& { return n(c).boundary; },
                std::vector<std::pair<std::string, Boundary>>{{"auto", Boundary::Auto},
                                                             {"periodic", Boundary::Periodic},
@@ -39,6 +40,7 @@ Operation normals_operation()
                "periodic: differences wrap; free: one-sided at the edges; auto: the height's own "
                "(relief:parameters), else periodic when it is continuous across the wrap seams"),
     };
+    op.validate = [](const OperationCall& c) { return relief::validate(c.normals); };
     op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
         return relief::normals(dst, *in[0], c.normals);
     };
@@ -50,13 +52,12 @@ template <class F>
 std::vector<Modifier> tessellation_modifiers(F t)
 {
     return {
-        number("patch", ModifierType::Integer, [t](auto& c) -> auto& { return t(c).patch; }, 1, false,
-               4096, false, "P", "texels", "", "patch size: one level per P x P texels"),
-        number("error", ModifierType::Number, [t](auto& c) -> auto& { return t(c).error; }, 0, true,
-               1e9, false, "E", "texels x S", "",
+        number(detail::limits::patch, [t](auto& c) -> auto& { return t(c).patch; }, "P", "",
+               "patch size: one level per P x P texels"),
+        number(detail::limits::error, [t](auto& c) -> auto& { return t(c).error; }, "E", "",
                "the largest deviation of the tessellated surface from S x height at a texel centre"),
-        number("scale", ModifierType::Number, [t](auto& c) -> auto& { return t(c).scale; }, 0, true,
-               1e9, false, "S", "", "", "the surface is S x height (texels)"),
+        number(detail::limits::surface_scale, [t](auto& c) -> auto& { return t(c).scale; }, "S", "",
+               "the surface is S x height (texels)"),
     };
 }
 
@@ -71,6 +72,7 @@ Operation tessellation_operation()
                {},
                ""};
     op.modifiers = tessellation_modifiers([](auto& c) -> auto& { return c.tessellation; });
+    op.validate = [](const OperationCall& c) { return relief::validate(c.tessellation); };
     op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
         return relief::tessellation(dst, *in[0], c.tessellation);
     };
@@ -104,10 +106,7 @@ Operation mesh_operation()
     out.get = [k](const OperationCall& c) { return k(c).out.empty() ? std::string("none") : k(c).out; };
     out.path = [k](const OperationCall& c) { return k(c).out; };
     op.modifiers.push_back(out);
-    op.finish = [k](OperationCall& c, const std::map<std::string, std::string>&, const std::vector<Modifier>&) {
-        if (k(c).out.empty())
-            throw std::invalid_argument("give the mesh file: out=FILE.obj|.ply|.gltf|.glb");
-    };
+    op.validate = [k](const OperationCall& c) { return relief::validate(k(c)); };
     op.run = [k](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
         MeshOptions o = k(c);
         if (!c.file_digest.empty())
@@ -137,21 +136,14 @@ Operation preview_operation()
     light.info.meaning = "key light: azimuth counter-clockwise from the image's right (90 = from the top), "
                          "in [-360, 360]; elevation above the surface, in (0, 90]";
     light.set = [k](OperationCall& c, const std::string& text, double) {
+        // The written form; the angles' ranges are validate()'s.
         const std::size_t comma = text.find(',');
-        if (comma == std::string::npos)
+        double az = 0.0, el = 0.0;
+        if (comma == std::string::npos || !read_number(text.substr(0, comma), az) ||
+            !read_number(text.substr(comma + 1), el))
             throw std::invalid_argument("light=" + text + ": write light=AZ,EL (degrees, e.g. 135,45)");
-        ModifierInfo az, el;
-        az.name = "light azimuth";
-        el.name = "light elevation";
-        az.type = el.type = ModifierType::Number;
-        az.min = -360;
-        az.max = 360;
-        el.min = 0;
-        el.min_open = true;
-        el.max = 90;
-        az.unit = el.unit = "degrees";
-        k(c).azimuth = float(check_value(az, text.substr(0, comma)));
-        k(c).elevation = float(check_value(el, text.substr(comma + 1)));
+        k(c).azimuth = float(az);
+        k(c).elevation = float(el);
     };
     light.get = [k](const OperationCall& c) {
         return number_text(k(c).azimuth) + "," + number_text(k(c).elevation);
@@ -173,6 +165,7 @@ Operation preview_operation()
                                                                                {"periodic", Boundary::Periodic},
                                                                                {"free", Boundary::Free}},
                                   "", "of the height's differences, as --normals"));
+    op.validate = [k](const OperationCall& c) { return relief::validate(k(c)); };
     op.run = [k](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
         return relief::preview(dst, *in[0], *in[1], k(c));
     };

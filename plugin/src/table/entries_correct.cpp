@@ -9,6 +9,7 @@
 
 #include "relief/bake.h"
 #include "relief/correct.h"
+#include "relief/validate.h"
 
 namespace relief::table {
 
@@ -24,13 +25,11 @@ Operation correct_operation()
                "correct"};
     auto k = [](auto& c) -> auto& { return c.correct; };
     op.modifiers = {
-        number("scale", ModifierType::Number, [k](auto& c) -> auto& { return k(c).scale; }, 0, true,
-               1e9, false, "S", "", "",
+        number(detail::limits::displacement_scale, [k](auto& c) -> auto& { return k(c).scale; }, "S", "",
                "world height = S x stored height, the texture's width = 1 world unit (auto: "
-               "1/width for relief's own heights, in texels)",
-               {{"auto", 0.0}}),
-        number("theta", ModifierType::Number, [k](auto& c) -> auto& { return k(c).theta; }, 0,
-               false, 20, false, "T", "", "", "area exponent (higher: keep areas)"),
+               "1/width for relief's own heights, in texels)"),
+        number(detail::limits::theta, [k](auto& c) -> auto& { return k(c).theta; }, "T", "",
+               "area exponent (higher: keep areas)"),
         choice("nodes", [k](auto& c) -> auto& { return k(c).nodes; },
                std::vector<std::pair<std::string, CorrectNodes>>{{"corner", CorrectNodes::Corner},
                                                                  {"center", CorrectNodes::Center}},
@@ -56,20 +55,16 @@ Operation correct_operation()
                     c.fix_file = v == "none" ? std::string() : v;
                     return;
                 }
+                // The written form; the values' rule is validate()'s (a width
+                // of 0 would read as no tent, so it is refused here).
                 const std::size_t a1 = v.find(':'), a2 = v.find(':', a1 + 1);
-                if (a2 == std::string::npos)
+                double h0 = 0.0, dh = 0.0;
+                if (a2 == std::string::npos || !read_number(v.substr(a1 + 1, a2 - a1 - 1), h0) ||
+                    !read_number(v.substr(a2 + 1), dh) || !(dh > 0.0))
                     throw std::invalid_argument(
                         "fix=" + v + ": write fix=height:H0:DH (stored height H0, tent half-width DH > 0)");
-                ModifierInfo h0, dh;
-                h0.name = "fix height";
-                h0.type = dh.type = ModifierType::Number;
-                h0.min = -1e30;
-                h0.max = dh.max = 1e30;
-                dh.name = "fix width";
-                dh.min_open = true;
-                dh.unit = "(DH must be > 0)";
-                k(c).fix_height = float(check_value(h0, v.substr(a1 + 1, a2 - a1 - 1)));
-                k(c).fix_width = float(check_value(dh, v.substr(a2 + 1)));
+                k(c).fix_height = float(h0);
+                k(c).fix_width = float(dh);
             };
             m.path = [](const OperationCall& c) { return c.fix_file; };
             m.get = [k](const OperationCall& c) {
@@ -82,18 +77,13 @@ Operation correct_operation()
             };
             return m;
         }(),
-        number("iterations", ModifierType::Integer,
-               [k](auto& c) -> auto& { return k(c).iterations; }, 1, false, 1000000, false, "N", "",
-               "", "per coarse-to-fine level (auto: until the tolerance)", {{"auto", 0.0}}),
-        number("tolerance", ModifierType::Number, [k](auto& c) -> auto& { return k(c).tolerance; },
-               0, true, 1, true, "TOL", "", "",
+        number(detail::limits::iterations, [k](auto& c) -> auto& { return k(c).iterations; }, "N", "",
+               "per coarse-to-fine level (auto: until the tolerance)"),
+        number(detail::limits::tolerance, [k](auto& c) -> auto& { return k(c).tolerance; }, "TOL", "",
                "relative energy change at which iterations=auto stops"),
-        number("levels", ModifierType::Integer, [k](auto& c) -> auto& { return k(c).levels; }, 1,
-               false, 30, false, "N", "", "",
-               "coarse-to-fine levels (1 = single resolution; auto: down to 16 texels)",
-               {{"auto", 0.0}}),
-        number("threshold", ModifierType::Number, [k](auto& c) -> auto& { return k(c).threshold; },
-               0, false, 1e9, false, "E", "", "",
+        number(detail::limits::levels, [k](auto& c) -> auto& { return k(c).levels; }, "N", "",
+               "coarse-to-fine levels (1 = single resolution; auto: down to 16 texels)"),
+        number(detail::limits::threshold, [k](auto& c) -> auto& { return k(c).threshold; }, "E", "",
                "correct nothing when no triangle's anisotropy or area change exceeds this"),
         choice("skip", [k](auto& c) -> auto& { return k(c).skip_tiles; }, kOnOff, "",
                "skip tiles whose nodes cannot move (the result is identical)"),
@@ -104,10 +94,15 @@ Operation correct_operation()
                "",
                "line search per node: Brent's (parabolic, precise relative to the step), golden "
                "section or ternary (the first implementation)"),
-        number("relax", ModifierType::Number, [k](auto& c) -> auto& { return k(c).relax; }, 1,
-               false, 2, true, "W", "", "",
+        number(detail::limits::relax, [k](auto& c) -> auto& { return k(c).relax; }, "W", "",
                "over-relaxation: move W x the searched step when that lowers the energy too "
                "(1 = plain steps)"),
+    };
+    op.validate = [](const OperationCall& c) {
+        CorrectOptions o = c.correct;
+        if (!c.fix_file.empty() && !o.fix_mask)
+            o.fix_mask = &file_to_come();
+        return relief::validate(o);
     };
     op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
         CorrectOptions o = c.correct;
@@ -164,6 +159,7 @@ Operation bake_operation()
                                                              {"clamp", BakeWrap::Clamp}},
                "", "auto: periodic when the offsets were computed with boundary=periodic"),
     };
+    op.validate = [](const OperationCall& c) { return relief::validate(c.bake); };
     op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
         return relief::bake(dst, *in[0], *in[1], c.bake);
     };

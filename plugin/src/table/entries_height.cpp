@@ -9,6 +9,7 @@
 
 #include "relief/height.h"
 #include "relief/slopes.h"
+#include "relief/validate.h"
 
 namespace relief::table {
 
@@ -23,6 +24,7 @@ Operation slopes_operation()
                {},
                ""};
     op.modifiers = decoding_modifiers([](auto& c) -> auto& { return c.slopes.normals; });
+    op.validate = [](const OperationCall& c) { return relief::validate(c.slopes); };
     op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
         return relief::slopes(dst, *in[0], c.slopes);
     };
@@ -69,8 +71,7 @@ Operation height_operation()
             };
             return m;
         }(),
-        number("highpass", ModifierType::Number, [h](auto& c) -> auto& { return h(c).highpass; },
-               0, false, 1e9, false, "R", "texels", poisson,
+        number(detail::limits::highpass, [h](auto& c) -> auto& { return h(c).highpass; }, "R", poisson,
                "relief balance: remove structure larger than R texels (0 = off)"),
         [h] {
             Modifier m;
@@ -100,12 +101,11 @@ Operation height_operation()
                std::vector<std::pair<std::string, RayImpl>>{{"fast", RayImpl::Fast},
                                                             {"reference", RayImpl::Reference}},
                rays, "fast: cost independent of the radius; reference: walks every ray"),
-        number("rays", ModifierType::Integer, [h](auto& c) -> auto& { return h(c).rays; }, 1,
-               false, 4096, false, "J", "", rays, "ray directions per texel"),
-        number("radius", ModifierType::Number, [h](auto& c) -> auto& { return h(c).radius; }, 0,
-               true, 65536, false, "R", "texels", rays, "ray length"),
-        number("phase", ModifierType::Number, [h](auto& c) -> auto& { return h(c).phase; }, 0,
-               false, 1, true, "PHI", "", rays, "ray angles are 2 pi (j + PHI) / J"),
+        number(detail::limits::rays, [h](auto& c) -> auto& { return h(c).rays; }, "J", rays,
+               "ray directions per texel"),
+        number(detail::limits::radius, [h](auto& c) -> auto& { return h(c).radius; }, "R", rays, "ray length"),
+        number(detail::limits::phase, [h](auto& c) -> auto& { return h(c).phase; }, "PHI", rays,
+               "ray angles are 2 pi (j + PHI) / J"),
         choice("directions", [h](auto& c) -> auto& { return h(c).directions; },
                std::vector<std::pair<std::string, RayDirections>>{
                    {"rational", RayDirections::Rational}, {"exact", RayDirections::Exact}},
@@ -118,24 +118,17 @@ Operation height_operation()
     op.finish = [](OperationCall& c, const std::map<std::string, std::string>& given,
                    const std::vector<Modifier>& modifiers) {
         HeightOptions& o = c.height;
-        bool ray_option = false, poisson_option = false;
-        std::vector<std::string> ray_names, poisson_names;
-        for (const Modifier& m : modifiers) {
-            const bool rays = m.info.applies_to == "method=rays";
-            const bool poisson = m.info.applies_to == "method=poisson";
-            if (rays)
+        // Whether a ray modifier was written, whatever its value: it picks the
+        // method, and poisson refuses it (the values alone cannot tell).
+        bool ray_option = false;
+        std::vector<std::string> ray_names;
+        for (const Modifier& m : modifiers)
+            if (m.info.applies_to == "method=rays") {
                 ray_names.push_back(m.info.name);
-            if (poisson)
-                poisson_names.push_back(m.info.name);
-            ray_option |= rays && given.count(m.info.name);
-            poisson_option |= poisson && given.count(m.info.name);
-        }
+                ray_option |= given.count(m.info.name) > 0;
+            }
         if (o.method == HeightMethod::Auto && ray_option)
             o.method = HeightMethod::Rays;
-        if (o.method == HeightMethod::Rays && poisson_option)
-            throw std::invalid_argument(listed(poisson_names) + " apply to method=poisson, not to rays");
-        if (o.highpass > 0.0f && (o.mask_alpha || !c.mask_file.empty()))
-            throw std::invalid_argument("highpass cannot be combined with a mask yet");
         if (o.method == HeightMethod::Poisson && ray_option)
             throw std::invalid_argument(listed(ray_names) + " apply to method=rays");
         const auto b = given.find("boundary");
@@ -144,9 +137,12 @@ Operation height_operation()
             throw std::invalid_argument("rays take boundary=periodic, clip or auto");
         if (o.method != HeightMethod::Rays && boundary == "clip")
             throw std::invalid_argument("method=poisson takes boundary=periodic, free or auto");
-        if (o.method == HeightMethod::Rays && o.impl == RayImpl::Fast &&
-            o.directions == RayDirections::Exact)
-            throw std::invalid_argument("impl=fast needs directions=rational (or use impl=reference)");
+    };
+    op.validate = [](const OperationCall& c) {
+        HeightOptions o = c.height;
+        if (!c.mask_file.empty() && !o.mask)
+            o.mask = &file_to_come();
+        return relief::validate(o);
     };
     op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
         HeightOptions o = c.height;

@@ -15,29 +15,12 @@ namespace relief {
 // (public: relief/operations.h)
 std::string range_text(const ModifierInfo& m)
 {
-    std::string r = std::string(m.min_open ? "(" : "[") + table::number_text(m.min) + ", " +
-                    table::number_text(m.max) + (m.max_open ? ")" : "]");
-    return m.unit.empty() ? r : r + " " + m.unit;
+    return detail::range_text(m.min, m.min_open, m.max, m.max_open, m.unit);
 }
 
 } // namespace relief
 
 namespace relief::table {
-
-std::string number_text(double v)
-{
-    char buf[40];
-    if (v == std::floor(v) && std::fabs(v) < 1e7) {
-        std::snprintf(buf, sizeof buf, "%.0f", v);
-        return buf;
-    }
-    for (int digits = 6; digits <= 17; ++digits) {  // %g's own 6 first: "0.5", not "5e-01"
-        std::snprintf(buf, sizeof buf, "%.*g", digits, v);
-        if (float(std::strtod(buf, nullptr)) == float(v))
-            break;
-    }
-    return buf;
-}
 
 bool in_range(const ModifierInfo& m, double v)
 {
@@ -66,6 +49,13 @@ std::string word_prefix(const std::string& word)
     return colon == std::string::npos ? std::string() : word.substr(0, colon + 1);
 }
 
+bool read_number(const std::string& text, double& v)
+{
+    const char* end = text.data() + text.size();
+    const auto r = std::from_chars(text.data(), end, v);
+    return !text.empty() && r.ec == std::errc() && r.ptr == end && std::isfinite(v);
+}
+
 double check_value(const ModifierInfo& m, const std::string& text)
 {
     const std::string kv = m.name + "=" + text;
@@ -80,8 +70,7 @@ double check_value(const ModifierInfo& m, const std::string& text)
         const char* end = text.data() + text.size();
         auto r = std::from_chars(text.data(), end, v);
         if (text.empty() || r.ec != std::errc() || r.ptr != end || v < m.min || v > m.max)
-            throw std::invalid_argument(kv + " must be an integer in " + range_text(m) +
-                                        (m.choices.empty() ? "" : " or " + joined(m.choices, "|")));
+            throw std::invalid_argument(detail::out_of_range(m.name, text, true, range_text(m), joined(m.choices, "|")));
         return double(v);
     }
     case ModifierType::Number: {
@@ -90,10 +79,9 @@ double check_value(const ModifierInfo& m, const std::string& text)
         auto r = std::from_chars(text.data(), end, v);
         const bool overflow = r.ec == std::errc::result_out_of_range || (r.ec == std::errc() && !std::isfinite(v));
         if (text.empty() || r.ptr != end || (r.ec != std::errc() && !overflow) || std::isnan(v))
-            throw std::invalid_argument(kv + " is not a number");
+            throw std::invalid_argument(detail::not_a_number(m.name, text));
         if (overflow || !in_range(m, v))  // inf, 1e999
-            throw std::invalid_argument(kv + " is out of range; it must be in " + range_text(m) +
-                                        (m.choices.empty() ? "" : " or " + joined(m.choices, "|")));
+            throw std::invalid_argument(detail::out_of_range(m.name, text, false, range_text(m), joined(m.choices, "|")));
         return v;
     }
     case ModifierType::Output:
@@ -122,6 +110,12 @@ const ImageBuf* file_image(const ImageBuf* given, const std::string& path, const
     if (!read_image(storage, path))
         throw std::runtime_error(std::string(what) + ": " + geterror());
     return &storage;
+}
+
+const ImageBuf& file_to_come()
+{
+    static const ImageBuf image;
+    return image;
 }
 
 const ImageSlot kNormals{"normals", 2, 4,

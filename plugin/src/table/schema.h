@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "../option_limits.h"
 #include "relief/operations.h"
 
 namespace relief::table {
@@ -37,23 +38,27 @@ struct Operation {
     OperationInfo info;
     std::vector<Modifier> modifiers;
     // Checks combinations once every given modifier is set (`given`: key -> text).
+    // Rules about what was written (`given`: key -> text), once every given
+    // modifier is set; the rules on values are validate()'s.
     std::function<void(OperationCall&, const std::map<std::string, std::string>& given,
                        const std::vector<Modifier>& modifiers)>
         finish;
+    // relief::validate() of the call's options: "" or the broken rule.
+    std::function<std::string(const OperationCall&)> validate;
     std::function<bool(ImageBuf&, const OperationCall&, const std::vector<const ImageBuf*>&)> run;
     std::function<bool(const OperationCall&)> sets_up_ahead;  // empty: never
     std::function<std::string(const OperationCall&)> describe;  // empty: nothing to add
 };
 
-// Integers as integers (1000000, not 1e+06); else the shortest text that
-// reads back as the same float.
-std::string number_text(double v);
+using detail::number_text;
 bool in_range(const ModifierInfo& m, double v);
 std::string joined(const std::vector<std::string>& v, const char* sep);
 // "a, b and c"
 std::string listed(const std::vector<std::string>& names);
 // A file modifier's word with arguments ("height:H0:DH"): the prefix it starts with.
 std::string word_prefix(const std::string& word);
+// A finite number written in full ("1.5", "-2e3"); false for anything else.
+bool read_number(const std::string& text, double& v);
 // Checks `text` against m; returns its number (Integer/Number), else 0.
 // Throws std::invalid_argument.
 double check_value(const ModifierInfo& m, const std::string& text);
@@ -89,23 +94,26 @@ Modifier choice(const char* name, F field, std::vector<std::pair<std::string, E>
 
 inline const std::vector<std::pair<std::string, bool>> kOnOff = {{"on", true}, {"off", false}};
 
-// An Integer or Number modifier; `words` name special values ("auto" = 0).
+// An Integer or Number modifier within `limits` (its zero word, "auto",
+// stands for 0).
 template <class F>
-Modifier number(const char* name, ModifierType type, F field, double min, bool min_open, double max,
-                bool max_open, const char* placeholder, const char* unit, const char* applies_to,
-                const char* meaning, std::vector<std::pair<std::string, double>> words = {})
+Modifier number(const detail::Limits& limits, F field, const char* placeholder, const char* applies_to,
+                const char* meaning)
 {
     Modifier m;
-    m.info.name = name;
-    m.info.type = type;
-    for (const auto& w : words)
-        m.info.choices.push_back(w.first);
-    m.info.min = min;
-    m.info.max = max;
-    m.info.min_open = min_open;
-    m.info.max_open = max_open;
+    m.info.name = limits.name;
+    m.info.type = limits.integer ? ModifierType::Integer : ModifierType::Number;
+    std::vector<std::pair<std::string, double>> words;
+    if (limits.zero_word) {
+        words.emplace_back(limits.zero_word, 0.0);
+        m.info.choices.push_back(limits.zero_word);
+    }
+    m.info.min = limits.min;
+    m.info.max = limits.max;
+    m.info.min_open = limits.min_open;
+    m.info.max_open = limits.max_open;
     m.info.placeholder = placeholder;
-    m.info.unit = unit;
+    m.info.unit = limits.unit;
     m.info.applies_to = applies_to;
     m.info.meaning = meaning;
     const ModifierInfo info = m.info;
@@ -145,9 +153,8 @@ std::vector<Modifier> decoding_modifiers(F decoding)
                    {"directx", NormalConvention::DirectX}},
                "",
                "green convention: opengl (Y+), directx (Y-), auto: the one with less curl"),
-        number("max_angle", ModifierType::Number,
-               [decoding](auto& c) -> auto& { return decoding(c).max_angle; }, 0, true, 90, true,
-               "DEG", "degrees", "", "clamp grazing normals to this angle from +z"),
+        number(detail::limits::max_angle, [decoding](auto& c) -> auto& { return decoding(c).max_angle; },
+               "DEG", "", "clamp grazing normals to this angle from +z"),
         choice("range", [decoding](auto& c) -> auto& { return decoding(c).float_encoding; },
                std::vector<std::pair<std::string, FloatEncoding>>{
                    {"signed", FloatEncoding::Signed}, {"unsigned", FloatEncoding::Unsigned}},
@@ -159,6 +166,10 @@ std::vector<Modifier> decoding_modifiers(F decoding)
 // caller read it already (the command line reads quietly), else read into
 // `storage`; nullptr when there is none.
 const ImageBuf* file_image(const ImageBuf* given, const std::string& path, const char* what, ImageBuf& storage);
+
+// Stands for the image of a file modifier (mask=FILE, fix=FILE) when a
+// parsed call is validated: the file is read only when the call runs.
+const ImageBuf& file_to_come();
 
 extern const ImageSlot kNormals, kHeight;
 

@@ -8,7 +8,6 @@
 #include <vector>
 
 #include "error_state.h"
-#include "operation_table.h"
 #include "schema.h"
 
 namespace relief::table {
@@ -117,6 +116,8 @@ void parse(OperationCall& call, const Operation& op,
     }
     if (op.finish)
         op.finish(c, given, op.modifiers);
+    if (const std::string problem = op.validate(c); !problem.empty())
+        throw std::invalid_argument(problem);
     call = std::move(c);
 }
 
@@ -247,15 +248,6 @@ std::string modifier_text(const OperationCall& call)
     for (const Modifier& m : find_or_throw(call.operation).modifiers)
         text += (text.empty() ? "" : ":") + m.info.name + "=" + m.get(call);
     return text;
-}
-
-void detail::check_modifier_values(const std::string& operation, const OperationCall& call)
-{
-    for (const Modifier& m : find_or_throw(operation).modifiers) {
-        if (m.info.type == ModifierType::File || m.info.type == ModifierType::Output)
-            continue;  // images come as pointers here; fix's tent is checked by correct(), paths by their writers
-        check_value(m.info, m.get(call));
-    }
 }
 
 } // namespace relief

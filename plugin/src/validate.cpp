@@ -1,0 +1,115 @@
+// validate(): every rule on an operation's options, written once. The
+// operations call it first; the table calls it once a call's modifiers are
+// parsed, so the command line, the C ABI and Python word a rule as the C++
+// API does. The host below checks only its own invariants.
+#include "relief/validate.h"
+
+#include <cmath>
+
+#include "option_limits.h"
+
+namespace relief {
+
+namespace {
+
+using detail::range_problem;
+namespace limits = detail::limits;
+
+// The first non-empty problem.
+std::string first(std::initializer_list<std::string> problems)
+{
+    for (const std::string& p : problems)
+        if (!p.empty())
+            return p;
+    return "";
+}
+
+std::string decoding_problem(const NormalDecoding& d)
+{
+    return range_problem(limits::max_angle, d.max_angle);
+}
+
+} // namespace
+
+std::string validate(const SlopeOptions& o)
+{
+    return decoding_problem(o.normals);
+}
+
+std::string validate(const HeightOptions& o)
+{
+    if (std::string p = first({decoding_problem(o.normals), range_problem(limits::highpass, o.highpass),
+                               range_problem(limits::rays, o.rays), range_problem(limits::radius, o.radius),
+                               range_problem(limits::phase, o.phase)});
+        !p.empty())
+        return p;
+    const bool rays = o.method == HeightMethod::Rays;
+    const bool masked = o.mask || o.mask_alpha;
+    if (rays && o.impl == RayImpl::Fast && o.directions == RayDirections::Exact)
+        return "impl=fast needs directions=rational (or use impl=reference)";
+    if (rays && o.highpass > 0.0f)
+        return "highpass applies to method=poisson, not to rays";
+    if (rays && masked)
+        return "a mask applies to method=poisson, not to rays";
+    if (o.mask && o.mask_alpha)
+        return "give a mask image or mask_alpha, not both";
+    if (masked && o.highpass > 0.0f)
+        return "highpass cannot be combined with a mask yet";
+    return "";
+}
+
+std::string validate(const CorrectOptions& o)
+{
+    if (std::string p = first({range_problem(limits::displacement_scale, o.scale),
+                               range_problem(limits::theta, o.theta),
+                               range_problem(limits::iterations, o.iterations),
+                               range_problem(limits::tolerance, o.tolerance),
+                               range_problem(limits::levels, o.levels),
+                               range_problem(limits::threshold, o.threshold),
+                               range_problem(limits::relax, o.relax)});
+        !p.empty())
+        return p;
+    if (o.max_iterations < 1)
+        return "max_iterations must be >= 1";
+    if (!(o.fix_width >= 0.0f) || !std::isfinite(o.fix_width) || !std::isfinite(o.fix_height))
+        return "fix=height needs a finite height and a width > 0";
+    if (o.fix_mask && o.fix_width > 0.0f)
+        return "give a fixation mask or a height tent, not both";
+    return "";
+}
+
+std::string validate(const BakeOptions&)
+{
+    return "";  // its choices are all valid; kind=height is refused by bake() (a height map is its input)
+}
+
+std::string validate(const NormalsOptions& o)
+{
+    if (o.convention == NormalConvention::Auto)
+        return "normal=auto is not one of opengl|directx (a height has no convention to detect)";
+    return range_problem(limits::surface_scale, o.scale);
+}
+
+std::string validate(const TessellationOptions& o)
+{
+    return first({range_problem(limits::patch, o.patch), range_problem(limits::error, o.error),
+                  range_problem(limits::surface_scale, o.scale)});
+}
+
+std::string validate(const MeshOptions& o)
+{
+    return first({validate(o.tessellation), mesh_path_problem(o.out)});
+}
+
+std::string validate(const PreviewOptions& o)
+{
+    if (std::string p = decoding_problem(o.normals); !p.empty())
+        return p;
+    if (!detail::within(limits::light_azimuth, o.azimuth) || !detail::within(limits::light_elevation, o.elevation))
+        return "light=" + detail::number_text(o.azimuth) + "," + detail::number_text(o.elevation) +
+               " needs AZ in " + detail::range_text(limits::light_azimuth) + " and EL in " +
+               detail::range_text(limits::light_elevation);
+    return "";
+}
+
+} // namespace relief
