@@ -255,6 +255,8 @@ TEST_CASE("operations: modifier strings parse as on the command line", "[operati
         {"mesh", "out=m.stl", "unknown mesh format '.stl'"},
         {"mesh", "out=/nonexistent-folder/m.obj", "the folder '/nonexistent-folder' does not exist"},
         {"preview", "light=45", "write light=AZ,EL"},
+        {"preview", "light=45,4x", "write light=AZ,EL"},
+        {"preview", "light=,45", "write light=AZ,EL"},
         {"preview", "light=45,0", "light=45,0 needs AZ in [-360, 360] degrees and EL in (0, 90] degrees"},
         {"normals", "normal=auto", "normal=auto is not one of opengl|directx"},
         {"tessellation", "patch=0", "patch=0 must be an integer in [1, 4096] texels"},
@@ -549,6 +551,11 @@ TEST_CASE("validate: a rule reads the same from validate(), the modifiers and th
         CHECK_FALSE(run_operation(dst, direct, in));
         CHECK(geterror() == std::string(c.operation) + ": " + c.message);
     }
+    // A mask file is read only when the call runs, yet its rules hold at parse.
+    OperationCall masked;
+    CHECK_FALSE(parse_modifiers(masked, "height", "rays=8:mask=" + kHeight));
+    CHECK(geterror() == "a mask applies to method=poisson, not to rays");
+    CHECK(parse_modifiers(masked, "height", "mask=" + kHeight));
     // The defaults are valid, and so are words standing for 0 (auto).
     OperationCall defaults;
     CHECK(validate(defaults.height).empty());
