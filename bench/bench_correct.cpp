@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Distortion correction benchmark (docs/design.md §4.5; not run by ctest):
 //  - iterations per second per megatexel (single resolution, no skipping);
 //  - time to get within 1% of the converged energy (99% of the achievable

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A texture farm's view of relief (issue 12): whole processes, real maps,
 // against a peer run once per file.
 //

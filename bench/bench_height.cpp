@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Run time against error for every integration method (issue 3, docs/design.md §5).
 //
 //   bench_height [--sizes 512,1024,2048,4096] [--runs 3] [--budget 120]

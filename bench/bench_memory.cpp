@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Peak memory of whole relief processes on large tiling maps: the resident
 // set at its peak, per texel, for least squares and rays, both boundaries.
 // Usage: bench_memory [--sizes 4096,8192,16384] [--out DIR]

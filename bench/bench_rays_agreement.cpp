@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // impl=fast against impl=reference in the same run: agreement and speed.
 //
 //   bench_rays_agreement [size=1024] [rays=32] [radius=256] [boundary=periodic|clip] [reference=on|off]

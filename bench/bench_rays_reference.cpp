@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Whole-process run time of the reference ray integration, and its error
 // against analytic truth, on a synthetic normal map.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Skipping flat content (docs/design.md §6): a 4096^2 atlas that is 75% flat.
 //
 //   bench_skip [size=4096] [runs=3] [rays=32] [radius=64]

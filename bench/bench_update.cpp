@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What --update's completeness check costs on an all-skipped batch (issue
 // 25): every output's digest is read from its header, and then its last
 // scanline (a PNG's closing chunk) so that a truncated file is recomputed.

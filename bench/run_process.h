@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Whole-process timing for the benchmarks that run relief (or a peer, or an
 // older relief build) as a user would: fork, exec, wait.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Batches: a manifest of jobs, one ordinary relief command line per line,
 // run in one process (one device context, its programs and FFT plans

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Parses relief's oiiotool-like command line into a program of steps.
 // Everything is validated before anything runs, so a typo in the last

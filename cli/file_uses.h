@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Files that cannot clobber each other: before any work, every file a run
 // writes is compared with every file it reads and every other file it

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // relief:digest, what `--update` compares: one hash of everything that
 // decides a job's outputs.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The job runner: command lines as jobs, one or a manifest's, with their
 // --log records, --update skips and the checks that no file clobbers another.
 #include "job_runner.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Command lines run as jobs: each with a --log record (one JSON line),
 // skipped under --update when its outputs record its digest, listed under

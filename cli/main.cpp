@@ -1,21 +1,17 @@
+// SPDX-License-Identifier: Apache-2.0
 // relief: the command line. Reads arguments left to right over a stack of
 // images (oiiotool style); see `relief --help`. This file only dispatches:
 // the stack runner (stack_runner.h) runs one command line's steps, the job
 // runner (job_runner.h) command lines as jobs, one or a --batch file's.
-#include <signal.h>
-#include <unistd.h>
-
 #include <cstdio>
-#include <cstdlib>
 #include <exception>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "batch.h"
 #include "command_line.h"
 #include "job_runner.h"
+#include "process.h"
 #include "stack_runner.h"
 #include "relief/relief.h"
 
@@ -23,25 +19,6 @@ namespace {
 
 using relief::cli::Program;
 using relief::cli::RunError;
-
-// Seconds from the process's start to now (the kernel's clock ticks, so to
-// 1/100 s): at the top of main, what loading the libraries cost.
-double process_age()
-{
-    std::ifstream stat("/proc/self/stat"), uptime("/proc/uptime");
-    std::string text;
-    std::getline(stat, text);
-    double up = -1.0;
-    uptime >> up;
-    const std::size_t paren = text.rfind(')');
-    if (paren == std::string::npos || up < 0)
-        return -1.0;
-    std::istringstream fields(text.substr(paren + 2));
-    std::string field;
-    for (int i = 3; i <= 22 && fields >> field; ++i)  // field 22: starttime
-        ;
-    return up - std::atof(field.c_str()) / double(sysconf(_SC_CLK_TCK));
-}
 
 int list_devices()
 {
@@ -56,7 +33,7 @@ int list_devices()
 
 int run(int argc, char** argv)
 {
-    const double age = process_age();
+    const double age = relief::cli::process_age();
     const std::vector<std::string> args(argv + 1, argv + argc);
     Program prog;
     std::vector<std::vector<std::string>> expanded;
@@ -101,7 +78,8 @@ int run(int argc, char** argv)
         }
         relief::cli::run_command_line(prog, args);
         if (prog.verbose)
-            std::fprintf(stderr, "relief: done %.2f s after the process started (then its exit)\n", process_age());
+            std::fprintf(stderr, "relief: done %.2f s after the process started (then its exit)\n",
+                         relief::cli::process_age());
     } catch (const relief::cli::UsageError& e) {  // the --batch file's own syntax
         std::fprintf(stderr, "relief: error: %s\n", e.what());
         return 2;
@@ -112,46 +90,10 @@ int run(int argc, char** argv)
     return 0;
 }
 
-// Ends the process without the libraries' teardown (OpenCL contexts and
-// PoCL's threads, OpenImageIO's caches): about 0.02 s a farm would pay per
-// map for nothing, since every output is closed, synced and renamed by now.
-// Sanitizer builds exit normally, so that their leak checks run.
-[[noreturn]] void leave(int status)
-{
-    std::fflush(nullptr);
-#if defined(__SANITIZE_ADDRESS__)
-    std::exit(status);
-#else
-    std::_Exit(status);
-#endif
-}
-
-// SIGTERM (a farm's scheduler), SIGINT (Ctrl-C), SIGHUP: the outputs being
-// written are temporary files; remove them and exit 128 + the signal, as a
-// shell reports a killed command. Files already renamed are whole.
-extern "C" void on_termination(int signal)
-{
-    relief::remove_temporary_files();
-    ::_exit(128 + signal);
-}
-
-void remove_temporary_files_on_termination()
-{
-    struct sigaction action {};
-    action.sa_handler = on_termination;
-    sigemptyset(&action.sa_mask);
-    for (int s : {SIGTERM, SIGINT, SIGHUP}) {
-        struct sigaction old {};
-        // A signal the parent set to be ignored (nohup) stays ignored.
-        if (::sigaction(s, nullptr, &old) == 0 && old.sa_handler != SIG_IGN)
-            ::sigaction(s, &action, nullptr);
-    }
-}
-
 } // namespace
 
 int main(int argc, char** argv)
 {
-    remove_temporary_files_on_termination();
-    leave(run(argc, argv));
+    relief::cli::remove_temporary_files_on_termination();
+    relief::cli::leave(run(argc, argv));
 }

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The stack runner: one command line's steps over a stack of images.
 #include "stack_runner.h"
 

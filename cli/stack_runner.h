@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Running one command line's steps, left to right over a stack of images as
 // oiiotool does: a read pushes, an operation pops its inputs and pushes its

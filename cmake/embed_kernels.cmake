@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Turns the OpenCL sources in kernels/ into one C++ file so the library is
 # self-contained: no kernel files need to be found at run time.
 # Usage: cmake -DOUT=file.cpp -DSOURCES="a.cl;b.h" -P embed_kernels.cmake

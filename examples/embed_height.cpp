@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Embedding relief in a pipeline: normal map in, height map out, through the
 // ImageBufAlgo-style API. Build against the `relief` library and run:
 //   embed_height normal.png height.exr

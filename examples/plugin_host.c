@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /* A host that uses relief through its C ABI only: lists the operations and
  * runs one on a binary PPM (8 or 16 bits per channel), writing a PFM.
  *

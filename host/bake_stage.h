@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Stage 4, baking the correction: texture resampled at u + c(u) on the
 // device (kernels/bake.cl). Colour management happens before and after, in

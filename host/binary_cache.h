@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Compiled OpenCL programs, relief's and VkFFT's (fft_plan.cpp), kept on
 // disk between processes, so that a map does not pay for compiling kernels

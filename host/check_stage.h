@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Checking a result (docs/design.md §9, kernels/check.cl): a height's normals,
 // its round trip against the slopes it came from, tessellation levels.

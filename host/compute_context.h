@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Device discovery and choice, and one OpenCL context + queue + program cache
 // per chosen device. This header has no OpenCL types: the plugin includes it.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The node grids of distortion correction (docs/design.md §4.5) and the plain CPU
 // operations between them: node heights from texel heights, the

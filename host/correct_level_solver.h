@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // One coarse-to-fine level of distortion correction on the device
 // (docs/design.md §4.5; kernels/correct.cl): its buffers, the phases that

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Distortion correction on the device: the coarse-to-fine driver around
 // kernels/correct.cl (per-level iterations of four or more phases, energy
 // reductions, tile skipping) and the before/after statistics.

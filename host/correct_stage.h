@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Stage 3, distortion correction (docs/design.md §4.5): a height map -> per-texel
 // texture-coordinate offsets, by per-node descent with a line search (Brent's,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "dct_plan.h"
 
 #include "plan_cache.h"

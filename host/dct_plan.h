@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // 2-D (or 1-D) DCT-II and its inverse on the device, by one real FFT of the
 // same size (FftPlan) and the reordering kernels of kernels/dct.cl. VkFFT

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // A slope field on the device (what stage 1 makes and stage 2 integrates),
 // and where an integration puts its result: low enough for the OpenCL

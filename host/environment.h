@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Numbers from environment variables (RELIEF_MEMORY_LIMIT, the launch
 // limits of a smaller device for tests, ...), refused with the variable's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Exceptions thrown by the host layer; the plugin turns them into geterror().
 #include <climits>

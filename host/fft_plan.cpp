@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // VkFFT is a single large header that generates and builds its kernels at
 // plan time; it is confined to this file.
 #include "fft_plan.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Real-to-complex FFT plans on the device, by VkFFT's OpenCL backend
 // (Debian's libvkfft-dev). Used by the Poisson and ray stages, and by

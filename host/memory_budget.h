@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // How much memory a job needs, said before it is allocated: a map too large
 // for the machine or the device is refused with the numbers instead of

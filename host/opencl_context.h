@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // OpenCL objects behind ComputeContext; included only by host/*.cpp.
 #include <CL/opencl.hpp>

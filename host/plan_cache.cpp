@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "plan_cache.h"
 
 #include "poisson_stage.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // FFT and DCT plans kept per device context between operations, so that the
 // next map of the same size (a --batch, a UDIM set, a host calling relief in

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Stage 2, least-squares (Poisson) integration (docs/design.md §4.4):
 // slopes -> height, by Frankot–Chellappa projection with FFTs (periodic) or

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Weighted least-squares integration: preconditioned conjugate gradients on
 // the device (kernels/poisson_weighted.cl), the unweighted Laplacian as the
 // preconditioner. The targets carry the difference between the spectral

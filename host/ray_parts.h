@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The pieces of radial ray integration (ray_stage.h) that its files share;
 // included only by host/rays_*.cpp and ray_stage.cpp. ray_stage.cpp chooses

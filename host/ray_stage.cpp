@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Radial ray integration (docs/design.md §4.2-4.3): which path a request
 // takes. Periodic textures (with periodic_by_fft) integrate by one FFT
 // convolution (rays_fft.cpp); clip, or periodic without it, along chains

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Stage 2, radial ray integration (docs/design.md §4.2): slopes -> displacement.
 #include <cstdint>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The tiles ray integration cannot skip (docs/design.md §6; kernels/tiles.cl).
 #include <algorithm>
 #include <cmath>

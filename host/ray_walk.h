@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Per-direction walk tables for radial ray integration (docs/design.md §4.2).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Radial ray integration along the chains of rational directions
 // (docs/design.md §4.3; kernels/rays_fast.cl): per direction, period sums
 // and chain windows, at a cost independent of the radius.

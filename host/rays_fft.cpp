@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Radial ray integration of periodic textures as one circular convolution
 // (docs/design.md §4.3; kernels/rays_fft.cl): the cost of two Poisson solves,
 // whatever the number of rays and their radius.

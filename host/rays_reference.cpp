@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Radial ray integration, the reference kernel (docs/design.md §4.2;
 // kernels/rays_reference.cl): every ray walked texel by texel, from one
 // device table of all directions' walks.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Where a process's compute set-up time goes (opening the device, building
 // programs, planning FFTs): the cost a batch pays once and a map-per-process

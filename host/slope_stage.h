@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Stage 1, DDM derivation (docs/design.md §4.1): normals -> slopes on the device.
 #include <cstddef>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Does a texture tile? Evidence from its slope field (boundary=auto).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Baking the correction (docs/design.md §4.5, "Application"): the texel at u
 // takes the texture's value at u + c(u), a gather (no inversion needed).
 // Texel-centre coordinates: texel i's centre is u = (i + 0.5)/W, so u + c

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Checking a result (docs/design.md §9): a height's own normals (the inverse of
 // the DDM, §4.1), the round trip against the slopes a height came from, and
 // per-patch tessellation levels.

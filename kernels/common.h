@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Shared by every relief kernel. The host prepends this text to each program,
 // so kernels do not #include it (no include paths are needed at run time).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Distortion correction by per-node descent with a line search (Brent's,
 // golden-section or ternary) and over-relaxation (docs/design.md §4.5, after
 // Zirr & Ritschel, HPG 2019).

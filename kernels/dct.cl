@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // DCT-II and its inverse (DCT-III) by one real FFT of the same size
 // (Makhoul, "A fast cosine transform in one and two dimensions", 1980), so
 // that the free-boundary solves rely on VkFFT's plain R2C transforms only:

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // DDM derivation (docs/design.md §4.1): decoded normal map -> per-texel slopes.
 // common.h is prepended by the host.
 

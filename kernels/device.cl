@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Device behaviour that no OpenCL query reports, probed once per context
 // (host/compute_context.cpp).
 

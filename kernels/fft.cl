@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Transposes of an R2C half spectrum between the two passes of a 2-D FFT
 // (host/fft_plan.cpp): rows x columns complex values <-> columns x rows.
 // common.h is prepended by the host.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Least-squares (Poisson) integration by Frankot–Chellappa projection
 // (docs/design.md §4.4). common.h is prepended by the host; host/fft_plan (R2C)
 // and host/dct_plan (DCT-II) do the transforms between these kernels.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Weighted least-squares integration (docs/design.md §4.4, masks and confidence
 // weights), solved by preconditioned conjugate gradients. common.h is
 // prepended by the host; the preconditioner's transforms are host/fft_plan's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Radial ray integration, fast kernels (docs/design.md §4.3). common.h is
 // prepended by the host. Same answer as rays_reference.cl with rational
 // directions, at a cost that does not grow with the radius.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Radial ray integration of periodic textures as one convolution (docs/design.md
 // §4.3, periodic boundaries). common.h is prepended by the host.
 //

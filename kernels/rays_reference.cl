@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Radial ray integration, reference kernel (docs/design.md §4.2).
 // common.h is prepended by the host.
 //

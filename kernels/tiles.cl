@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Which tiles of the slope field have any non-zero slope (docs/design.md §6:
 // content that needs no integration is skipped). common.h is prepended by
 // the host. One work-item per tile of tile x tile texels.

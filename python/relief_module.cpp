@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // relief._relief: the Python module's native part (pybind11). The package's
 // __init__.py makes one Python function per entry of the operation table;
 // they all come here, to run(), which parses the keywords with the table's

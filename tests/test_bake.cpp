@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Baking: the device gather against the golden model, exact zero-offset
 // round trips, colour management, seams, and the command line's examples
 // and refusals.

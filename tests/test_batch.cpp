@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // --batch, --shard and --log: manifests of ordinary command lines run in
 // one process, a failed job alone failing, shards covering every job once.
 #include <catch2/catch.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Checking a result: --normals (height -> normal map), the round trip of
 // --height, tessellation levels, the displaced mesh and the preview sheet,
 // against the golden model of tests/reference/check_reference and

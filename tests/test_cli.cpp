@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The relief command line: the documented example, and every bad input
 // failing with a message, a non-zero exit and nothing left behind.
 #include <catch2/catch.hpp>

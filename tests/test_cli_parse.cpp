@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The command-line parser: every modifier and option lands in the field it
 // names, with the value given; nothing given means the API's defaults,
 // which are the documented ones (README, --help).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Distortion correction: the energy against an SVD, the gradient against
 // finite differences, the device against the double golden model, and the
 // properties of docs/design.md §4.5 (energy never rises, flat = zero, symmetry,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // DDM derivation: the kernel against analytic slopes and the C++ reference.
 #include <catch2/catch.hpp>
 

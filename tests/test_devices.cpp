@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Any OpenCL device: how `auto` ranks devices, RELIEF_DEVICE, the float
 // paths (RELIEF_FP64), launch shapes from device limits, the loop limit of
 // devices that cut work-items short, and three OpenCL implementations

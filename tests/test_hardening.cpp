@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Hardening (the [stress] tests ctest labels "stress"): damaged files
 // through the command line, a size sweep of every boundary through the
 // API, and a 16384^2 map in bounded memory against its own tile.

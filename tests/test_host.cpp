@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Host layer: device choice and kernel build failures.
 #include <catch2/catch.hpp>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Files: writes that fail half-way (file size limit, as on a full disk)
 // leave the old file untouched and no temporary file behind, through the
 // API and the command line (images and the --report file); --compression

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The operation table (relief/operations.h): one description that the
 // parser, --help, the JSON of the C ABI, the API's range checks and
 // run_operation() all follow.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The public API's options reach the host stages: for every option, the
 // API's result equals the host call made with the same parameters (bit for
 // bit: same device, same kernels), and the option changes the result, so

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Outputs under abuse: exclusive hidden temporary files, removed when the
 // run is interrupted and, after a SIGKILL, by the next run into the folder;
 // logs that many batches share; names refused before the work.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Least-squares (Poisson) integration: the device solver against the double
 // golden model and against analytic truth.
 #include <catch2/catch.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Least squares at awkward sizes and with masks (issue 10): every size the
 // FFT plans differently, as widths and as heights, against analytic truth;
 // the masked solve is the unmasked problem with weights (continuity), and

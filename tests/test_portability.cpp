@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The "portability" label: every stage, run by relief itself on Oclgrind,
 // an OpenCL device simulator that checks what a CPU device cannot show:
 // data races between work-items, barriers, local-memory bounds, API misuse

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Radial ray integration: the reference kernel against the C++ golden model
 // and against analytic truth (h - mean over the disk of radius R).
 #include <catch2/catch.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Rational directions and the fast ray kernel (docs/design.md §4.3): the reference
 // kernel with rational directions against the golden model, and the fast
 // kernel against the reference kernel for the same direction set.

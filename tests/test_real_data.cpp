@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Real textures: the bundled samples always, the shared data set when it is
 // there (a fresh clone of the project does not have ../shared).
 #include <catch2/catch.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Numerical stability under stress (issue 3, part 4): awkward sizes and fields,
 // long chains, a very large map, and thread-count determinism. Every output
 // must be finite and within the stated bounds.

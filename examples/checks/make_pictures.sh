@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Regenerates the pictures of the README's "Checking a result": the preview
 # sheet of the bundled DEM sample and a rendering of its displaced mesh.
 # Needs a built relief (RELIEF=path, default build/cli/relief), oiiotool,

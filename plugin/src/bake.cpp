@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // relief::bake — resampling a texture at u + c(u), colour-managed.
 #include "relief/validate.h"
 #include "relief/bake.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The C ABI (relief/relief_c.h): the operation table's parser and runner
 // behind plain C types. Nothing thrown gets past a function here.
 #include "relief/relief_c.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // relief::normals and relief::tessellation — checking a height (docs/design.md §9).
 #include "relief/validate.h"
 #include "relief/check.h"

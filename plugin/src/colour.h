@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Colour decoding and encoding with OpenColorIO for baking.
 #include <string>

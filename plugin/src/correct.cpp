@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // relief::correct — the distortion-correction family (height -> offsets).
 #include "relief/validate.h"
 #include "relief/correct.h"

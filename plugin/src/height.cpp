@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // relief::height — the integration family (normal map -> displacement).
 #include "relief/validate.h"
 #include "relief/height.h"

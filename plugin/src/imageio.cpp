@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Reading raw image data and writing outputs atomically.
 #include "relief/imageio.h"
 

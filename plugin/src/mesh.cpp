@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // relief::displaced_mesh — the displaced surface tessellated per patch at its
 // level, stitched without cracks (docs/design.md §9).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // relief::write_mesh — OBJ, PLY (binary) and glTF 2.0 (.gltf with its buffer
 // embedded, or .glb) through TinyGLTF; every file written to a temporary
 // name in its folder, checked, synced and renamed when complete.

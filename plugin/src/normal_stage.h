@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Shared first stage of slopes() and height(): reads the normal map's texels
 // out of an ImageBuf and derives the slope field on the device.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The wording of numbers and ranges that the table and validate() share.
 #include "option_limits.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The values each numeric option takes, written once. The operation table
 // builds its modifiers from these (what --help, the JSON listing and the

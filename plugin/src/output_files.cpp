@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Exclusive temporary files, renamed over their targets when complete.
 #include "relief/output_files.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // relief::preview — a labelled sheet that shows whether a height is right
 // (docs/design.md §9). The device derives the slopes, the height's normals and the
 // round trip (the same code as --normals and --report); lighting and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Whether a height map tiles: its jumps across the wrap seams against those
 // between neighbours. correct's boundary=auto and the checks of a height

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // relief::slopes — the DDM derivation family.
 #include "relief/validate.h"
 #include "relief/slopes.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The temporary file behind every output (see relief/output_files.h).
 #include <cstdio>

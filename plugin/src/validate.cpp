@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // validate(): every rule on an operation's options, written once. The
 // operations call it first; the table calls it once a call's modifiers are
 // parsed, so the command line, the C ABI and Python word a rule as the C++

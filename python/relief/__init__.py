@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """relief: normal maps to displacement maps (OpenCL), from Python.
 
 One function per operation of relief's operation table, with the command

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The documentation holds together: every "§N" or "§N.M" a source comment
 # cites is a heading of docs/design.md ("## N." or "### N.M"); every
 # relative link and image of README.md and docs/*.md names a file that
@@ -33,5 +34,15 @@ lines=$(wc -l <README.md)
 if grep -nE '\.\./shared|/work/shared' README.md docs/*.md; then
   fail "the documentation points at ../shared, which users do not have"
 fi
-[ $bad -eq 0 ] && echo "docs: citations, links and the README hold"
+# Every source file says its licence (SPDX), the project's (LICENSE).
+while IFS= read -r f; do
+  case $f in tests/fuzz/*|tests/mutants/*|*.md|*.png|*.csv|*.patch|*.supp|*.pc.in|LICENSE|.gitignore) continue ;; esac
+  case $f in
+    *.cpp|*.h|*.c|*.cl|*.py|*.sh|*.cmake|*.in|*CMakeLists.txt) ;;
+    *) head -c 2 "$f" | grep -q '#!' || continue ;;
+  esac
+  head -n 2 "$f" | grep -q 'SPDX-License-Identifier: Apache-2.0' || fail "$f has no SPDX-License-Identifier: Apache-2.0 line"
+done < <(git ls-files)
+
+[ $bad -eq 0 ] && echo "docs: citations, links, the README and licence lines hold"
 exit $((bad > 0))

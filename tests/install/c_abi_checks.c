@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /* The C ABI's contract, checked from C against an installed relief: built
  * linked (pkg-config) and, with -DRELIEF_DLOPEN, loading the library by
  * path (argv[1]) through relief_plugin_entry. Exit 0 when every check holds. */

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # ctest "install: ...": installs the build into a temporary prefix and uses
 # it as an embedding host would: the installed CLI; a C program built with
 # `pkg-config --cflags --libs relief` and the same program loading the

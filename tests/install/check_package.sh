@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # ctest "install: cpack -G DEB ...": builds the Debian package from the build
 # tree and checks its control fields and contents, then runs the CLI it
 # carries, unpacked (no dpkg -i: the test must not change the machine).

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# SPDX-License-Identifier: MIT
+# SPDX-License-Identifier: Apache-2.0
 # scripts/mutate-random draws mutants that apply to the tree, each one
 # changed line in the glue, and the same seed draws the same ones.
 # Usage: check_random.sh SOURCE_DIR SCRATCH_DIR

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The smallest reproducer of Oclgrind 21.10's compiler crash met by relief
 // (Debian bookworm's oclgrind package): two threads calling clBuildProgram
 // at once. OpenCL allows it, PoCL and Rusticl take it, and Oclgrind's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The smallest reproducer of an Oclgrind 21.10 fault that relief works
 // around: its uninitialised-value plugin (--uninitialized) does not see
 // clEnqueueFillBuffer, so every value a kernel reads from a filled buffer is

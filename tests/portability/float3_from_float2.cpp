@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The smallest reproducer of an Oclgrind 21.10 crash that relief avoids:
 // with --uninitialized on unoptimised code (-cl-opt-disable), a float3
 // built from a float2 and a float, `(float3)(o, z)`, kills the simulator

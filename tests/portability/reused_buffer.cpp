@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The smallest reproducer of an Oclgrind 21.10 fault that relief works
 // around: its uninitialised-value plugin (--uninitialized) keeps, per
 // buffer number, the record of which bytes were written, and does not drop

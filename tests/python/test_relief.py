@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Tests of the Python package `relief` (run by ctest with Debian's
 /usr/bin/python3 -m unittest; PYTHONPATH points at the package, RELIEF_CLI
 at the command line, RELIEF_TEST_DATA at examples/data)."""

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Golden model of the bake gather: the texture at u + c(u), bilinear or
 // Catmull-Rom bicubic, in double.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Golden model of the checks of a height (docs/design.md §9), in double: its normal
 // map, the round trip against slopes, and per-patch tessellation errors.

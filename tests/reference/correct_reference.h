@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Golden model of distortion correction (docs/design.md §4.5), in double, written
 // for clarity: the per-triangle energy, the total energy, the analytic fan

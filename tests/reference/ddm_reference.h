@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Golden model of the DDM derivation (docs/design.md §4.1), plain C++ in double.
 #include <cstdint>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Golden model of least-squares integration (docs/design.md §4.4): Frankot–
 // Chellappa projection in double with plain separable DFTs (O(N^3), for

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Golden model of radial ray integration (docs/design.md §4.2), plain C++ in
 // double. It walks every ray of every texel on its own, finding the texels

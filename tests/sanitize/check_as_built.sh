@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # The sanitizer build's CLI run by hand, without the environment the other
 # tests give it: the options and suppressions compiled in must be enough
 # for a clean run (no "AddressSanitizer failed to deallocate", no leak

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # relief-slurm on a real Slurm: starts a private single-node cluster
 # (munged, slurmctld, slurmd as root on loopback, its own slurm.conf and
 # munge key under WORK), submits an 8-job manifest as a 4-task array,

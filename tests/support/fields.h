@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Analytic height fields with exact gradients, and normal maps made from
 // them in every encoding the DDM stage reads.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Small helpers the glue tests share: images from pixel vectors and back,
 // scratch folders, and the skip marker ctest turns into "Skipped".

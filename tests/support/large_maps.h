@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Large tiling normal maps for the memory tests and bench_memory: one
 // periodic tile, written repeated without ever holding the large map, and

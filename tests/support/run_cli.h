@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Runs the relief executable and captures its exit code and stderr.
 #include <sys/wait.h>

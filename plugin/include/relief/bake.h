@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Baking a distortion correction into a texture: the texel at u takes the
 // texture's value at u + c(u) (docs/design.md §4.5, "Application").

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Checking a result: a height map's own normal map (the inverse of the DDM)
 // and the tessellation levels a renderer needs for it. The round trip of

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Distortion correction: displacement (height) map -> texture-coordinate
 // offset map (docs/design.md §4.5, after Zirr & Ritschel, "Distortion-Free

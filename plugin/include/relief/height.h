@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Integration: tangent-space normal map -> displacement (height) map.
 #include <OpenImageIO/imagebuf.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Reading and writing images the way relief needs them.
 #include <OpenImageIO/imagebuf.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The displaced surface as a triangle mesh: tessellated per patch at its
 // level (check.h's tessellation()), stitched so that patches of different

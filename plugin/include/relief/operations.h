@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The operation table: every operation relief offers (its inputs, outputs
 // and modifiers) described once. The command line's parser and --help, the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Option structs shared by relief's operations. Defaults are the documented
 // defaults of the command line.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // A labelled preview sheet of a height against the normal map it came from:
 // both lit under the same light, an emboss view, the angular error and the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // relief: normal maps to displacement, as OpenCL kernels behind an
 // ImageBufAlgo-style API. Every operation comes in two forms: one returns an

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /* relief's C ABI: plain C types, no exception crosses it, stable across
  * releases with the same relief_abi_version(). A host links librelief (or
  * dlopen()s it by path and calls relief_plugin_entry()), lists the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // DDM derivation: tangent-space normal map -> depth-difference map.
 #include <OpenImageIO/imagebuf.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Whether a set of options can run: one check per operation, in the words
 // of the command line. Every front end reaches it: the operations call it

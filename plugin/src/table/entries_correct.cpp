@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The operation table's entries for --correct and --bake: each operation's slots,
 // modifiers (what users see, how they set the option structs) and run.
 #include "schema.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What decides results besides the images and the modifiers: relief's
 // version and the kernel sources it builds (relief::implementation_digest).
 #include <string>

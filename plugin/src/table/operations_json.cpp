@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The operation table as a JSON document (relief::operations_json), what
 // the C ABI and Python hand to programs that build their own front ends.
 #include <cstdio>

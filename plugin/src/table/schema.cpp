@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The operation table's schema: values checked against a modifier's type
 // and range, numbers written as the command line reads them.
 #include "schema.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The operation table's schema (internal): how an entry describes an
 // operation and its modifiers, and the helpers that build and check them.

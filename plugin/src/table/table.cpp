@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The operation table: the entries gathered, looked up, parsed from
 // modifiers and run. Each family's entries are in entries_*.cpp, the schema
 // they are written with in schema.h; the JSON listing is operations_json.cpp.

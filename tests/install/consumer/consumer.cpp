@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // consumer NORMALS EXPECTED: runs relief::height (defaults) on the normal
 // map and compares with EXPECTED (the CLI's default --height); exit 0 when
 // they agree to 1e-5 of the height's standard deviation.
