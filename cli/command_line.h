@@ -37,6 +37,7 @@ struct Program {
     std::string report;  // --report FILE.json: the --height and --correct steps' reports
     bool verbose = false;
     bool help = false;
+    bool help_markdown = false;  // --help:format=markdown
     bool version = false;
     bool list_devices = false;
     std::string batch;           // --batch JOBS.txt: run the file's jobs instead of steps
@@ -55,6 +56,9 @@ std::pair<int, int> parse_shard(const std::string& text);
 // or frames are each parsed, and checked, as jobs of their own).
 Program parse_command_line(const std::vector<std::string>& args, bool check_inputs = true);
 
+// --help:format=markdown: every operation and modifier of the table as
+// Markdown (the reference at the end of docs/cli.md).
+std::string operations_markdown();
 // --help: the fixed options, then every operation and modifier of the table.
 const std::string& usage_text();
 

@@ -47,7 +47,8 @@ int run(int argc, char** argv)
         return 2;
     }
     if (prog.help) {
-        std::fputs(relief::cli::usage_text().c_str(), stdout);
+        std::fputs((prog.help_markdown ? relief::cli::operations_markdown() : relief::cli::usage_text()).c_str(),
+                   stdout);
         return 0;
     }
     if (prog.version) {

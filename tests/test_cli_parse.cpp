@@ -281,6 +281,9 @@ TEST_CASE("parse: options apply to the steps that follow, the stack is tracked",
     CHECK(parse_command_line({kIn, "--slopes"}).steps[1].slopes.exec.device == "auto");
     CHECK(parse_command_line({"--device", "0:0", kIn, kIn, "--bake"}).steps[2].bake.exec.device == "0:0");
     CHECK(parse_command_line({"--help"}).help);
+    CHECK_FALSE(parse_command_line({"--help"}).help_markdown);
+    CHECK(parse_command_line({"--help:format=markdown"}).help_markdown);
+    CHECK_THROWS_WITH(parse_command_line({"--help:format=html"}), Catch::Contains("--help takes :format=markdown"));
     CHECK(parse_command_line({"--version"}).version);
     CHECK(parse_command_line({"--list-devices"}).list_devices);
     CHECK_FALSE(parse_command_line({kIn}).verbose);
