@@ -14,7 +14,7 @@
 #include <random>
 
 #include "bake_stage.h"
-#include "colour.h"
+#include "io/colour.h"
 #include "compute_context.h"
 #include "reference/bake_reference.h"
 #include "relief/bake.h"

@@ -628,7 +628,7 @@ TEST_CASE("normals and levels read back from integer files are plain data: writi
 namespace {
 
 // The mean of channel c over panel (col, row) of a preview sheet whose
-// panels are pw x ph (the layout of plugin/src/preview.cpp).
+// panels are pw x ph (the layout of plugin/src/operations/preview.cpp).
 double panel_mean(const OIIO::ImageBuf& sheet, int col, int row, int pw, int ph, int c, int inset = 4)
 {
     const int x0 = 16 + col * (pw + 16), y0 = 16 + row * (34 + ph + 52 + 16) + 34;

@@ -14,7 +14,7 @@
 #include <utility>
 #include <vector>
 
-#include "../option_limits.h"
+#include "options/option_limits.h"
 #include "relief/operations.h"
 
 namespace relief::table {

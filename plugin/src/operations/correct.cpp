@@ -11,7 +11,7 @@
 
 #include "compute_context.h"
 #include "correct_stage.h"
-#include "normal_stage.h"
+#include "results.h"
 #include "seams.h"
 
 namespace relief {

@@ -1,31 +1,20 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-// Shared first stage of slopes() and height(): reads the normal map's texels
-// out of an ImageBuf and derives the slope field on the device.
+// What every operation does with its region, its messages, its result and
+// its failure (results.cpp).
 #include <OpenImageIO/imagebuf.h>
 
-#include <memory>
 #include <exception>
 #include <string>
 #include <vector>
 
-#include "compute_context.h"
 #include "relief/options.h"
 #include "slope_stage.h"
 
 namespace relief::detail {
 
-struct DerivedSlopes {
-    std::shared_ptr<host::ComputeContext> context;
-    host::DeviceSlopes slopes;
-    host::SlopeStats stats;
-};
-
-// `roi` must come from resolve_roi().
-// Throws std::exception with a user-facing message on bad input or device
-// trouble. Reports the chosen device, convention and counts through exec.
-DerivedSlopes derive_slopes(const OIIO::ImageBuf& normals, OIIO::ROI roi,
-                            const NormalDecoding& decoding, const Execution& exec);
+// Validates `roi` against `image` (undefined = the whole image).
+OIIO::ROI resolve_roi(const OIIO::ImageBuf& image, OIIO::ROI roi);
 
 // Passes one line to exec.on_message, if any.
 void say(const Execution& exec, Severity severity, const std::string& message);
@@ -33,17 +22,10 @@ void say(const Execution& exec, Severity severity, const std::string& message);
 // printf-style formatting of one number ("%.3g").
 std::string format_double(const char* fmt, double v);
 
-// "opengl" / "directx"
-const char* convention_name(host::GreenConvention c);
-
-// Records what derive_slopes chose on an output image.
-void tag_slope_metadata(OIIO::ImageSpec& spec, const host::SlopeStats& stats);
-
 // The float result image of an operation over `roi`: the spec (channel
 // names, the method and unit, what the slope stage chose) and the pixels.
-void publish_result(OIIO::ImageBuf& dst, OIIO::ROI roi, std::vector<std::string> channels,
-                    const char* method, const host::SlopeStats& stats, const float* pixels,
-                    const std::string& parameters = "");
+void publish_result(OIIO::ImageBuf& dst, OIIO::ROI roi, std::vector<std::string> channels, const char* method,
+                    const host::SlopeStats& stats, const float* pixels, const std::string& parameters = "");
 
 // A result image of `roi`'s size and origin with float `channels`, made
 // when a stage asks for its memory (host::HeightSink); publish_result(dst,
@@ -54,8 +36,5 @@ void publish_result(OIIO::ImageBuf& dst, OIIO::ImageBuf&& result, const char* me
 
 // Records a failed operation in dst and geterror(); returns false.
 bool fail(OIIO::ImageBuf& dst, const char* operation, const std::exception& e);
-
-// Validates `roi` against `image` (undefined = the whole image).
-OIIO::ROI resolve_roi(const OIIO::ImageBuf& image, OIIO::ROI roi);
 
 } // namespace relief::detail

@@ -9,7 +9,7 @@
 
 #include "check_stage.h"
 #include "compute_context.h"
-#include "normal_stage.h"
+#include "results.h"
 #include "seams.h"
 
 namespace relief {

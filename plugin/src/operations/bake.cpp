@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "bake_stage.h"
-#include "colour.h"
+#include "io/colour.h"
 #include "compute_context.h"
-#include "normal_stage.h"
+#include "results.h"
 
 namespace relief {
 

@@ -15,7 +15,8 @@
 
 #include "check_stage.h"
 #include "memory_budget.h"
-#include "normal_stage.h"
+#include "results.h"
+#include "slope_input.h"
 #include "poisson_stage.h"
 #include "ray_stage.h"
 #include "tiling.h"

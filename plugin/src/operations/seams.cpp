@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <stdexcept>
 
-#include "normal_stage.h"
+#include "results.h"
 
 namespace relief::detail {
 

@@ -6,7 +6,8 @@
 #include <exception>
 #include <vector>
 
-#include "normal_stage.h"
+#include "results.h"
+#include "slope_input.h"
 
 namespace relief {
 

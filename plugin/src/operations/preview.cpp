@@ -14,8 +14,9 @@
 #include <vector>
 
 #include "check_stage.h"
-#include "colour.h"
-#include "normal_stage.h"
+#include "io/colour.h"
+#include "results.h"
+#include "slope_input.h"
 #include "relief/errors.h"
 #include "relief/imageio.h"
 #include "seams.h"

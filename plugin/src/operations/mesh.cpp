@@ -26,7 +26,7 @@
 #include "compute_context.h"
 #include "memory_budget.h"
 #include "error_state.h"
-#include "normal_stage.h"
+#include "results.h"
 #include "relief/errors.h"
 #include "seams.h"
 
