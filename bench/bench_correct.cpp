@@ -46,7 +46,9 @@ OIIO::ImageBuf terrain(int n)
     // Resolution-independent: every feature is defined in texture units.
     std::mt19937 rng(42);
     std::uniform_real_distribution<double> u(0.0, 1.0);
-    struct Bump { double x, y, r, a; };
+    struct Bump {
+        double x, y, r, a;
+    };
     std::vector<Bump> bumps;
     for (int k = 0; k < 40; ++k)
         bumps.push_back({u(rng), u(rng), 0.02 + 0.08 * u(rng), 0.2 + 0.8 * u(rng)});
@@ -119,20 +121,23 @@ std::vector<float> anisotropy(const OIIO::ImageBuf& h, const OIIO::ImageBuf* off
             const std::size_t p = at(x, y), a = at(x + 1, y), b = at(x + 1, y - 1);
             const double e1[2] = {1 + (c[2 * a] - c[2 * p]) * n, (c[2 * a + 1] - c[2 * p + 1]) * n};
             const double e2[2] = {1 + (c[2 * b] - c[2 * p]) * n, -1 + (c[2 * b + 1] - c[2 * p + 1]) * n};
-            const double f1[3] = {1, 0, (z[a] - z[p]) * scale * n}, f2[3] = {1, -1, (z[b] - z[p]) * scale * n};
+            const double f1[3] = {1, 0, (z[a] - z[p]) * scale * n},
+                         f2[3] = {1, -1, (z[b] - z[p]) * scale * n};
             const double auv = 0.5 * (e1[1] * e2[0] - e1[0] * e2[1]);
             const double cx = f1[1] * f2[2] - f1[2] * f2[1], cy = f1[2] * f2[0] - f1[0] * f2[2],
                          cz = f1[0] * f2[1] - f1[1] * f2[0];
             const double a3 = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
-            auto d3 = [](const double* u, const double* v) { return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]; };
+            auto d3 = [](const double* u, const double* v) {
+                return u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+            };
             const double q = d3(f1, f1) * (e2[0] * e2[0] + e2[1] * e2[1]) -
-                             2 * d3(f1, f2) * (e1[0] * e2[0] + e1[1] * e2[1]) + d3(f2, f2) * (e1[0] * e1[0] + e1[1] * e1[1]);
+                             2 * d3(f1, f2) * (e1[0] * e2[0] + e1[1] * e2[1]) +
+                             d3(f2, f2) * (e1[0] * e1[0] + e1[1] * e1[1]);
             const double k = q / (4 * a3 * auv);
             out[p] = float(0.5 * (k + std::sqrt(std::max(0.0, k * k - 4))));
         }
     return out;
 }
-
 
 std::vector<std::string> split(const std::string& list)
 {
@@ -181,10 +186,13 @@ Scored score(const std::vector<float>& h, int w, int ht, const std::vector<float
                     ++r.flipped;
                     continue;
                 }
-                const double cx = f[0][1] * f[1][2] - f[0][2] * f[1][1], cy = f[0][2] * f[1][0] - f[0][0] * f[1][2],
+                const double cx = f[0][1] * f[1][2] - f[0][2] * f[1][1],
+                             cy = f[0][2] * f[1][0] - f[0][0] * f[1][2],
                              cz = f[0][0] * f[1][1] - f[0][1] * f[1][0];
                 const double a3 = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
-                auto d3 = [](const double* u, const double* v) { return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]; };
+                auto d3 = [](const double* u, const double* v) {
+                    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+                };
                 auto d2 = [](const double* u, const double* v) { return u[0] * v[0] + u[1] * v[1]; };
                 const double q = d3(f[0], f[0]) * d2(e[1], e[1]) - 2 * d3(f[0], f[1]) * d2(e[0], e[1]) +
                                  d3(f[1], f[1]) * d2(e[0], e[0]);
@@ -241,13 +249,15 @@ void real_maps(const std::vector<std::string>& names, const std::string& data, c
     if (!baseline.empty()) {
         md.open(out_dir + "/correct_maps.md");
         csv.open(out_dir + "/correct_maps.csv");
-        md << "| map | size | boundary | baseline s | this build s | ratio | baseline energy | this build energy | "
+        md << "| map | size | boundary | baseline s | this build s | ratio | baseline energy | this build "
+              "energy | "
               "energy ratio | flipped (baseline, this) |\n|---|---|---|---|---|---|---|---|---|---|\n";
         csv << "map,width,height,boundary,baseline_s,current_s,ratio,baseline_energy,current_energy,"
                "flipped_baseline,flipped_current\n";
     }
     for (const std::string& name : names) {
-        const std::string path = name.find('/') != std::string::npos ? name : data + "/" + name + "/height.png";
+        const std::string path =
+            name.find('/') != std::string::npos ? name : data + "/" + name + "/height.png";
         int w = 0, h = 0;
         const std::vector<float> hts = channels(path, 1, w, h);
         OIIO::ImageBuf hb(OIIO::ImageSpec(w, h, 1, OIIO::TypeDesc::FLOAT));
@@ -268,9 +278,10 @@ void real_maps(const std::vector<std::string>& names, const std::string& data, c
                     std::fprintf(stderr, "bench_correct: %s\n", relief::geterror().c_str());
                     std::exit(1);
                 }
-                const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-                std::fprintf(stderr, "bench_correct: %s, %s, tolerance %g: %.2f s, energy %.9g\n", name.c_str(),
-                             v.name, tol, sec, rep.energy_after);
+                const double sec =
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+                std::fprintf(stderr, "bench_correct: %s, %s, tolerance %g: %.2f s, energy %.9g\n",
+                             name.c_str(), v.name, tol, sec, rep.energy_after);
                 curves << name << ',' << v.name << ',' << tol << ',' << sec << ',' << std::setprecision(10)
                        << rep.energy_after << std::setprecision(6) << ',' << rep.iterations << '\n';
                 curves.flush();
@@ -289,23 +300,26 @@ void real_maps(const std::vector<std::string>& names, const std::string& data, c
         }
         int ow = 0, oh = 0;
         std::string bc_old, bc_cur;
-        const auto off_old = channels(old_out, 2, ow, oh, &bc_old), off_cur = channels(cur_out, 2, ow, oh, &bc_cur);
+        const auto off_old = channels(old_out, 2, ow, oh, &bc_old),
+                   off_cur = channels(cur_out, 2, ow, oh, &bc_cur);
         const Scored so = score(hts, w, h, off_old, 0.05, 5.0, bc_old == "periodic");
         const Scored sc = score(hts, w, h, off_cur, 0.05, 5.0, bc_cur == "periodic");
         const double mb = bench::median(tb), mc = bench::median(tc);
         std::printf("%s %dx%d (%s): baseline %.2f s, this build %.2f s (%.3fx); energy %.9g -> %.9g (%.5f); "
-                    "flipped %lld, %lld\n", name.c_str(), w, h, bc_cur.c_str(), mb, mc, mc / mb, so.energy,
-                    sc.energy, sc.energy / so.energy, so.flipped, sc.flipped);
+                    "flipped %lld, %lld\n",
+                    name.c_str(), w, h, bc_cur.c_str(), mb, mc, mc / mb, so.energy, sc.energy,
+                    sc.energy / so.energy, so.flipped, sc.flipped);
         std::fflush(stdout);
         char line[512];
-        std::snprintf(line, sizeof line, "| %s | %d×%d | %s | %.2f | %.2f | %.3f× | %.7g | %.7g | %.5f | %lld, %lld |\n",
+        std::snprintf(line, sizeof line,
+                      "| %s | %d×%d | %s | %.2f | %.2f | %.3f× | %.7g | %.7g | %.5f | %lld, %lld |\n",
                       name.c_str(), w, h, bc_cur.c_str(), mb, mc, mc / mb, so.energy, sc.energy,
                       sc.energy / so.energy, so.flipped, sc.flipped);
         md << line;
         md.flush();
-        csv << name << ',' << w << ',' << h << ',' << bc_cur << ',' << mb << ',' << mc << ',' << mc / mb << ','
-            << std::setprecision(10) << so.energy << ',' << sc.energy << std::setprecision(6) << ',' << so.flipped
-            << ',' << sc.flipped << '\n';
+        csv << name << ',' << w << ',' << h << ',' << bc_cur << ',' << mb << ',' << mc << ',' << mc / mb
+            << ',' << std::setprecision(10) << so.energy << ',' << sc.energy << std::setprecision(6) << ','
+            << so.flipped << ',' << sc.flipped << '\n';
         csv.flush();
     }
     std::filesystem::remove_all(work);
@@ -318,26 +332,30 @@ void real_maps(const std::vector<std::string>& names, const std::string& data, c
        << "set terminal pngcairo size " << 520 * names.size() << ",480 font ',10'\n"
        << "set output '" << out_dir << "/correct_curves.png'\n"
        << "set datafile separator ','\nset logscale y\nset grid\nset key top right font ',8' noenhanced\n"
-       << "set xlabel 'seconds (in-process, warm; tolerances "
-       << tolerances.front() << " .. " << tolerances.back() << ")'\n"
+       << "set xlabel 'seconds (in-process, warm; tolerances " << tolerances.front() << " .. "
+       << tolerances.back() << ")'\n"
        << "set ylabel 'energy / lowest energy found - 1 (+1e-7)'\n"
-       << "set multiplot layout 1," << names.size() << " title 'relief --correct: energy against time (2-core PoCL)'\n";
+       << "set multiplot layout 1," << names.size()
+       << " title 'relief --correct: energy against time (2-core PoCL)'\n";
     for (const std::string& name : names) {
         gp << "best = 1e300\nstats '" << out_dir << "/correct_curves.csv' using (strcol(1) eq '" << name
            << "' ? $5 : 1/0) nooutput\nbest = STATS_min\nset title '" << name << "' noenhanced\nplot ";
         for (std::size_t v = 0; v < std::size(kVariants); ++v)
-            gp << (v ? ", \\\n  " : "") << "'" << out_dir << "/correct_curves.csv' using (strcol(1) eq '" << name
-               << "' && strcol(2) eq '" << kVariants[v].name << "' ? $4 : 1/0):($5 / best - 1 + 1e-7) with linespoints lc "
-               << v + 1 << " pt " << v + 4 << " title '" << kVariants[v].name << "'";
+            gp << (v ? ", \\\n  " : "") << "'" << out_dir << "/correct_curves.csv' using (strcol(1) eq '"
+               << name << "' && strcol(2) eq '" << kVariants[v].name
+               << "' ? $4 : 1/0):($5 / best - 1 + 1e-7) with linespoints lc " << v + 1 << " pt " << v + 4
+               << " title '" << kVariants[v].name << "'";
         gp << "\n";
     }
     gp << "unset multiplot\n";
     gp.close();
-    if (std::system(("command -v gnuplot >/dev/null && gnuplot '" + out_dir + "/correct_curves.gp'").c_str()) != 0)
-        std::fprintf(stderr, "bench_correct: gnuplot missing or failed; the curves are in correct_curves.csv\n");
+    if (std::system(
+            ("command -v gnuplot >/dev/null && gnuplot '" + out_dir + "/correct_curves.gp'").c_str()) != 0)
+        std::fprintf(stderr,
+                     "bench_correct: gnuplot missing or failed; the curves are in correct_curves.csv\n");
 }
 
-} // namespace
+}  // namespace
 
 int main(int argc, char** argv)
 {
@@ -372,8 +390,9 @@ int main(int argc, char** argv)
                 if (t != "none")
                     tolerances.push_back(std::stod(t));
         } else {
-            std::fprintf(stderr, "usage: bench_correct [--sizes 512,1024|none] [--budget S] [--out DIR] [--maps A,B] "
-                                 "[--data DIR] [--baseline OLD_RELIEF] [--runs N] [--tolerances T1,T2]\n");
+            std::fprintf(stderr,
+                         "usage: bench_correct [--sizes 512,1024|none] [--budget S] [--out DIR] [--maps A,B] "
+                         "[--data DIR] [--baseline OLD_RELIEF] [--runs N] [--tolerances T1,T2]\n");
             return 2;
         }
     }
@@ -391,8 +410,10 @@ int main(int argc, char** argv)
         correct(terrain(64), 0, 0, 1e-5);
     }
     std::ofstream md(out_dir + "/correct.md"), csv(out_dir + "/correct.csv");
-    md << "| size | it/s per Mtexel | c2f converged (1e-5) s | c2f iterations (finest) | E0 | E* | c2f to 1% s | "
-          "single-res to 1% s (iterations) | ratio | p95 anisotropy before -> after |\n|---|---|---|---|---|---|---|---|---|---|\n";
+    md << "| size | it/s per Mtexel | c2f converged (1e-5) s | c2f iterations (finest) | E0 | E* | c2f to 1% "
+          "s | "
+          "single-res to 1% s (iterations) | ratio | p95 anisotropy before -> after "
+          "|\n|---|---|---|---|---|---|---|---|---|---|\n";
     csv << "size,iter_per_s_per_mtexel,c2f_converged_s,c2f_iterations,finest_iterations,e0,e_star,c2f_1pct_s,"
            "single_1pct_s,single_1pct_iterations,single_reached,p95_before,p95_after\n";
     for (int n : sizes) {
@@ -424,8 +445,10 @@ int main(int argc, char** argv)
             spent += r.seconds;
             single_1 = r.seconds;
             single_it = it;
-            std::fprintf(stderr, "bench_correct: %d^2 single resolution, %d iterations: %.2f s, E %.6g (target %.6g)\n",
-                         n, it, r.seconds, r.energy, target);
+            std::fprintf(
+                stderr,
+                "bench_correct: %d^2 single resolution, %d iterations: %.2f s, E %.6g (target %.6g)\n", n, it,
+                r.seconds, r.energy, target);
             if (r.energy <= target) {
                 reached = true;
                 break;
@@ -433,21 +456,24 @@ int main(int argc, char** argv)
         }
         const double ratio = single_1 / c2f_1;
         const auto& fin = c2f.report.levels.back();
-        std::printf("%d^2: %.2f it/s/Mtexel; c2f converged %.2f s (%d iterations, %d at the finest); to 1%%: c2f %.2f s, "
+        std::printf("%d^2: %.2f it/s/Mtexel; c2f converged %.2f s (%d iterations, %d at the finest); to 1%%: "
+                    "c2f %.2f s, "
                     "single %s%.2f s (%d iterations); ratio %s%.1f; p95 anisotropy %.3f -> %.3f\n",
                     n, ips, c2f.seconds, c2f.iterations, fin.iterations, c2f_1, reached ? "" : "> ", single_1,
                     single_it, reached ? "" : ">= ", ratio, c2f.report.anisotropy_before.p95,
                     c2f.report.anisotropy_after.p95);
         std::fflush(stdout);
         char line[512];
-        std::snprintf(line, sizeof line, "| %d² | %.2f | %.2f | %d (%d) | %.6g | %.6g | %.2f | %s%.2f (%d) | %s%.1f× | %.3f → %.3f |\n",
-                      n, ips, c2f.seconds, c2f.iterations, fin.iterations, e0, estar, c2f_1, reached ? "" : "> ",
-                      single_1, single_it, reached ? "" : "≥ ", ratio, c2f.report.anisotropy_before.p95,
-                      c2f.report.anisotropy_after.p95);
+        std::snprintf(
+            line, sizeof line,
+            "| %d² | %.2f | %.2f | %d (%d) | %.6g | %.6g | %.2f | %s%.2f (%d) | %s%.1f× | %.3f → %.3f |\n", n,
+            ips, c2f.seconds, c2f.iterations, fin.iterations, e0, estar, c2f_1, reached ? "" : "> ", single_1,
+            single_it, reached ? "" : "≥ ", ratio, c2f.report.anisotropy_before.p95,
+            c2f.report.anisotropy_after.p95);
         md << line;
         csv << n << ',' << ips << ',' << c2f.seconds << ',' << c2f.iterations << ',' << fin.iterations << ','
-            << e0 << ',' << estar << ',' << c2f_1 << ',' << single_1 << ',' << single_it << ',' << reached << ','
-            << c2f.report.anisotropy_before.p95 << ',' << c2f.report.anisotropy_after.p95 << '\n';
+            << e0 << ',' << estar << ',' << c2f_1 << ',' << single_1 << ',' << single_it << ',' << reached
+            << ',' << c2f.report.anisotropy_before.p95 << ',' << c2f.report.anisotropy_after.p95 << '\n';
         md.flush();
         csv.flush();
 

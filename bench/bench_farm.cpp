@@ -120,7 +120,7 @@ std::vector<Map> cut_maps(const std::string& data, int size, int wanted, const s
     return maps;
 }
 
-} // namespace
+}  // namespace
 
 int main(int argc, char** argv)
 {
@@ -142,7 +142,8 @@ int main(int argc, char** argv)
         }
     }
     if (peer.empty() || access(peer.c_str(), X_OK) != 0) {
-        std::fprintf(stderr, "bench_farm: --peer PATH must name the built peer (see the comment at the top)\n");
+        std::fprintf(stderr,
+                     "bench_farm: --peer PATH must name the built peer (see the comment at the top)\n");
         return 2;
     }
     if (!fs::is_directory(data)) {
@@ -179,7 +180,8 @@ int main(int argc, char** argv)
     for (const Map& m : maps) {
         const std::string single = work + "/out/" + m.name + ".single.exr";
         single_total += run({relief, m.png, "--height", "-o", single});
-        worst = std::max(worst, relative_difference(pixels(single), pixels(work + "/out/" + m.name + ".exr")));
+        worst =
+            std::max(worst, relative_difference(pixels(single), pixels(work + "/out/" + m.name + ".exr")));
     }
     const double update = run({relief, "--batch", work + "/jobs.txt", "--update"});
 
@@ -213,8 +215,8 @@ int main(int argc, char** argv)
     {
         std::ifstream in(work + "/split.txt");
         for (std::string line; std::getline(in, line);)
-            if (line.find("process start") != std::string::npos || line.find("--height:") != std::string::npos ||
-                line.find(": 0.") != std::string::npos)
+            if (line.find("process start") != std::string::npos ||
+                line.find("--height:") != std::string::npos || line.find(": 0.") != std::string::npos)
                 split += "    " + line + "\n";
     }
 
@@ -222,25 +224,31 @@ int main(int argc, char** argv)
     std::ostringstream md;
     char line[512];
     md << "# Farm benchmark: relief against the peer run once per file\n\n";
-    md << "Whole processes, warm caches; " << n << " real maps (" << n - big.size() << " of 512^2, " << big.size()
-       << " of 1024^2, 8-bit), default `--height`.\n\n";
+    md << "Whole processes, warm caches; " << n << " real maps (" << n - big.size() << " of 512^2, "
+       << big.size() << " of 1024^2, 8-bit), default `--height`.\n\n";
     md << "| what | seconds | per map | vs peer |\n|---|---|---|---|\n";
-    std::snprintf(line, sizeof line, "| peer, one process per file | %.2f | %.3f | 1.00 |\n", peer_total, peer_total / n);
+    std::snprintf(line, sizeof line, "| peer, one process per file | %.2f | %.3f | 1.00 |\n", peer_total,
+                  peer_total / n);
     md << line;
-    std::snprintf(line, sizeof line, "| relief --batch | %.2f | %.3f | %.2f |\n", batch, batch / n, batch / peer_total);
+    std::snprintf(line, sizeof line, "| relief --batch | %.2f | %.3f | %.2f |\n", batch, batch / n,
+                  batch / peer_total);
     md << line;
     std::snprintf(line, sizeof line, "| relief, one process per file | %.2f | %.3f | %.2f |\n", single_total,
                   single_total / n, single_total / peer_total);
     md << line;
-    std::snprintf(line, sizeof line, "| relief --batch --update, all skipped | %.2f | %.3f | %.2f of the first batch |\n",
+    std::snprintf(line, sizeof line,
+                  "| relief --batch --update, all skipped | %.2f | %.3f | %.2f of the first batch |\n",
                   update, update / n, update / batch);
     md << line;
-    std::snprintf(line, sizeof line, "\nEvery batch output equals its single-map run: largest difference %.2g of std.\n\n",
+    std::snprintf(line, sizeof line,
+                  "\nEvery batch output equals its single-map run: largest difference %.2g of std.\n\n",
                   worst);
     md << line;
-    md << "Single maps, medians of " << runs << " alternating runs:\n\n| size | peer s | relief s | relief / peer |\n|---|---|---|---|\n";
+    md << "Single maps, medians of " << runs
+       << " alternating runs:\n\n| size | peer s | relief s | relief / peer |\n|---|---|---|---|\n";
     for (const Single& s : singles) {
-        std::snprintf(line, sizeof line, "| %d^2 | %.3f | %.3f | %.2f |\n", s.size, s.peer, s.relief, s.relief / s.peer);
+        std::snprintf(line, sizeof line, "| %d^2 | %.3f | %.3f | %.2f |\n", s.size, s.peer, s.relief,
+                      s.relief / s.peer);
         md << line;
     }
     md << "\nOne 512^2 map, `relief -v`:\n\n" << split;
@@ -252,7 +260,8 @@ int main(int argc, char** argv)
     csv << "relief_per_file," << single_total << "," << n << "\n";
     csv << "relief_update_all_skipped," << update << "," << n << "\n";
     for (const Single& s : singles)
-        csv << "single_" << s.size << "_peer," << s.peer << ",1\nsingle_" << s.size << "_relief," << s.relief << ",1\n";
+        csv << "single_" << s.size << "_peer," << s.peer << ",1\nsingle_" << s.size << "_relief," << s.relief
+            << ",1\n";
     std::fputs(md.str().c_str(), stdout);
     return worst <= 1e-6 ? 0 : 1;
 }

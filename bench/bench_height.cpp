@@ -161,8 +161,8 @@ std::vector<Case> analytic_cases()
         for (int rays : {8, 16, 32, 64})
             for (double radius : {16.0, 32.0, 64.0, 128.0, 256.0}) {
                 Case c;
-                c.method = std::string(reference ? "rays reference" : "rays fast") +
-                           " J=" + std::to_string(rays);
+                c.method =
+                    std::string(reference ? "rays reference" : "rays fast") + " J=" + std::to_string(rays);
                 c.mods = std::string("method=rays:boundary=periodic:impl=") +
                          (reference ? "reference" : "fast") + ":rays=" + std::to_string(rays) +
                          ":radius=" + std::to_string(int(radius));
@@ -180,7 +180,7 @@ double median(std::vector<double> v)
     return v[v.size() / 2];
 }
 
-} // namespace
+}  // namespace
 
 int main(int argc, char** argv)
 {
@@ -233,10 +233,10 @@ int main(int argc, char** argv)
     auto record = [&](const std::string& data, int size, const Case& c, double cold,
                       const std::vector<double>& t, double rss, double err, const char* measure) {
         char line[512];
-        std::snprintf(line, sizeof line, "%s,%d,%s,%s,%.3f,%.3f,%.3f,%.3f,%.0f,%.3e,%s\n", data.c_str(),
-                      size, c.method.c_str(), c.mods.c_str(), cold, median(t),
-                      *std::min_element(t.begin(), t.end()), *std::max_element(t.begin(), t.end()),
-                      rss, err, measure);
+        std::snprintf(line, sizeof line, "%s,%d,%s,%s,%.3f,%.3f,%.3f,%.3f,%.0f,%.3e,%s\n", data.c_str(), size,
+                      c.method.c_str(), c.mods.c_str(), cold, median(t),
+                      *std::min_element(t.begin(), t.end()), *std::max_element(t.begin(), t.end()), rss, err,
+                      measure);
         csv << line;
         csv.flush();
         std::snprintf(line, sizeof line, "| %s | %d | %s | `%s` | %.3f | %.3f | %.0f | %.2e | %s |\n",
@@ -249,8 +249,9 @@ int main(int argc, char** argv)
     };
     auto skip = [&](const std::string& data, int size, const Case& c, double predicted) {
         char line[512];
-        std::snprintf(line, sizeof line, "| %s | %d | %s | `%s` | skipped: predicted %.0f s > budget | | | | |\n",
-                      data.c_str(), size, c.method.c_str(), c.mods.c_str(), predicted);
+        std::snprintf(line, sizeof line,
+                      "| %s | %d | %s | `%s` | skipped: predicted %.0f s > budget | | | | |\n", data.c_str(),
+                      size, c.method.c_str(), c.mods.c_str(), predicted);
         md << line;
         std::printf("%s", line);
     };
@@ -293,8 +294,8 @@ int main(int argc, char** argv)
                 skip("analytic", n, c, overhead + reference_rate * work_units);
                 continue;
             }
-            const std::vector<std::string> cmd{RELIEF_CLI, normal,
-                                               "--height:normal=opengl:" + c.mods, "-o", height};
+            const std::vector<std::string> cmd{RELIEF_CLI, normal, "--height:normal=opengl:" + c.mods, "-o",
+                                               height};
             // Cold: only the first case of each size runs with an empty cache.
             Timing cold = run(cmd, cache);
             std::vector<double> t;
@@ -390,9 +391,9 @@ int main(int argc, char** argv)
         gp << "set title '" << n << "^2'\nplot ";
         for (std::size_t m = 0; m < methods.size(); ++m)
             gp << (m ? ", \\\n  " : "") << "'" << (out / "results.csv").string()
-               << "' using (strcol(1) eq 'analytic' && $2 == " << n << " && strcol(3) eq '"
-               << methods[m] << "' ? $10 : 1/0):6 with linespoints lc " << m + 1 << " pt " << m % 14 + 1
-               << " title '" << methods[m] << "'";
+               << "' using (strcol(1) eq 'analytic' && $2 == " << n << " && strcol(3) eq '" << methods[m]
+               << "' ? $10 : 1/0):6 with linespoints lc " << m + 1 << " pt " << m % 14 + 1 << " title '"
+               << methods[m] << "'";
         gp << "\n";
     }
     gp << "unset multiplot\n";

@@ -50,13 +50,15 @@ int main(int argc, char** argv)
         for (int y = 0; y < 64; ++y)
             std::copy_n(&tile_px[std::size_t(y) * tile * 3], 64 * 3, &px[std::size_t(y) * 64 * 3]);
         relief::test::write_tiled_map(small, px, 64, 1);
-        relief::test::run_measured(cli + "'" + small + "' --height -o '" + (work / "s.exr").string() + "'", base);
+        relief::test::run_measured(cli + "'" + small + "' --height -o '" + (work / "s.exr").string() + "'",
+                                   base);
     }
     std::ostringstream md, csv;
     csv << "size,command,peak_rss_bytes,bytes_per_texel,seconds,exit\n";
     md << "# Peak memory per texel, whole process\n\n"
        << "`bench_memory`: `relief MAP.tif COMMAND -o h.exr` on an 8-bit RGB tiling map (an uncompressed "
-          "TIFF of 2048^2 tiles), peak resident set of the process (wait4's ru_maxrss) over the map's texels. "
+          "TIFF of 2048^2 tiles), peak resident set of the process (wait4's ru_maxrss) over the map's "
+          "texels. "
           "A 64^2 map peaks at "
        << relief::test::format_gb(base) << " (PoCL, LLVM and the libraries).\n\n"
        << "| size | command | peak RSS | bytes per texel | seconds |\n|---|---|---|---|---|\n";
@@ -69,8 +71,8 @@ int main(int argc, char** argv)
         for (const char* c : commands) {
             double peak = 0;
             const auto t0 = std::chrono::steady_clock::now();
-            const int rc =
-                relief::test::run_measured(cli + "'" + map + "' " + c + " -o '" + (work / "h.exr").string() + "'", peak);
+            const int rc = relief::test::run_measured(
+                cli + "'" + map + "' " + c + " -o '" + (work / "h.exr").string() + "'", peak);
             const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             const double per = peak / (double(n) * n);
             std::printf("%d^2 %-46s peak %s  %.2f B/texel  %.1f s  exit %d\n", n, c,

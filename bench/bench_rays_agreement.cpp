@@ -106,7 +106,8 @@ int main(int argc, char** argv)
         hi = std::max(hi, double(ref[i]));
     }
     const double sd = std::sqrt(var / double(ref.size()));
-    std::printf("| size | rays | radius | boundary | fast s | reference s | ratio | max diff / std | max diff / spread |\n");
+    std::printf("| size | rays | radius | boundary | fast s | reference s | ratio | max diff / std | max "
+                "diff / spread |\n");
     std::printf("|---|---|---|---|---|---|---|---|---|\n");
     std::printf("| %d | %d | %g | %s | %.2f | %.2f | %.1f | %.2e | %.2e |\n", n, rays, radius,
                 boundary.c_str(), tf, tr, tr / tf, worst / sd, worst / (hi - lo));

@@ -41,7 +41,7 @@ double run(const std::string& cmd)
     return s;
 }
 
-} // namespace
+}  // namespace
 
 int main(int argc, char** argv)
 {

@@ -49,7 +49,7 @@ std::vector<float> pixels(const std::string& path)
     return v;
 }
 
-} // namespace
+}  // namespace
 
 int main(int argc, char** argv)
 {
@@ -66,7 +66,9 @@ int main(int argc, char** argv)
     // Four islands of (n/4)^2 each: a quarter of the area.
     std::vector<unsigned char> px(std::size_t(n) * n * 3);
     const int s = n / 4;
-    const int corners[4][2] = {{n / 16, n / 16}, {n / 2 + n / 16, n / 16}, {n / 16, n / 2 + n / 16},
+    const int corners[4][2] = {{n / 16, n / 16},
+                               {n / 2 + n / 16, n / 16},
+                               {n / 16, n / 2 + n / 16},
                                {n / 2 + n / 16, n / 2 + n / 16}};
     for (int y = 0; y < n; ++y)
         for (int x = 0; x < n; ++x) {
@@ -107,7 +109,8 @@ int main(int argc, char** argv)
     }
     const bool same = pixels((dir / "on.exr").string()) == pixels((dir / "off.exr").string());
     const double on = t[1][t[1].size() / 2], off = t[0][t[0].size() / 2];
-    std::printf("| size | flat | rays | radius | runs | skip=off median s | skip=on median s | saved | identical |\n");
+    std::printf("| size | flat | rays | radius | runs | skip=off median s | skip=on median s | saved | "
+                "identical |\n");
     std::printf("|---|---|---|---|---|---|---|---|---|\n");
     std::printf("| %d | 75%% | %d | %d | %d | %.2f | %.2f | %.0f%% | %s |\n", n, rays, radius, runs, off, on,
                 100.0 * (1.0 - on / off), same ? "yes" : "NO");

@@ -36,7 +36,8 @@ int main(int argc, char** argv)
         else if (a == "--out")
             out = v;
         else {
-            std::fprintf(stderr, "usage: %s [--jobs N] [--runs N] [--relief PATH] [--baseline PATH] [--out DIR]\n",
+            std::fprintf(stderr,
+                         "usage: %s [--jobs N] [--runs N] [--relief PATH] [--baseline PATH] [--out DIR]\n",
                          argv[0]);
             return 2;
         }
@@ -61,12 +62,13 @@ int main(int argc, char** argv)
             theirs.push_back(bench::run_process({baseline, "--batch", manifest, "--update"}, dir.string()));
     }
     const double a = bench::median(ours);
-    std::printf("all-skipped --update over %d jobs (%d outputs): median of %d runs %.3f s (%.2f ms per job)\n",
-                jobs, 3 * jobs, runs, a, 1e3 * a / jobs);
+    std::printf(
+        "all-skipped --update over %d jobs (%d outputs): median of %d runs %.3f s (%.2f ms per job)\n", jobs,
+        3 * jobs, runs, a, 1e3 * a / jobs);
     if (!baseline.empty()) {
         const double b = bench::median(theirs);
-        std::printf("baseline %s: %.3f s (%.2f ms per job); with the check / without: %.2f\n", baseline.c_str(), b,
-                    1e3 * b / jobs, a / b);
+        std::printf("baseline %s: %.3f s (%.2f ms per job); with the check / without: %.2f\n",
+                    baseline.c_str(), b, 1e3 * b / jobs, a / b);
     }
     return 0;
 }

@@ -56,4 +56,4 @@ inline double median(std::vector<double> v)
     return n == 0 ? 0.0 : n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-} // namespace bench
+}  // namespace bench

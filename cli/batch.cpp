@@ -113,7 +113,8 @@ std::vector<int> parse_frames(const std::string& text)
     constexpr long long kLimit = 1000000000;  // |frame| <= 10^9: no overflow below
     std::vector<int> frames;
     const auto bad = [&text] {
-        return UsageError("--frames " + text + ": write ranges like 1-10,20,30-32 (A <= B, |frames| <= 10^9, "
+        return UsageError("--frames " + text +
+                          ": write ranges like 1-10,20,30-32 (A <= B, |frames| <= 10^9, "
                           "at most 100000 frames)");
     };
     const auto number = [&](const char* from, const char* to) {
@@ -207,8 +208,8 @@ std::string with_udim(std::string arg, int tile)
 
 bool is_input(const std::vector<std::string>& args, std::size_t i)
 {
-    static const std::vector<std::string> takes_value = {"-o", "--report", "--log", "-d", "--compression",
-                                                         "--device", "--batch", "--shard", "--frames"};
+    static const std::vector<std::string> takes_value = {
+        "-o", "--report", "--log", "-d", "--compression", "--device", "--batch", "--shard", "--frames"};
     if (args[i].empty() || args[i][0] == '-')
         return false;
     return i == 0 || std::find(takes_value.begin(), takes_value.end(), args[i - 1]) == takes_value.end();
@@ -252,9 +253,9 @@ public:
                 const std::string& name = *it;
                 int tile = 0;
                 const char* digits = name.data() + pieces[0].size();
-                if (name.size() != length ||
-                    std::from_chars(digits, digits + 4, tile).ptr != digits + 4 || tile < 1001 || tile > 1999 ||
-                    (folder_tile != 0 && tile != folder_tile) || with_udim(name_pattern, tile) != name)
+                if (name.size() != length || std::from_chars(digits, digits + 4, tile).ptr != digits + 4 ||
+                    tile < 1001 || tile > 1999 || (folder_tile != 0 && tile != folder_tile) ||
+                    with_udim(name_pattern, tile) != name)
                     continue;
                 std::error_code ec;  // (a dangling link is listed but does not exist)
                 if (std::filesystem::exists(folder + name, ec))
@@ -295,8 +296,8 @@ private:
         auto [it, added] = listings_.try_emplace(folder);
         if (added) {
             std::error_code ec;
-            for (std::filesystem::directory_iterator d(folder.empty() ? "." : folder, ec), end; !ec && d != end;
-                 d.increment(ec))
+            for (std::filesystem::directory_iterator d(folder.empty() ? "." : folder, ec), end;
+                 !ec && d != end; d.increment(ec))
                 it->second.push_back(d->path().filename().string());
             std::sort(it->second.begin(), it->second.end());
         }
@@ -344,7 +345,7 @@ std::vector<std::vector<std::string>> expand_udim(const std::vector<std::string>
     return jobs;
 }
 
-} // namespace
+}  // namespace
 
 std::vector<std::vector<std::string>> expand_names(const std::vector<std::string>& given)
 {
@@ -358,9 +359,10 @@ std::vector<std::vector<std::string>> expand_names(const std::vector<std::string
             bool frame_token = false;
             with_frame(given[i + 1], 0, frame_token);
             if (given[i + 1].find("<UDIM>") != std::string::npos || (frames_given && frame_token))
-                throw UsageError(given[i] + " " + given[i + 1] +
-                                 ": names one file for the whole run; <UDIM> and frame tokens are not expanded "
-                                 "there (with --frames, write %# or %@ for a literal # or @)");
+                throw UsageError(
+                    given[i] + " " + given[i + 1] +
+                    ": names one file for the whole run; <UDIM> and frame tokens are not expanded "
+                    "there (with --frames, write %# or %@ for a literal # or @)");
         }
     frames_given = false;
     for (std::size_t i = 0; i < given.size(); ++i) {
@@ -439,4 +441,4 @@ std::string json_quote(const std::string& s)
     return out + "\"";
 }
 
-} // namespace relief::cli
+}  // namespace relief::cli

@@ -49,4 +49,4 @@ std::vector<Job> shard_of(const std::vector<Job>& jobs, int index, int count);
 // A JSON string literal.
 std::string json_quote(const std::string& s);
 
-} // namespace relief::cli
+}  // namespace relief::cli

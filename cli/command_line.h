@@ -24,11 +24,11 @@ struct UsageError : std::runtime_error {
 // the OperationCall this derives from.
 struct Step : OperationCall {
     enum class Kind { Read, Operation, Write, Dup } kind;  // Dup: --dup, push a copy of the top
-    std::string text;             // the argument as typed, for messages
-    std::string path;             // Read, Write
-    OIIO::TypeDesc format;        // Write
-    bool format_given = false;    // Write: -d was given (else baked textures keep their type)
-    std::string compression;      // Write; empty = relief's default
+    std::string text;                                      // the argument as typed, for messages
+    std::string path;                                      // Read, Write
+    OIIO::TypeDesc format;                                 // Write
+    bool format_given = false;  // Write: -d was given (else baked textures keep their type)
+    std::string compression;    // Write; empty = relief's default
 };
 
 struct Program {
@@ -40,12 +40,12 @@ struct Program {
     bool help_markdown = false;  // --help:format=markdown
     bool version = false;
     bool list_devices = false;
-    std::string batch;           // --batch JOBS.txt: run the file's jobs instead of steps
-    std::string log;             // --log FILE.jsonl: one JSON object per job
+    std::string batch;                     // --batch JOBS.txt: run the file's jobs instead of steps
+    std::string log;                       // --log FILE.jsonl: one JSON object per job
     int shard_index = 0, shard_count = 1;  // --shard I/N (with --batch)
-    bool update = false;         // --update: skip a job whose outputs carry its relief:digest
-    bool dry_run = false;        // --dry-run: list the jobs (and what --update would skip), run none
-    std::string label;           // set by --batch: "job 3: ", before each message
+    bool update = false;                   // --update: skip a job whose outputs carry its relief:digest
+    bool dry_run = false;  // --dry-run: list the jobs (and what --update would skip), run none
+    std::string label;     // set by --batch: "job 3: ", before each message
 };
 
 // --shard I/N: "I/N" -> (I, N) with 0 <= I < N. Throws UsageError.
@@ -62,4 +62,4 @@ std::string operations_markdown();
 // --help: the fixed options, then every operation and modifier of the table.
 const std::string& usage_text();
 
-} // namespace relief::cli
+}  // namespace relief::cli

@@ -91,7 +91,7 @@ std::string conflict(const FileUse& a, const FileUse& b)
     return "";
 }
 
-} // namespace
+}  // namespace
 
 void add_file_uses(const Program& prog, int job, int line, std::vector<FileUse>& uses)
 {
@@ -157,4 +157,4 @@ void chain_shards(std::vector<Job>& jobs, const std::vector<Dependency>& depende
         j.shard_key = root(j.index);
 }
 
-} // namespace relief::cli
+}  // namespace relief::cli

@@ -17,8 +17,8 @@ struct FileUse {
     enum class Role { Manifest, Input, Image, Written, Report, Log };
     std::string path;
     Role role;
-    int job = -1;       // -1: the run's own (its manifest, its --log)
-    int line = 0;       // the job's manifest line; 0 on a command line
+    int job = -1;         // -1: the run's own (its manifest, its --log)
+    int line = 0;         // the job's manifest line; 0 on a command line
     bool update = false;  // the job runs with --update
 };
 
@@ -49,4 +49,4 @@ std::vector<Dependency> check_file_uses(const std::vector<FileUse>& uses);
 // one process, in file order.
 void chain_shards(std::vector<Job>& jobs, const std::vector<Dependency>& dependencies);
 
-} // namespace relief::cli
+}  // namespace relief::cli

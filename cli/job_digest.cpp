@@ -84,14 +84,14 @@ std::string digest_of(const Program& prog)
             h.text(modifier_text(call));
             for (const std::string* file : {&s.mask_file, &s.fix_file, &s.preview.env})
                 if (!file->empty()) {
-                    h.text(file == &s.mask_file ? "mask file" : file == &s.fix_file ? "fix file" : "env file");
+                    h.text(file == &s.mask_file  ? "mask file"
+                           : file == &s.fix_file ? "fix file"
+                                                 : "env file");
                     h.file(*file);
                 }
             break;
         }
-        case Step::Kind::Dup:
-            h.text("dup");
-            break;
+        case Step::Kind::Dup: h.text("dup"); break;
         case Step::Kind::Write:
             h.text("write");
             h.text(std::string(s.format.c_str()) + (s.format_given ? " given" : " default"));
@@ -102,7 +102,7 @@ std::string digest_of(const Program& prog)
     return h.digest();
 }
 
-} // namespace
+}  // namespace
 
 std::string job_digest(const Program& prog)
 {
@@ -123,4 +123,4 @@ std::string output_digest(const std::string& job, int output)
     return h.digest();
 }
 
-} // namespace relief::cli
+}  // namespace relief::cli

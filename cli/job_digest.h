@@ -21,4 +21,4 @@ std::string job_digest(const Program& prog);
 // that swapping two outputs' names makes both out of date. "" when `job` is.
 std::string output_digest(const std::string& job, int output);
 
-} // namespace relief::cli
+}  // namespace relief::cli

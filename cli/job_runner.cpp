@@ -148,8 +148,8 @@ public:
             done = ::write(fd_, line.data(), line.size());
         while (done < 0 && errno == EINTR);
         if (done != ssize_t(line.size()))
-            throw RunError("--log " + path_ + ": write failed: " +
-                               (done < 0 ? std::strerror(errno) : "the disk is full"));
+            throw RunError("--log " + path_ +
+                           ": write failed: " + (done < 0 ? std::strerror(errno) : "the disk is full"));
     }
 
 private:
@@ -178,7 +178,7 @@ Program job_program(const Program& top, const Job& job, const std::string& manif
     if (!manifest.empty() &&
         (!p.batch.empty() || !p.log.empty() || p.help || p.version || p.list_devices || p.steps.empty()))
         throw UsageError("a job is images, operations and outputs (no --batch, --log, "
-                                      "--help, --version or --list-devices)");
+                         "--help, --version or --list-devices)");
     return p;
 }
 
@@ -188,7 +188,7 @@ Program job_program(const Program& top, const Job& job, const std::string& manif
 // does not parse fails on its own later. Returns which jobs read an
 // earlier job's output.
 std::vector<Dependency> check_files(const Program& top, const std::vector<Job>& all,
-                                                 const std::string& manifest)
+                                    const std::string& manifest)
 {
     std::vector<FileUse> uses;
     if (!manifest.empty())
@@ -205,7 +205,7 @@ std::vector<Dependency> check_files(const Program& top, const std::vector<Job>& 
     return check_file_uses(uses);
 }
 
-} // namespace
+}  // namespace
 
 // Jobs in this process, one after the other, sharing the device context and
 // its caches: a --batch file's (`manifest` names it; the batch's -v,
@@ -238,11 +238,12 @@ int run_jobs(const Program& top, const std::vector<Job>& all, const std::string&
         } catch (const UsageError& e) {
             rec.message = e.what();
         }
-        const std::string where = manifest.empty() ? std::string("command line")
-                                                   : manifest + ":" + std::to_string(job.line);
+        const std::string where =
+            manifest.empty() ? std::string("command line") : manifest + ":" + std::to_string(job.line);
         if (rec.status == "failed") {
             ++failed;
-            std::fprintf(stderr, "relief: job %d (%s): error: %s\n", job.index, where.c_str(), rec.message.c_str());
+            std::fprintf(stderr, "relief: job %d (%s): error: %s\n", job.index, where.c_str(),
+                         rec.message.c_str());
         } else {
             ++(rec.status == "ok" ? ok : rec.status == "skipped" ? skipped : pending);
             if (top.verbose)
@@ -284,4 +285,4 @@ void run_command_line(const Program& prog, const std::vector<std::string>& args)
         std::fprintf(stderr, "relief: up to date (every output records this run's relief:digest)\n");
 }
 
-} // namespace relief::cli
+}  // namespace relief::cli

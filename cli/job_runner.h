@@ -24,4 +24,4 @@ int run_jobs(const Program& top, const std::vector<Job>& all, const std::string&
 // (a clobbered file), RunError (the job failed: its message).
 void run_command_line(const Program& prog, const std::vector<std::string>& args);
 
-} // namespace relief::cli
+}  // namespace relief::cli

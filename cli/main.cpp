@@ -47,8 +47,9 @@ int run(int argc, char** argv)
         return 2;
     }
     if (prog.help) {
-        std::fputs((prog.help_markdown ? relief::cli::operations_markdown() : relief::cli::usage_text()).c_str(),
-                   stdout);
+        std::fputs(
+            (prog.help_markdown ? relief::cli::operations_markdown() : relief::cli::usage_text()).c_str(),
+            stdout);
         return 0;
     }
     if (prog.version) {
@@ -91,7 +92,7 @@ int run(int argc, char** argv)
     return 0;
 }
 
-} // namespace
+}  // namespace
 
 int main(int argc, char** argv)
 {

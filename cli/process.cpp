@@ -60,7 +60,7 @@ extern "C" void on_termination(int signal)
     ::_exit(128 + signal);
 }
 
-} // namespace
+}  // namespace
 
 void remove_temporary_files_on_termination()
 {
@@ -75,4 +75,4 @@ void remove_temporary_files_on_termination()
     }
 }
 
-} // namespace relief::cli
+}  // namespace relief::cli

@@ -16,4 +16,4 @@ double process_age();
 // 128 + the signal; a signal the parent ignores (nohup) stays ignored.
 void remove_temporary_files_on_termination();
 
-} // namespace relief::cli
+}  // namespace relief::cli

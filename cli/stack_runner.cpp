@@ -91,8 +91,8 @@ public:
             // One object per reporting operation, in the order they ran.
             std::string json = "{";
             for (const auto& [key, object] : report_)
-                json += std::string(json.size() > 1 ? ",\n" : "\n") + "  \"" + key + "\": " +
-                        indented(object);
+                json +=
+                    std::string(json.size() > 1 ? ",\n" : "\n") + "  \"" + key + "\": " + indented(object);
             write_text_atomically(prog_.report, json + "\n}\n", "the report");
         }
         if (prog_.verbose && ahead_.valid()) {
@@ -129,8 +129,9 @@ private:
                 return;
             }
         }
-        ahead_ = std::async(std::launch::async,
-                            [device = prog_.device, width, height] { relief::prepare(device, width, height); });
+        ahead_ = std::async(std::launch::async, [device = prog_.device, width, height] {
+            relief::prepare(device, width, height);
+        });
     }
 
     void message(Severity s, const std::string& msg) const
@@ -244,9 +245,12 @@ private:
             const std::string native = top.spec().get_string_attribute("relief:native_format");
             if (!s.format_given && !native.empty())
                 w.format = OIIO::TypeDesc(native);
-            if (w.format == OIIO::TypeDesc::HALF && top.spec().get_string_attribute("relief:method") == "correct" &&
+            if (w.format == OIIO::TypeDesc::HALF &&
+                top.spec().get_string_attribute("relief:method") == "correct" &&
                 std::max(top.spec().width, top.spec().height) > 2048)
-                std::fprintf(stderr, "relief: warning: %s: half offsets above 2048 texels are coarser than 1/8 texel; prefer float\n",
+                std::fprintf(stderr,
+                             "relief: warning: %s: half offsets above 2048 texels are coarser than 1/8 "
+                             "texel; prefer float\n",
                              s.path.c_str());
             w.compression = s.compression;
             const std::string digest = output_digest(digest_, outputs_++);
@@ -291,11 +295,11 @@ private:
     std::vector<OIIO::ImageBuf> stack_;
 };
 
-} // namespace
+}  // namespace
 
 void run_steps(const Program& prog, const std::string& digest)
 {
     StackRunner(prog, digest).run();
 }
 
-} // namespace relief::cli
+}  // namespace relief::cli

@@ -20,4 +20,4 @@ struct RunError : std::runtime_error {
 // written records output_digest(digest, k), "" none. Throws RunError.
 void run_steps(const Program& prog, const std::string& digest);
 
-} // namespace relief::cli
+}  // namespace relief::cli

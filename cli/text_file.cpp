@@ -14,4 +14,4 @@ void write_text_atomically(const std::string& path, const std::string& text, con
         throw std::runtime_error(what + ": " + relief::geterror());
 }
 
-} // namespace relief::cli
+}  // namespace relief::cli

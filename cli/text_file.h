@@ -11,4 +11,4 @@ namespace relief::cli {
 // std::runtime_error: "WHAT: cannot write 'PATH': the system's reason".
 void write_text_atomically(const std::string& path, const std::string& text, const std::string& what);
 
-} // namespace relief::cli
+}  // namespace relief::cli

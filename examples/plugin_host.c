@@ -51,9 +51,8 @@ static int read_pnm(const char* path, relief_image* image)
     if (!f)
         return 0;
     memset(image, 0, sizeof *image);
-    if (!read_token(f, magic, sizeof magic) || !read_token(f, w, sizeof w) ||
-        !read_token(f, h, sizeof h) || !read_token(f, maxval, sizeof maxval) ||
-        (strcmp(magic, "P6") != 0 && strcmp(magic, "P5") != 0)) {
+    if (!read_token(f, magic, sizeof magic) || !read_token(f, w, sizeof w) || !read_token(f, h, sizeof h) ||
+        !read_token(f, maxval, sizeof maxval) || (strcmp(magic, "P6") != 0 && strcmp(magic, "P5") != 0)) {
         fclose(f);
         return 0;
     }
@@ -91,7 +90,8 @@ static int write_pfm(const char* path, const relief_image* image)
     for (int y = image->height - 1; y >= 0; --y)
         for (int x = 0; x < image->width; ++x)
             for (int c = 0; c < out_channels; ++c) {
-                float v = c < image->channels ? px[((size_t)y * image->width + x) * image->channels + c] : 0.0f;
+                float v =
+                    c < image->channels ? px[((size_t)y * image->width + x) * image->channels + c] : 0.0f;
                 fwrite(&v, sizeof v, 1, f);
             }
     return fclose(f) == 0;
@@ -110,7 +110,8 @@ int main(int argc, char** argv)
         fprintf(stderr, "plugin_host: %s\n", dlerror());
         return 2;
     }
-    const relief_plugin* (*entry)(void) = (const relief_plugin* (*)(void))dlsym(module, "relief_plugin_entry");
+    const relief_plugin* (*entry)(void) =
+        (const relief_plugin* (*)(void))dlsym(module, "relief_plugin_entry");
     if (!entry) {
         fprintf(stderr, "plugin_host: %s has no relief_plugin_entry\n", argv[1]);
         return 2;

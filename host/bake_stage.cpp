@@ -8,8 +8,8 @@
 
 namespace relief::host {
 
-void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch,
-                 const float* offsets, bool periodic, BakeFilter filter, float* dst)
+void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch, const float* offsets,
+                 bool periodic, BakeFilter filter, float* dst)
 {
     if (w < 1 || h < 1 || nch < 1)
         throw Error("baking needs a non-empty texture");
@@ -19,8 +19,8 @@ void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch,
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
         cl::Program& prog = c.program("bake.cl");
-        cl::Buffer off = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(cl_float2) * n,
-                                  "baking", offsets);
+        cl::Buffer off =
+            c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(cl_float2) * n, "baking", offsets);
         // All channels in one pass when they fit one device buffer; else one
         // channel plane at a time (the same arithmetic, the same bits): a
         // 16384^2 RGBA float texture passes many devices' limit.
@@ -44,11 +44,9 @@ void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch,
             if (planar)
                 for (std::size_t i = 0; i < n; ++i)
                     plane[i] = src[i * nch + ch];
-            c.queue.enqueueWriteBuffer(in, CL_TRUE, 0, sizeof(float) * values,
-                                       planar ? plane.data() : src);
+            c.queue.enqueueWriteBuffer(in, CL_TRUE, 0, sizeof(float) * values, planar ? plane.data() : src);
             c.launch(k, n);
-            c.queue.enqueueReadBuffer(out, CL_TRUE, 0, sizeof(float) * values,
-                                      planar ? plane.data() : dst);
+            c.queue.enqueueReadBuffer(out, CL_TRUE, 0, sizeof(float) * values, planar ? plane.data() : dst);
             if (planar)
                 for (std::size_t i = 0; i < n; ++i)
                     dst[i * nch + ch] = plane[i];
@@ -58,4 +56,4 @@ void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch,
     }
 }
 
-} // namespace relief::host
+}  // namespace relief::host

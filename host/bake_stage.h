@@ -11,7 +11,7 @@ enum class BakeFilter { Bilinear, Bicubic };
 
 // src, dst: w*h*nch interleaved floats; offsets: 2*w*h floats (texture
 // units). Periodic wraps reads around the texture, otherwise they clamp.
-void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch,
-                 const float* offsets, bool periodic, BakeFilter filter, float* dst);
+void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch, const float* offsets,
+                 bool periodic, BakeFilter filter, float* dst);
 
-} // namespace relief::host
+}  // namespace relief::host

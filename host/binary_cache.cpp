@@ -28,7 +28,7 @@ std::string hex64(unsigned long long v)
     return s;
 }
 
-} // namespace
+}  // namespace
 
 std::string BinaryCache::folder()
 {
@@ -84,8 +84,8 @@ void BinaryCache::store(const std::string& key, const std::string& bytes)
     std::error_code ec;
     fs::create_directories(dir, ec);
     static std::atomic<int> counter{0};
-    const std::string tmp = dir + "/." + key + "." + std::to_string(::getpid()) + "." +
-                            std::to_string(counter++) + ".tmp";
+    const std::string tmp =
+        dir + "/." + key + "." + std::to_string(::getpid()) + "." + std::to_string(counter++) + ".tmp";
     {
         std::ofstream out(tmp, std::ios::binary);
         out << kMagic << hex64(XXH64(bytes.data(), bytes.size(), 0)) << '\n';
@@ -101,4 +101,4 @@ void BinaryCache::store(const std::string& key, const std::string& bytes)
         fs::remove(tmp, ec);
 }
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -34,4 +34,4 @@ public:
     static void store(const std::string& key, const std::string& bytes);
 };
 
-} // namespace relief::host
+}  // namespace relief::host

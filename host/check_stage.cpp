@@ -19,7 +19,7 @@ std::size_t texels(int w, int ht)
     return std::size_t(w) * std::size_t(ht);
 }
 
-} // namespace
+}  // namespace
 
 void height_normals(ComputeContext& ctx, const float* h, int w, int ht, bool periodic, float scale,
                     bool directx, float* out)
@@ -28,8 +28,8 @@ void height_normals(ComputeContext& ctx, const float* h, int w, int ht, bool per
     auto& c = ctx.impl();
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
-        cl::Buffer in = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n,
-                                 "the normals", h);
+        cl::Buffer in =
+            c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n, "the normals", h);
         cl::Buffer normals = c.buffer(CL_MEM_WRITE_ONLY, 3 * sizeof(float) * n, "the normals");
         cl::Kernel k(c.program("check.cl"), "height_normals");
         k.setArg(0, in);
@@ -56,8 +56,8 @@ RoundTrip round_trip(ComputeContext& ctx, const DeviceSlopes& slopes, const floa
         auto& c = ctx.impl();
         std::lock_guard<std::mutex> lock(c.mutex);
         try {
-            cl::Buffer in = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n,
-                                     "the round trip", h);
+            cl::Buffer in =
+                c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n, "the round trip", h);
             cl::Buffer a = c.buffer(CL_MEM_WRITE_ONLY, sizeof(float) * n, "the round trip");
             cl::Buffer r = c.buffer(CL_MEM_WRITE_ONLY, 2 * sizeof(float) * n, "the round trip");
             cl::Kernel k(c.program("check.cl"), "round_trip");
@@ -94,9 +94,8 @@ RoundTrip round_trip(ComputeContext& ctx, const DeviceSlopes& slopes, const floa
     return t;
 }
 
-std::vector<std::uint8_t> tessellation_levels(ComputeContext& ctx, const float* h, int w, int ht,
-                                              int patch, float error, float scale,
-                                              TessellationLaunch launch)
+std::vector<std::uint8_t> tessellation_levels(ComputeContext& ctx, const float* h, int w, int ht, int patch,
+                                              float error, float scale, TessellationLaunch launch)
 {
     const std::size_t n = texels(w, ht);
     expects(patch >= 1, "a tessellation patch of at least 1 texel");
@@ -111,13 +110,16 @@ std::vector<std::uint8_t> tessellation_levels(ComputeContext& ctx, const float* 
     const bool patch_fits = c.loops_fit(pass * std::uint64_t(kMaxTessellationLevel + 1));
     if (!c.loops_fit(2 * pass))
         throw Error("tessellation patches of " + std::to_string(patch) + " texels need " +
-                    std::to_string(2 * pass) + " loop iterations per work-item, more than this "
+                    std::to_string(2 * pass) +
+                    " loop iterations per work-item, more than this "
                     "device lets a work-item loop (it stops loops after " +
-                    std::to_string(c.loop_limit()) + " iterations, as Mesa's llvmpipe does); use a "
+                    std::to_string(c.loop_limit()) +
+                    " iterations, as Mesa's llvmpipe does); use a "
                     "smaller patch or another OpenCL device");
     // Per patch only where the device lets its work-items loop that long.
-    const bool per_patch = patch_fits && (launch == TessellationLaunch::PerPatch ||
-                                          (launch == TessellationLaunch::Auto && patches >= kPatchesForPerPatch));
+    const bool per_patch =
+        patch_fits && (launch == TessellationLaunch::PerPatch ||
+                       (launch == TessellationLaunch::Auto && patches >= kPatchesForPerPatch));
     // Few patches: 64 work-items each (patches x 64 stays far below 2^31).
     const std::size_t items = per_patch ? patches : patches * kMaxTessellationLevel;
     std::vector<std::uint8_t> out_bytes(items);
@@ -154,4 +156,4 @@ std::vector<std::uint8_t> tessellation_levels(ComputeContext& ctx, const float* 
     return levels;
 }
 
-} // namespace relief::host
+}  // namespace relief::host

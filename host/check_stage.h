@@ -19,8 +19,8 @@ void height_normals(ComputeContext& ctx, const float* h, int w, int ht, bool per
 
 struct RoundTrip {
     double mean_deg = 0.0, p95_deg = 0.0, max_deg = 0.0;  // angle between the normals
-    double residual_share = 0.0;  // sum |g - grad h|^2 / sum |g|^2 (0 when g is 0)
-    std::vector<float> angle_deg;  // per texel, when asked for
+    double residual_share = 0.0;                          // sum |g - grad h|^2 / sum |g|^2 (0 when g is 0)
+    std::vector<float> angle_deg;                         // per texel, when asked for
 };
 
 // The height h (w*ht, the size of `slopes`) against the slopes it came from,
@@ -45,8 +45,8 @@ constexpr std::size_t kPatchesForPerPatch = 4096;
 // Per patch of patch x patch texels (row-major, ceil(w/patch) x
 // ceil(ht/patch)): the lowest level in 1..64 whose uniform tessellation of
 // scale*h stays within `error` at every texel centre, or 0 when none does.
-std::vector<std::uint8_t> tessellation_levels(ComputeContext& ctx, const float* h, int w, int ht,
-                                              int patch, float error, float scale,
+std::vector<std::uint8_t> tessellation_levels(ComputeContext& ctx, const float* h, int w, int ht, int patch,
+                                              float error, float scale,
                                               TessellationLaunch launch = TessellationLaunch::Auto);
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -24,8 +24,7 @@ std::string kernel_source(const std::string& name)
     if (const char* dir = std::getenv("RELIEF_KERNEL_DIR"); dir && *dir) {
         std::ifstream in(std::string(dir) + "/" + name, std::ios::binary);
         if (!in)
-            throw Error("RELIEF_KERNEL_DIR is set but " + std::string(dir) + "/" + name +
-                        " cannot be read");
+            throw Error("RELIEF_KERNEL_DIR is set but " + std::string(dir) + "/" + name + " cannot be read");
         std::ostringstream ss;
         ss << in.rdbuf();
         return ss.str();
@@ -53,7 +52,11 @@ std::string DeviceInfo::describe() const
     const Fp64Policy policy = fp64_policy();
     std::ostringstream ss;
     ss << platform_index << ":" << device_index << " " << platform << " / " << name << " ("
-       << (simulator ? "simulator" : is_gpu ? "GPU" : is_cpu ? "CPU" : "other") << ", ";
+       << (simulator ? "simulator"
+           : is_gpu  ? "GPU"
+           : is_cpu  ? "CPU"
+                     : "other")
+       << ", ";
     if (!has_fp64)
         ss << "float: no fp64";
     else if (policy == Fp64Policy::Off)
@@ -94,7 +97,7 @@ cl::Device device_at(int platform_index, int device_index)
     return devs.at(device_index);
 }
 
-} // namespace
+}  // namespace
 
 std::vector<DeviceInfo> list_devices()
 {
@@ -133,9 +136,7 @@ std::vector<DeviceInfo> list_devices()
 
 std::vector<DeviceInfo> rank_devices(std::vector<DeviceInfo> devices)
 {
-    const auto tier = [](const DeviceInfo& d) {
-        return d.simulator ? 3 : d.is_gpu ? 0 : d.is_cpu ? 1 : 2;
-    };
+    const auto tier = [](const DeviceInfo& d) { return d.simulator ? 3 : d.is_gpu ? 0 : d.is_cpu ? 1 : 2; };
     std::stable_sort(devices.begin(), devices.end(), [&](const DeviceInfo& a, const DeviceInfo& b) {
         if (tier(a) != tier(b))
             return tier(a) < tier(b);
@@ -235,13 +236,13 @@ ComputeContext::ComputeContext(const DeviceInfo& device) : device_(device), impl
         if (const std::uint64_t cap = size_from_environment("RELIEF_LOCAL_MEM_SIZE"); cap)
             impl_->local_memory = std::min<std::size_t>(impl_->local_memory, cap);
         const cl::Platform platform(impl_->device.getInfo<CL_DEVICE_PLATFORM>());
-        impl_->identity = platform.getInfo<CL_PLATFORM_NAME>() + "\n" + platform.getInfo<CL_PLATFORM_VERSION>() +
-                          "\n" + impl_->device.getInfo<CL_DEVICE_NAME>() + "\n" +
-                          impl_->device.getInfo<CL_DEVICE_VERSION>() + "\n" +
-                          impl_->device.getInfo<CL_DRIVER_VERSION>();
+        impl_->identity =
+            platform.getInfo<CL_PLATFORM_NAME>() + "\n" + platform.getInfo<CL_PLATFORM_VERSION>() + "\n" +
+            impl_->device.getInfo<CL_DEVICE_NAME>() + "\n" + impl_->device.getInfo<CL_DEVICE_VERSION>() +
+            "\n" + impl_->device.getInfo<CL_DRIVER_VERSION>();
     } catch (const cl::Error& e) {
-        throw Error("cannot open OpenCL device " + device.describe() + ": " + e.what() +
-                    " (error " + std::to_string(e.err()) + ")");
+        throw Error("cannot open OpenCL device " + device.describe() + ": " + e.what() + " (error " +
+                    std::to_string(e.err()) + ")");
     }
 }
 
@@ -264,10 +265,10 @@ std::string mebibytes(std::size_t bytes)
     return text;
 }
 
-} // namespace
+}  // namespace
 
-cl::Buffer ComputeContext::Impl::buffer(cl_mem_flags flags, std::size_t bytes,
-                                        const std::string& what, const void* host)
+cl::Buffer ComputeContext::Impl::buffer(cl_mem_flags flags, std::size_t bytes, const std::string& what,
+                                        const void* host)
 {
     const std::size_t limit = buffer_limit();
     if (bytes > limit)
@@ -329,8 +330,8 @@ std::size_t ComputeContext::Impl::group_size(const cl::Kernel& kernel, std::size
 
 cl::NDRange ComputeContext::Impl::group_shape(const cl::Kernel& kernel, std::size_t x, std::size_t y)
 {
-    const std::size_t limit = std::min<std::size_t>(
-        max_group, kernel.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(device));
+    const std::size_t limit =
+        std::min<std::size_t>(max_group, kernel.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(device));
     while (x > 1 || y > 1) {
         if (x * y <= limit && x <= max_item_sizes[0] && y <= max_item_sizes[1])
             break;
@@ -342,11 +343,12 @@ cl::NDRange ComputeContext::Impl::group_shape(const cl::Kernel& kernel, std::siz
     return cl::NDRange(x, y);
 }
 
-std::size_t ComputeContext::Impl::launch(cl::Kernel& kernel, std::size_t items, std::size_t local_bytes_per_item)
+std::size_t ComputeContext::Impl::launch(cl::Kernel& kernel, std::size_t items,
+                                         std::size_t local_bytes_per_item)
 {
     const std::size_t g = group_size(kernel, local_bytes_per_item);
-    queue.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(round_up(std::max<std::size_t>(items, 1), g)),
-                               cl::NDRange(g));
+    queue.enqueueNDRangeKernel(kernel, cl::NullRange,
+                               cl::NDRange(round_up(std::max<std::size_t>(items, 1), g)), cl::NDRange(g));
     return g;
 }
 
@@ -428,15 +430,16 @@ cl::Program& ComputeContext::Impl::program(const std::string& file, const std::s
     if (it != programs.end())
         return it->second;
     SetupTimer timer(SetupTimer::Kind::Programs);
-    const std::string source = kernel_source("common.h") + "\n#line 1 \"" + file + "\"\n" +
-                               kernel_source(file);
+    const std::string source =
+        kernel_source("common.h") + "\n#line 1 \"" + file + "\"\n" + kernel_source(file);
     const std::string build_options = "-cl-std=CL1.2 " + options;
     const std::string cache_key = BinaryCache::key({"program", identity, source, build_options});
     if (const std::optional<std::string> binary = BinaryCache::load(cache_key)) {
         try {
             std::lock_guard<std::mutex> compiling(compiler_mutex());
-            cl::Program prog(context, {device},
-                             cl::Program::Binaries{std::vector<unsigned char>(binary->begin(), binary->end())});
+            cl::Program prog(
+                context, {device},
+                cl::Program::Binaries{std::vector<unsigned char>(binary->begin(), binary->end())});
             prog.build({device}, build_options.c_str());
             return programs.emplace(key, prog).first->second;
         } catch (const cl::Error&) {
@@ -466,4 +469,4 @@ cl::Program& ComputeContext::Impl::program(const std::string& file, const std::s
     return programs.emplace(key, prog).first->second;
 }
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -19,7 +19,7 @@ struct DeviceInfo {
     // GPU but runs kernels thousands of times slower, so `auto` and `gpu`
     // take one only when nothing else matches.
     bool simulator = false;
-    bool has_fp64 = false;  // cl_khr_fp64
+    bool has_fp64 = false;                 // cl_khr_fp64
     unsigned long long global_memory = 0;  // CL_DEVICE_GLOBAL_MEM_SIZE
     // "0:0 NVIDIA CUDA / NVIDIA H100 (GPU, fp64)"; the part in brackets says
     // the device type and which accumulation path the kernels take.
@@ -85,4 +85,4 @@ private:
     std::unique_ptr<Impl> impl_;
 };
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -45,7 +45,7 @@ int wrap(int v, int n)
     return v < 0 ? v + n : v;
 }
 
-} // namespace
+}  // namespace
 
 std::vector<float> area_downsample(const std::vector<float>& src, int w, int h, int w2, int h2)
 {
@@ -127,7 +127,9 @@ std::vector<float> upsample_offsets(const std::vector<float>& coarse, const Node
             double fx;
             index(to.u(i), from.nx, from.width, x0, x1, fx);
             for (int ch = 0; ch < 2; ++ch) {
-                auto at = [&](int x, int y) { return double(coarse[2 * (std::size_t(y) * from.nx + x) + ch]); };
+                auto at = [&](int x, int y) {
+                    return double(coarse[2 * (std::size_t(y) * from.nx + x) + ch]);
+                };
                 out[o + ch] = float((1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x1, y0)) +
                                     fy * ((1 - fx) * at(x0, y1) + fx * at(x1, y1)));
             }
@@ -169,4 +171,4 @@ std::vector<std::pair<int, int>> pyramid_sizes(int w, int h, int levels, int min
     return sizes;
 }
 
-} // namespace relief::host
+}  // namespace relief::host

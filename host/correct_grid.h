@@ -48,4 +48,4 @@ std::vector<float> texel_offsets(const std::vector<float>& node_offsets, const N
 // limit, 1 = single resolution).
 std::vector<std::pair<int, int>> pyramid_sizes(int w, int h, int levels, int min_side = 16);
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -33,15 +33,15 @@ public:
     LevelSolver(ComputeContext& ctx, const NodeGrid& g, const std::vector<float>& z,
                 const std::vector<float>& fix, const CorrectParams& p)
         : c_(ctx.impl()), g_(g), p_(p), fp64_(ctx.fp64()),
-          nodes_per_item_(ctx.device().is_gpu ? 1 : kCpuNodesPerItem),
-          nodes_(std::size_t(g.nx) * g.ny), use_fix_(!fix.empty())
+          nodes_per_item_(ctx.device().is_gpu ? 1 : kCpuNodesPerItem), nodes_(std::size_t(g.nx) * g.ny),
+          use_fix_(!fix.empty())
     {
         const bool whole = p.theta == std::floor(p.theta);
-        cl::Program& prog = c_.program(
-            "correct.cl", std::string(fp64_ ? "-DRELIEF_FP64" : "") +
-                              (whole ? " -DCORRECT_ITHETA=" + std::to_string(int(p.theta)) : "") +
-                              " -DCORRECT_NODES=" + std::to_string(nodes_per_item_) +
-                              " -DCORRECT_SEARCH=" + std::to_string(int(p.search)));
+        cl::Program& prog =
+            c_.program("correct.cl", std::string(fp64_ ? "-DRELIEF_FP64" : "") +
+                                         (whole ? " -DCORRECT_ITHETA=" + std::to_string(int(p.theta)) : "") +
+                                         " -DCORRECT_NODES=" + std::to_string(nodes_per_item_) +
+                                         " -DCORRECT_SEARCH=" + std::to_string(int(p.search)));
         energy_k_ = cl::Kernel(prog, "correct_energy");
         phase_k_ = cl::Kernel(prog, "correct_phase");
         active_k_ = cl::Kernel(prog, "correct_active");
@@ -52,11 +52,13 @@ public:
         energy_group_ = c_.group_size(energy_k_, esize);
         phase_group_ = c_.group_shape(phase_k_, 8 / nodes_per_item_, 8);
         sum_group_ = c_.group_size(gain_sum_k_, esize);
-        groups_ = std::max((nodes_ + energy_group_ - 1) / energy_group_, (nodes_ + sum_group_ - 1) / sum_group_);
+        groups_ =
+            std::max((nodes_ + energy_group_ - 1) / energy_group_, (nodes_ + sum_group_ - 1) / sum_group_);
         c_buf_ = c_.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * nodes_, "distortion correction");
-        z_buf_ = c_.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * nodes_, "distortion correction", z.data());
-        fix_buf_ = use_fix_ ? c_.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                                        sizeof(float) * nodes_, "distortion correction", fix.data())
+        z_buf_ = c_.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * nodes_,
+                           "distortion correction", z.data());
+        fix_buf_ = use_fix_ ? c_.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * nodes_,
+                                        "distortion correction", fix.data())
                             : c_.buffer(CL_MEM_READ_ONLY, sizeof(float), "distortion correction");
         partial_ = c_.buffer(CL_MEM_READ_WRITE, esize * groups_, "distortion correction");
         gain_ = c_.buffer(CL_MEM_READ_WRITE, esize * nodes_, "distortion correction");
@@ -235,10 +237,10 @@ public:
                 // One tile is 8 / nodes_per_item x 8 work-items; the
                 // kernel finds its tile from its global id, so the group
                 // may be smaller where the device wants it so.
-                c_.queue.enqueueNDRangeKernel(phase_k_, cl::NullRange,
-                                              cl::NDRange(std::size_t(tiles_x_) * 8 / nodes_per_item_,
-                                                          std::size_t(tiles_y_) * 8),
-                                              phase_group_);
+                c_.queue.enqueueNDRangeKernel(
+                    phase_k_, cl::NullRange,
+                    cl::NDRange(std::size_t(tiles_x_) * 8 / nodes_per_item_, std::size_t(tiles_y_) * 8),
+                    phase_group_);
             }
             const double next = from_gains ? e - gain_sum() : energy();
             const double rel = (e - next) / std::max(std::abs(e), 1e-300);
@@ -275,4 +277,4 @@ private:
     cl::Buffer c_buf_, z_buf_, fix_buf_, partial_, moved_, active_, gain_;
 };
 
-} // namespace relief::host
+}  // namespace relief::host

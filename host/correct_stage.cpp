@@ -59,8 +59,8 @@ struct LevelInput {
     std::vector<float> z, fix;  // per node: height in texels, fixation weight
 };
 
-LevelInput level_input(const std::vector<float>& texel_heights, const std::vector<float>* fix,
-                       int w, int h, int finest_w, const CorrectParams& p)
+LevelInput level_input(const std::vector<float>& texel_heights, const std::vector<float>* fix, int w, int h,
+                       int finest_w, const CorrectParams& p)
 {
     LevelInput in;
     in.grid = NodeGrid(w, h, p.corner_nodes, p.periodic);
@@ -91,11 +91,10 @@ void to_texels(std::vector<float>& c, const NodeGrid& g, bool forward)
     }
 }
 
-} // namespace
+}  // namespace
 
-void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
-                        const CorrectParams& p, float* offsets_out, CorrectReport* report,
-                        const CorrectProgress& progress)
+void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h, const CorrectParams& p,
+                        float* offsets_out, CorrectReport* report, const CorrectProgress& progress)
 {
     validate(p, w, h);
     const std::size_t n = std::size_t(w) * h;
@@ -121,7 +120,8 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
             worst = std::max({worst, double(aniso[i]) - 1.0, std::abs(double(area[i]) - 1.0)});
         rep.anisotropy_before = summarise(aniso);
         rep.area_before = summarise(area);
-        const bool too_small = finest.grid.periodic ? (w < 2 || h < 2) : (finest.grid.nx < 3 || finest.grid.ny < 3);
+        const bool too_small =
+            finest.grid.periodic ? (w < 2 || h < 2) : (finest.grid.nx < 3 || finest.grid.ny < 3);
         if (worst <= p.threshold || too_small) {
             rep.skipped = true;
             rep.energy_after = rep.energy_before;
@@ -146,11 +146,10 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
                 if (!fix.empty())
                     lf = area_downsample(fix, w, h, lw, lh);
             }
-            const LevelInput in = L > 0 ? level_input(lt, fix.empty() ? nullptr : &lf, lw, lh, w, p)
-                                        : finest;
-            std::vector<float> start = offsets.empty()
-                                           ? std::vector<float>(2 * std::size_t(in.grid.nx) * in.grid.ny, 0.0f)
-                                           : upsample_offsets(offsets, previous, in.grid);
+            const LevelInput in = L > 0 ? level_input(lt, fix.empty() ? nullptr : &lf, lw, lh, w, p) : finest;
+            std::vector<float> start =
+                offsets.empty() ? std::vector<float>(2 * std::size_t(in.grid.nx) * in.grid.ny, 0.0f)
+                                : upsample_offsets(offsets, previous, in.grid);
             to_texels(start, in.grid, true);
             LevelSolver s(ctx, in.grid, in.z, in.fix, p);
             s.upload(start);
@@ -183,8 +182,7 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
                         if (first_rel == 0.0)
                             first_rel = rel;
                         if (first_rel > p.tolerance && rel < first_rel)
-                            f = std::max(f, std::log(first_rel / rel) /
-                                                std::log(first_rel / p.tolerance));
+                            f = std::max(f, std::log(first_rel / rel) / std::log(first_rel / p.tolerance));
                     }
                     level_done = std::max(level_done, std::min(f, 0.99));
                     if (progress)
@@ -219,9 +217,8 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
         *report = rep;
 }
 
-double correction_energy(ComputeContext& ctx, const float* heights, int w, int h,
-                         const CorrectParams& p, const float* node_offsets,
-                         DistortionStats* anisotropy, DistortionStats* area)
+double correction_energy(ComputeContext& ctx, const float* heights, int w, int h, const CorrectParams& p,
+                         const float* node_offsets, DistortionStats* anisotropy, DistortionStats* area)
 {
     validate(p, w, h);
     const std::size_t n = std::size_t(w) * h;
@@ -247,4 +244,4 @@ double correction_energy(ComputeContext& ctx, const float* heights, int w, int h
     }
 }
 
-} // namespace relief::host
+}  // namespace relief::host

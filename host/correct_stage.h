@@ -16,20 +16,20 @@ struct CorrectParams {
     // World height = scale * stored height; the texture's width spans one
     // world unit and texels are square.
     double scale = 0.05;
-    double theta = 5.0;          // area exponent, 0..20
-    bool corner_nodes = true;    // nodes at texel corners (else centres)
-    bool periodic = true;        // the texture tiles (else the border is fixed)
+    double theta = 5.0;        // area exponent, 0..20
+    bool corner_nodes = true;  // nodes at texel corners (else centres)
+    bool periodic = true;      // the texture tiles (else the border is fixed)
     // Fixation weights per texel (w: the texel stays within 1/w texels of
     // where it started), or null.
     const float* fix_weights = nullptr;
-    int iterations = 0;          // per level; 0 = until the relative energy change < tolerance
+    int iterations = 0;  // per level; 0 = until the relative energy change < tolerance
     double tolerance = 1e-5;
-    int max_iterations = 1000;   // per level, for iterations = 0
-    int levels = 0;              // pyramid levels; 0 = down to 16 texels, 1 = single resolution
+    int max_iterations = 1000;  // per level, for iterations = 0
+    int levels = 0;             // pyramid levels; 0 = down to 16 texels, 1 = single resolution
     // Nothing is corrected (zero offsets, no solve) when no triangle's
     // anisotropy s1/s2 - 1 or area ratio |s1 s2 - 1| exceeds this.
     double threshold = 1e-3;
-    bool skip_tiles = true;      // skip tiles whose nodes cannot move (bit-identical result)
+    bool skip_tiles = true;  // skip tiles whose nodes cannot move (bit-identical result)
     // The line search per node (kernels/correct.cl's CORRECT_SEARCH).
     enum class Search { Ternary = 0, Golden = 1, Brent = 2 };
     Search search = Search::Brent;
@@ -47,10 +47,10 @@ struct DistortionStats {
 };
 
 struct CorrectLevel {
-    int width = 0, height = 0;   // texels
+    int width = 0, height = 0;  // texels
     int iterations = 0;
     double energy_start = 0.0, energy_end = 0.0;
-    bool converged = false;      // relative change fell below the tolerance
+    bool converged = false;  // relative change fell below the tolerance
     long long tile_phases = 0, tile_phases_run = 0;
     double seconds = 0.0;
 };
@@ -70,15 +70,15 @@ using CorrectProgress = std::function<void(double)>;
 // heights: w*h stored heights (row-major). offsets_out: 2*w*h floats, the
 // offset (u, v) at every texel centre in texture units (1 = the width,
 // height). Throws Error on bad parameters or device trouble.
-void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
-                        const CorrectParams& params, float* offsets_out,
-                        CorrectReport* report = nullptr, const CorrectProgress& progress = {});
+void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h, const CorrectParams& params,
+                        float* offsets_out, CorrectReport* report = nullptr,
+                        const CorrectProgress& progress = {});
 
 // The energy and per-triangle statistics of given node offsets (float2 per
 // node, texture units) on the finest grid: for tests and benchmarks that
 // score offsets. Returns the total energy.
-double correction_energy(ComputeContext& ctx, const float* heights, int w, int h,
-                         const CorrectParams& params, const float* node_offsets,
-                         DistortionStats* anisotropy = nullptr, DistortionStats* area = nullptr);
+double correction_energy(ComputeContext& ctx, const float* heights, int w, int h, const CorrectParams& params,
+                         const float* node_offsets, DistortionStats* anisotropy = nullptr,
+                         DistortionStats* area = nullptr);
 
-} // namespace relief::host
+}  // namespace relief::host

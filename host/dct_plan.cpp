@@ -6,9 +6,7 @@
 namespace relief::host {
 
 DctPlan::DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1)
-    : c_(c),
-      n0_(n0),
-      n1_(n1),
+    : c_(c), n0_(n0), n1_(n1),
       work_(c.buffer(CL_MEM_READ_WRITE, sizeof(float) * FftPlan::row_stride(n0) * n1, "the DCT")),
       fft_(c.plans->fft(c, n0, n1, work_))
 {
@@ -56,4 +54,4 @@ void DctPlan::inverse(cl::Buffer& buffer)
     launch(unreorder_, n0_ * n1_);
 }
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -30,9 +30,9 @@ private:
     void launch(cl::Kernel& kernel, std::size_t items);
     ComputeContext::Impl& c_;
     std::size_t n0_, n1_;
-    cl::Buffer work_;  // the R2C grid
+    cl::Buffer work_;               // the R2C grid
     std::shared_ptr<FftPlan> fft_;  // the context's plan of this size (plan_cache.h)
     cl::Kernel reorder_, unreorder_, post_, pre_;
 };
 
-} // namespace relief::host
+}  // namespace relief::host

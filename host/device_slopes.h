@@ -15,7 +15,9 @@ class DeviceSlopes {
 public:
     struct Impl;
     DeviceSlopes(int width, int height, std::shared_ptr<Impl> impl)
-        : width_(width), height_(height), impl_(std::move(impl)) {}
+        : width_(width), height_(height), impl_(std::move(impl))
+    {
+    }
     int width() const { return width_; }
     int height() const { return height_; }
     Impl& impl() const { return *impl_; }
@@ -32,4 +34,4 @@ private:
 // it is taken only after the stage's own grids have been freed.
 using HeightSink = std::function<float*()>;
 
-} // namespace relief::host
+}  // namespace relief::host

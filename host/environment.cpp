@@ -19,10 +19,26 @@ std::uint64_t size_from_environment(const char* name)
     const double v = std::strtod(text, &end);
     std::uint64_t scale = 1;
     switch (*end) {
-    case 'k': case 'K': scale = std::uint64_t(1) << 10; ++end; break;
-    case 'm': case 'M': scale = std::uint64_t(1) << 20; ++end; break;
-    case 'g': case 'G': scale = std::uint64_t(1) << 30; ++end; break;
-    case 't': case 'T': scale = std::uint64_t(1) << 40; ++end; break;
+    case 'k':
+    case 'K':
+        scale = std::uint64_t(1) << 10;
+        ++end;
+        break;
+    case 'm':
+    case 'M':
+        scale = std::uint64_t(1) << 20;
+        ++end;
+        break;
+    case 'g':
+    case 'G':
+        scale = std::uint64_t(1) << 30;
+        ++end;
+        break;
+    case 't':
+    case 'T':
+        scale = std::uint64_t(1) << 40;
+        ++end;
+        break;
     default: break;
     }
     if (end == text || *end || errno || !(v > 0) || v * double(scale) < 1.0 || v * double(scale) > 1e18)
@@ -41,9 +57,9 @@ std::uint64_t count_from_environment(const char* name, const char* unit)
     const unsigned long long v = std::strtoull(text, &end, 10);
     if (*end || errno || v == 0 || text[0] == '-')
         throw Error(std::string(name) + " must be " +
-                    (unit ? std::string("a number of ") + unit : std::string("a whole number")) + " > 0, not '" +
-                    text + "'");
+                    (unit ? std::string("a number of ") + unit : std::string("a whole number")) +
+                    " > 0, not '" + text + "'");
     return v;
 }
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -17,4 +17,4 @@ std::uint64_t size_from_environment(const char* name);
 // when given) for anything else.
 std::uint64_t count_from_environment(const char* name, const char* unit = nullptr);
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -19,8 +19,7 @@ struct NoDeviceError : Error {
 
 // A kernel failed to compile; log() is the OpenCL compiler's build log.
 struct KernelBuildError : Error {
-    KernelBuildError(const std::string& what, std::string log)
-        : Error(what), log_(std::move(log)) {}
+    KernelBuildError(const std::string& what, std::string log) : Error(what), log_(std::move(log)) {}
     const std::string& log() const { return log_; }
 
 private:
@@ -50,4 +49,4 @@ inline void check_index_range(long long w, long long h, const std::string& what)
                     "stay below 2^31, e.g. 46338x46338)");
 }
 
-} // namespace relief::host
+}  // namespace relief::host

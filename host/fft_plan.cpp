@@ -28,11 +28,11 @@ namespace {
 // Per thread: initializeVkFFT creates and builds its programs on the
 // thread that plans, and two threads may plan at once (relief::prepare).
 struct VkfftBuilds {
-    const std::string* identity = nullptr;          // the device's; null: no caching
+    const std::string* identity = nullptr;                       // the device's; null: no caching
     const relief::host::ComputeContext::Impl* limits = nullptr;  // the launch limits relief uses
-    bool load = true;                               // false: build from source, store anew
-    std::map<cl_program, std::string> from_source;  // -> the key to store its binary under
-    std::vector<std::string> from_cache;            // keys the plan being made loaded
+    bool load = true;                                            // false: build from source, store anew
+    std::map<cl_program, std::string> from_source;               // -> the key to store its binary under
+    std::vector<std::string> from_cache;                         // keys the plan being made loaded
 };
 thread_local VkfftBuilds vkfft_builds;
 
@@ -67,11 +67,13 @@ cl_program relief_vkfft_create_program(cl_context context, cl_uint count, const 
         cl_device_id device = nullptr;
         if (const std::optional<std::string> binary =
                 vkfft_builds.load ? relief::host::BinaryCache::load(key) : std::nullopt;
-            binary && clGetContextInfo(context, CL_CONTEXT_DEVICES, sizeof device, &device, nullptr) == CL_SUCCESS) {
+            binary &&
+            clGetContextInfo(context, CL_CONTEXT_DEVICES, sizeof device, &device, nullptr) == CL_SUCCESS) {
             const size_t size = binary->size();
             const auto* bytes = reinterpret_cast<const unsigned char*>(binary->data());
             cl_int status = CL_SUCCESS;
-            cl_program program = clCreateProgramWithBinary(context, 1, &device, &size, &bytes, nullptr, &status);
+            cl_program program =
+                clCreateProgramWithBinary(context, 1, &device, &size, &bytes, nullptr, &status);
             if (status == CL_SUCCESS) {
                 vkfft_builds.from_cache.push_back(key);
                 if (err)
@@ -89,7 +91,8 @@ cl_program relief_vkfft_create_program(cl_context context, cl_uint count, const 
 }
 
 cl_int relief_vkfft_build_program(cl_program program, cl_uint devices, const cl_device_id* device_list,
-                                  const char* options, void(CL_CALLBACK* notify)(cl_program, void*), void* data)
+                                  const char* options, void(CL_CALLBACK* notify)(cl_program, void*),
+                                  void* data)
 {
     cl_int status;
     {
@@ -103,7 +106,8 @@ cl_int relief_vkfft_build_program(cl_program program, cl_uint devices, const cl_
     }
     size_t size = 0;
     if (status == CL_SUCCESS && !key.empty() &&
-        clGetProgramInfo(program, CL_PROGRAM_BINARY_SIZES, sizeof size, &size, nullptr) == CL_SUCCESS && size > 0) {
+        clGetProgramInfo(program, CL_PROGRAM_BINARY_SIZES, sizeof size, &size, nullptr) == CL_SUCCESS &&
+        size > 0) {
         std::string binary(size, '\0');
         unsigned char* bytes = reinterpret_cast<unsigned char*>(binary.data());
         if (clGetProgramInfo(program, CL_PROGRAM_BINARIES, sizeof bytes, &bytes, nullptr) == CL_SUCCESS)
@@ -129,12 +133,13 @@ cl_int relief_vkfft_device_info(cl_device_id device, cl_device_info param, size_
         for (size_t i = 0; i < size / sizeof(size_t) && i < 3; ++i)
             static_cast<size_t*>(value)[i] = std::min(static_cast<size_t*>(value)[i], limits->max_group);
     } else if (param == CL_DEVICE_LOCAL_MEM_SIZE && size >= sizeof(cl_ulong)) {
-        *static_cast<cl_ulong*>(value) = std::min<cl_ulong>(*static_cast<cl_ulong*>(value), limits->local_memory);
+        *static_cast<cl_ulong*>(value) =
+            std::min<cl_ulong>(*static_cast<cl_ulong*>(value), limits->local_memory);
     }
     return status;
 }
 
-} // namespace
+}  // namespace
 
 #define VKFFT_BACKEND 3
 #define clCreateProgramWithSource relief_vkfft_create_program
@@ -171,8 +176,8 @@ struct R2cUnsupported : Error {
 // or (rows > 1) the whole 2-D R2C transform.
 class Transform1d {
 public:
-    Transform1d(ComputeContext::Impl& c, std::size_t n, std::size_t batches, bool real,
-                cl::Buffer& buffer, std::size_t bytes, std::size_t rows = 1)
+    Transform1d(ComputeContext::Impl& c, std::size_t n, std::size_t batches, bool real, cl::Buffer& buffer,
+                std::size_t bytes, std::size_t rows = 1)
         : limits_(c), device_(c.device()), context_(c.context()), buffer_(buffer()), size_(bytes)
     {
         platform_ = c.device.getInfo<CL_DEVICE_PLATFORM>();
@@ -195,8 +200,8 @@ public:
             throw R2cUnsupported("VkFFT plans no real-to-complex transform of size " + std::to_string(n) +
                                  " on this device");
         if (r != VKFFT_SUCCESS)
-            throw Error("VkFFT could not plan a transform of size " + std::to_string(n) +
-                        " (VkFFT error " + std::to_string(int(r)) + ")");
+            throw Error("VkFFT could not plan a transform of size " + std::to_string(n) + " (VkFFT error " +
+                        std::to_string(int(r)) + ")");
     }
     ~Transform1d() { deleteVkFFT(&app_); }
 
@@ -249,7 +254,7 @@ public:
 private:
     VkFFTApplication app_ = {};
     const ComputeContext::Impl& limits_;  // the launch limits VkFFT is shown
-    std::vector<std::string> loaded_;  // cache keys this plan's programs came from
+    std::vector<std::string> loaded_;     // cache keys this plan's programs came from
     cl_device_id device_;
     cl_context context_;
     cl_platform_id platform_ = nullptr;
@@ -258,13 +263,13 @@ private:
     uint64_t size_;
 };
 
-} // namespace
+}  // namespace
 
 struct FftPlan::Impl {
     ComputeContext::Impl& c;
     std::size_t n0, n1, columns;
-    std::unique_ptr<Transform1d> rows;     // R2C along axis 0, n1 batches (or 2-D)
-    bool whole = false;                    // `rows` is the 2-D transform
+    std::unique_ptr<Transform1d> rows;  // R2C along axis 0, n1 batches (or 2-D)
+    bool whole = false;                 // `rows` is the 2-D transform
     // Where VkFFT plans no R2C of length n0 (R2cUnsupported), `rows` is a
     // C2C transform of the rows widened to complex in `wide` (n0 x n1
     // complex): kernels/fft.cl widens, keeps the half spectrum, rebuilds the
@@ -272,7 +277,7 @@ struct FftPlan::Impl {
     bool complex_rows = false;
     cl::Buffer wide;
     cl::Kernel widen, narrow, hermitian, real_part;
-    cl::Buffer work;                       // the transposed half spectrum
+    cl::Buffer work;                           // the transposed half spectrum
     std::unique_ptr<Transform1d> columns_fft;  // C2C along axis 1, `columns` batches
     cl::Kernel transpose;
     cl::Buffer built_against;  // VkFFT's kernels were built against it: kept alive with the plan
@@ -315,8 +320,7 @@ FftPlan::FftPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, cl::Bu
         throw Error(why);
     SetupTimer timer(SetupTimer::Kind::Plans);
     if (n0 < 2 || n1 < 1)
-        throw Error("internal error: FFT plan of size " + std::to_string(n0) + "x" +
-                    std::to_string(n1));
+        throw Error("internal error: FFT plan of size " + std::to_string(n0) + "x" + std::to_string(n1));
     auto& p = *impl_;
     p.n0 = n0;
     p.n1 = n1;
@@ -437,4 +441,4 @@ float* read_real_result(ComputeContext::Impl& c, cl::Buffer& grid, cl::Buffer& s
     return out;
 }
 
-} // namespace relief::host
+}  // namespace relief::host

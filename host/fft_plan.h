@@ -60,4 +60,4 @@ private:
 float* read_real_result(ComputeContext::Impl& c, cl::Buffer& grid, cl::Buffer& spare, std::size_t stride,
                         int w, int h, const std::function<float*()>& sink);
 
-} // namespace relief::host
+}  // namespace relief::host

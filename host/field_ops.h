@@ -17,4 +17,4 @@ inline void remove_mean(float* v, std::size_t n)
         v[i] -= mean;
 }
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -17,4 +17,4 @@ const std::vector<EmbeddedSource>& embedded_kernel_sources();
 // development), the file is read from that folder instead of the embedded copy.
 std::string kernel_source(const std::string& name);
 
-} // namespace relief::host
+}  // namespace relief::host

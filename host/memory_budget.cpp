@@ -89,7 +89,7 @@ Bytes cgroup_available()
     return available;
 }
 
-} // namespace
+}  // namespace
 
 Bytes host_memory_available()
 {
@@ -151,4 +151,4 @@ void check_memory(ComputeContext& ctx, const std::string& what, Bytes device, By
         throw Error(what + " " + why);
 }
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -44,4 +44,4 @@ DeviceMemory device_memory(ComputeContext& ctx);
 void check_memory(ComputeContext& ctx, const std::string& what, Bytes device, Bytes host, Bytes made = 0,
                   Bytes device_at_host = ~Bytes(0));
 
-} // namespace relief::host
+}  // namespace relief::host

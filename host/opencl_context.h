@@ -23,7 +23,7 @@ struct ComputeContext::Impl {
     cl::Device device;
     cl::Context context;
     cl::CommandQueue queue;
-    std::mutex mutex;  // serialises stage launches
+    std::mutex mutex;           // serialises stage launches
     std::mutex programs_mutex;  // guards programs (built also by prepare_height)
     std::map<std::string, cl::Program> programs;
     // FFT/DCT plans kept for the next map of the same size (plan_cache.h).
@@ -97,7 +97,7 @@ struct ComputeContext::Impl {
     // lowers it (tests). Probed on first use (kernels/device.cl). The caller
     // holds `mutex`.
     std::uint64_t loop_limit();
-    std::uint64_t loop_limit_ = 0;         // 0: not probed yet
+    std::uint64_t loop_limit_ = 0;        // 0: not probed yet
     std::uint64_t loop_cap = UINT64_MAX;  // RELIEF_LOOP_LIMIT
     // Whether a work-item may loop `iterations` times in all: up to
     // kLoopsAnyDevice (and RELIEF_LOOP_LIMIT) without a probe, else up to
@@ -152,8 +152,9 @@ void set_args(cl::Kernel& kernel, const Args&... args)
 // ray" stage): the call, its error code, the stage.
 inline Error opencl_error(const std::string& stage, const cl::Error& e)
 {
-    return Error("OpenCL error in the " + stage + " stage: " + e.what() + " (" + std::to_string(e.err()) + ")");
+    return Error("OpenCL error in the " + stage + " stage: " + e.what() + " (" + std::to_string(e.err()) +
+                 ")");
 }
 #endif
 
-} // namespace relief::host
+}  // namespace relief::host

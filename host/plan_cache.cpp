@@ -39,7 +39,8 @@ bool PlanCache::keeps(std::size_t n0, std::size_t n1) const
     return sizeof(float) * FftPlan::row_stride(n0) * n1 <= max_plan_bytes_;
 }
 
-std::shared_ptr<FftPlan> PlanCache::fft(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, cl::Buffer& buffer)
+std::shared_ptr<FftPlan> PlanCache::fft(ComputeContext::Impl& c, std::size_t n0, std::size_t n1,
+                                        cl::Buffer& buffer)
 {
     SetupTimer timer(SetupTimer::Kind::Plans);  // waiting for a plan made ahead counts too
     std::lock_guard<std::recursive_mutex> lock(mutex_);
@@ -88,4 +89,4 @@ void prepare_height(ComputeContext& ctx, int width, int height)
     c.program("poisson.cl");
 }
 
-} // namespace relief::host
+}  // namespace relief::host

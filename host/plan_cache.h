@@ -57,4 +57,4 @@ private:
     std::list<Entry> entries_;  // most recently used first
 };
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -20,8 +20,8 @@ double highpass_sigma(double highpass)
     return highpass > 0.0 ? highpass * std::sqrt(2.0 * std::log(2.0)) / (2.0 * M_PI) : 0.0;
 }
 
-void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
-                                const PoissonParams& p, float* height_out, PoissonReport* report);
+void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes, const PoissonParams& p,
+                                float* height_out, PoissonReport* report);
 
 namespace {
 
@@ -47,8 +47,7 @@ void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const Pois
     if (const std::string why = FftPlan::unsupported(n0, n1); !why.empty())
         throw Error("least squares: " + why);  // before anything is made
     const bool periodic = p.boundary == PoissonBoundary::Periodic;
-    const std::size_t stride =
-        periodic ? FftPlan::row_stride(n0) : std::size_t(n0);
+    const std::size_t stride = periodic ? FftPlan::row_stride(n0) : std::size_t(n0);
     const std::size_t bytes = sizeof(float) * stride * n1;
     const float sigma = float(highpass_sigma(p.highpass));
 
@@ -111,13 +110,14 @@ void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const Pois
     remove_mean(height_out, n);
 }
 
-} // namespace
+}  // namespace
 
 void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes, const PoissonParams& p,
                        float* height_out, PoissonReport* report)
 {
     DeviceSlopes shared = slopes;
-    poisson(ctx, shared, false, p, [&] { return height_out; }, report);
+    poisson(
+        ctx, shared, false, p, [&] { return height_out; }, report);
 }
 
 void integrate_poisson(ComputeContext& ctx, DeviceSlopes&& slopes, const PoissonParams& p,
@@ -141,4 +141,4 @@ std::uint64_t poisson_device_bytes(int w, int h, const PoissonParams& p, bool sl
     return slopes_taken ? std::max(slopes + 2 * grid, grids) : slopes + grids;
 }
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -35,9 +35,8 @@ struct PoissonReport {
 
 // Integrates the slopes into `height_out` (width*height floats, texel units,
 // zero mean).
-void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes,
-                       const PoissonParams& params, float* height_out,
-                       PoissonReport* report = nullptr);
+void integrate_poisson(ComputeContext& ctx, const DeviceSlopes& slopes, const PoissonParams& params,
+                       float* height_out, PoissonReport* report = nullptr);
 
 // The same, taking the slopes over: their buffer is let go as soon as the
 // transforms have their own copy, and `out` is asked for the result's memory
@@ -60,4 +59,4 @@ double highpass_sigma(double highpass);
 // (Defined in plan_cache.cpp, beside the plans it fills.)
 void prepare_height(ComputeContext& ctx, int width, int height);
 
-} // namespace relief::host
+}  // namespace relief::host

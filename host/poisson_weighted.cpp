@@ -23,10 +23,10 @@ namespace {
 // Weight of the edges an excluded texel keeps: holes fill smoothly.
 constexpr float kExcludedEdgeWeight = 1e-3f;
 
-} // namespace
+}  // namespace
 
-void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
-                                const PoissonParams& p, float* height_out, PoissonReport* report)
+void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes, const PoissonParams& p,
+                                float* height_out, PoissonReport* report)
 {
     const int w = slopes.width(), h = slopes.height();
     const std::size_t n = std::size_t(w) * h;
@@ -46,8 +46,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
         std::lock_guard<std::mutex> lock(c.mutex);
         weight = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n,
                           "the weighted Poisson stage", p.weights);
-        masked->buffer = c.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * n,
-                                  "the weighted Poisson stage");
+        masked->buffer = c.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * n, "the weighted Poisson stage");
         cl::Kernel k(c.program("poisson_weighted.cl"), "weighted_mask_slopes");
         k.setArg(0, slopes.impl().buffer);
         k.setArg(1, weight);
@@ -127,8 +126,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
             dot_k.setArg(3, partial);
             dot_k.setArg(4, cl::Local(sizeof(float) * dot_group));
             c.launch(dot_k, n, sizeof(float));
-            c.queue.enqueueReadBuffer(partial, CL_TRUE, 0, sizeof(float) * groups,
-                                      partial_host.data());
+            c.queue.enqueueReadBuffer(partial, CL_TRUE, 0, sizeof(float) * groups, partial_host.data());
             double s = 0.0;
             for (float v : partial_host)
                 s += v;
@@ -169,7 +167,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
         // delta = FC(s g) - (the discrete solution of mean(s g)), into z.
         set_edges(1);
         run(rhs);
-        precondition();           // z = L^-1 D^T mean(s g)
+        precondition();                            // z = L^-1 D^T mean(s g)
         cl::Kernel negate(prog, "weighted_xpby");  // z = x + (-1) z
         negate.setArg(0, z);
         negate.setArg(1, x);
@@ -223,4 +221,4 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
     remove_mean(height_out, n);
 }
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -38,8 +38,8 @@ cl::Buffer constant_buffer(ComputeContext::Impl& c, std::vector<T>& v)
 
 // One flag per kSkipTile^2 tile: 1 where the rays of its texels may cross a
 // non-zero slope (a non-flat tile within `reach` texels), 0 where they cannot.
-cl::Buffer active_tiles(ComputeContext::Impl& c, const DeviceSlopes& slopes, double reach, bool periodic, bool skip,
-                        int& tiles_x, RayReport& report);
+cl::Buffer active_tiles(ComputeContext::Impl& c, const DeviceSlopes& slopes, double reach, bool periodic,
+                        bool skip, int& tiles_x, RayReport& report);
 
 // A = Kx (x) gx + Ky (x) gy, one circular convolution: the periodic
 // result before its mean is removed, and the clip result wherever every ray
@@ -59,4 +59,4 @@ void integrate_rays_by_fft(ComputeContext& ctx, DeviceSlopes& slopes, bool consu
 void integrate_rays_chains(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& p,
                            float* height_out, const Progress& progress, RayReport* report);
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -34,7 +34,8 @@ void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const 
     if (p.boundary == RayBoundary::Periodic && p.periodic_by_fft) {
         expect_ray_params(p);
         DeviceSlopes shared = slopes;
-        integrate_rays_by_fft(ctx, shared, false, p, [&] { return height_out; }, progress, report);
+        integrate_rays_by_fft(
+            ctx, shared, false, p, [&] { return height_out; }, progress, report);
         return;
     }
     expect_ray_params(p);
@@ -55,4 +56,4 @@ std::uint64_t rays_fast_device_bytes(int w, int h, const RayParams& p, bool slop
     return slopes + std::max<std::uint64_t>(36 * n, fft_first ? convolution : 0);
 }
 
-} // namespace relief::host
+}  // namespace relief::host

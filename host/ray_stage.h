@@ -13,9 +13,9 @@ namespace relief::host {
 enum class RayBoundary { Periodic, Clip };
 
 struct RayParams {
-    int rays = 32;            // J
-    double radius = 64.0;     // R, texels
-    double phase = 0.5;       // phi: angles 2*pi*(j + phi)/J
+    int rays = 32;         // J
+    double radius = 64.0;  // R, texels
+    double phase = 0.5;    // phi: angles 2*pi*(j + phi)/J
     DirectionSet directions = DirectionSet::Exact;
     RayBoundary boundary = RayBoundary::Periodic;
     // Keep sums in float even where the device has fp64 (the path for
@@ -48,9 +48,8 @@ using Progress = std::function<void(double)>;
 
 // Integrates the slope field with the reference kernel into `height_out`
 // (width*height floats, texel units, bumps positive, zero mean).
-void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
-                              const RayParams& params, float* height_out,
-                              const Progress& progress = {}, RayReport* report = nullptr);
+void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& params,
+                              float* height_out, const Progress& progress = {}, RayReport* report = nullptr);
 
 // The fast kernel (docs/design.md §4.3): same result as integrate_rays_reference
 // to rounding, at a cost independent of the radius. Periodic boundaries (with
@@ -58,18 +57,16 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
 // periodic_by_fft off): rational directions, chain windows; with
 // clip_by_fft, only in the border band, the FFT's values inside it.
 void integrate_rays_fast(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& params,
-                         float* height_out, const Progress& progress = {},
-                         RayReport* report = nullptr);
+                         float* height_out, const Progress& progress = {}, RayReport* report = nullptr);
 
 // The same, taking the slopes over (as integrate_poisson's form does): the
 // periodic convolution lets go of them once split into its grids and asks
 // `out` for the result's memory only after its grids are gone.
 void integrate_rays_fast(ComputeContext& ctx, DeviceSlopes&& slopes, const RayParams& params,
-                         const HeightSink& out, const Progress& progress = {},
-                         RayReport* report = nullptr);
+                         const HeightSink& out, const Progress& progress = {}, RayReport* report = nullptr);
 
 // Bytes of device buffers integrate_rays_fast holds at its peak for a w x h
 // map, the slopes included (`slopes_taken`: the DeviceSlopes&& form).
 std::uint64_t rays_fast_device_bytes(int w, int h, const RayParams& params, bool slopes_taken);
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -14,8 +14,8 @@ namespace relief::host {
 
 // One flag per kSkipTile^2 tile: 1 where the rays of its texels may cross a
 // non-zero slope (a non-flat tile within `reach` texels), 0 where they cannot.
-cl::Buffer active_tiles(ComputeContext::Impl& c, const DeviceSlopes& slopes, double reach,
-                        bool periodic, bool skip, int& tiles_x, RayReport& report)
+cl::Buffer active_tiles(ComputeContext::Impl& c, const DeviceSlopes& slopes, double reach, bool periodic,
+                        bool skip, int& tiles_x, RayReport& report)
 {
     const int w = slopes.width(), h = slopes.height(), T = kSkipTile;
     tiles_x = (w + T - 1) / T;
@@ -37,8 +37,8 @@ cl::Buffer active_tiles(ComputeContext::Impl& c, const DeviceSlopes& slopes, dou
             std::vector<cl_uchar> out(v.size(), 0);
             for (int l = 0; l < lines; ++l)
                 for (int i = 0; i < len; ++i) {
-                    const std::size_t at = along_x ? std::size_t(l) * tiles_x + i
-                                                   : std::size_t(i) * tiles_x + l;
+                    const std::size_t at =
+                        along_x ? std::size_t(l) * tiles_x + i : std::size_t(i) * tiles_x + l;
                     if (!v[at])
                         continue;
                     for (int d = -std::min(r, len); d <= std::min(r, len); ++d) {
@@ -61,4 +61,4 @@ cl::Buffer active_tiles(ComputeContext::Impl& c, const DeviceSlopes& slopes, dou
     return c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, n, "ray integration", flags.data());
 }
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -90,8 +90,7 @@ namespace {
 
 // Whether candidate c fits `target` better than `best`: a smaller angular
 // error, then (within 1e-12) a shorter vector, then the smaller (b, a).
-bool better_direction(const RationalDirection& c, double err, const RationalDirection& best,
-                      double best_err)
+bool better_direction(const RationalDirection& c, double err, const RationalDirection& best, double best_err)
 {
     if (err < best_err - 1e-12)
         return true;
@@ -160,7 +159,7 @@ RationalDirection nearest_direction(double target, int limit)
     return best;
 }
 
-} // namespace
+}  // namespace
 
 std::vector<RationalDirection> rational_directions(int rays, double phase)
 {
@@ -209,9 +208,8 @@ std::vector<double> angular_weights(const std::vector<double>& angles)
         a = std::fmod(a, 2.0 * M_PI);
         return a < 0 ? a + 2.0 * M_PI : a;
     };
-    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-        return wrapped(angles[a]) < wrapped(angles[b]);
-    });
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return wrapped(angles[a]) < wrapped(angles[b]); });
     for (std::size_t k = 0; k < n; ++k) {
         const double prev = wrapped(angles[order[(k + n - 1) % n]]);
         const double next = wrapped(angles[order[(k + 1) % n]]);
@@ -244,4 +242,4 @@ std::vector<RaySegment> walk_rational_ray(const RationalDirection& d, double rad
     return out;
 }
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -10,10 +10,10 @@
 namespace relief::host {
 
 struct RaySegment {
-    int ox = 0, oy = 0;     // texel offset from the ray's origin texel
-    double t_in = 0.0;      // distance along the ray where the segment starts
-    double t_out = 0.0;     // ... and ends (texel units)
-    double ext_x = 0.0;     // (ext_x, ext_y) = d * (t_out - t_in)
+    int ox = 0, oy = 0;  // texel offset from the ray's origin texel
+    double t_in = 0.0;   // distance along the ray where the segment starts
+    double t_out = 0.0;  // ... and ends (texel units)
+    double ext_x = 0.0;  // (ext_x, ext_y) = d * (t_out - t_in)
     double ext_y = 0.0;
     // Area weight (t_out - t_in) * t_mid; 0 for the origin texel, which is
     // excluded from its own mean.
@@ -65,4 +65,4 @@ std::vector<double> angular_weights(const std::vector<double>& angles);
 // Segment 0 is the origin's first half (weight 0).
 std::vector<RaySegment> walk_rational_ray(const RationalDirection& d, double radius);
 
-} // namespace relief::host
+}  // namespace relief::host

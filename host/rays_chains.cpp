@@ -46,8 +46,7 @@ PeriodTable period_table(const RationalDirection& d, double radius, int width)
         t.w0 += len;
         t.w1 += len * mid;
         const double cut = std::clamp(t.partial - s.t_in, 0.0, len);
-        t.cut.push_back(cl_float4{{float(cut), float(cut / len),
-                                   float(cut * (s.t_in + 0.5 * cut)), 0.0f}});
+        t.cut.push_back(cl_float4{{float(cut), float(cut / len), float(cut * (s.t_in + 0.5 * cut)), 0.0f}});
         t.pw0 += cut;
         t.pw1 += cut * (s.t_in + 0.5 * cut);
     }
@@ -70,8 +69,7 @@ long long chain_length(const RationalDirection& d, int w, int h, bool periodic)
     return (long long)w * h / (gx * gy);
 }
 
-std::vector<cl_int2> chain_starts(const RationalDirection& d, int w, int h, bool periodic,
-                                  int& cycle)
+std::vector<cl_int2> chain_starts(const RationalDirection& d, int w, int h, bool periodic, int& cycle)
 {
     std::vector<cl_int2> starts;
     if (periodic) {
@@ -117,19 +115,19 @@ std::vector<cl_int2> chain_starts(const RationalDirection& d, int w, int h, bool
 cl_int4 whole_ray_rect(const RayParams& p, int w, int h)
 {
     int min_x = 0, max_x = 0, min_y = 0, max_y = 0;
-    for_each_packed_direction(p, [&](int, const std::vector<cl_int2>& offsets,
-                                     const std::vector<cl_float4>&) {
-        for (const cl_int2& o : offsets) {
-            min_x = std::min(min_x, o.s[0]);
-            max_x = std::max(max_x, o.s[0]);
-            min_y = std::min(min_y, o.s[1]);
-            max_y = std::max(max_y, o.s[1]);
-        }
-    });
+    for_each_packed_direction(p,
+                              [&](int, const std::vector<cl_int2>& offsets, const std::vector<cl_float4>&) {
+                                  for (const cl_int2& o : offsets) {
+                                      min_x = std::min(min_x, o.s[0]);
+                                      max_x = std::max(max_x, o.s[0]);
+                                      min_y = std::min(min_y, o.s[1]);
+                                      max_y = std::max(max_y, o.s[1]);
+                                  }
+                              });
     return cl_int4{{-min_x, -min_y, w - 1 - max_x, h - 1 - max_y}};
 }
 
-} // namespace
+}  // namespace
 
 void integrate_rays_chains(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& p,
                            float* height_out, const Progress& progress, RayReport* report)
@@ -149,8 +147,7 @@ void integrate_rays_chains(ComputeContext& ctx, const DeviceSlopes& slopes, cons
     double chain_share = 1.0;
     // (Chains alone where the transform cannot be planned: FftPlan::unsupported.)
     const bool transposed = w == 1;
-    if (!periodic && p.clip_by_fft &&
-        FftPlan::unsupported(transposed ? h : w, transposed ? 1 : h).empty()) {
+    if (!periodic && p.clip_by_fft && FftPlan::unsupported(transposed ? h : w, transposed ? 1 : h).empty()) {
         RayParams rational = p;
         rational.directions = DirectionSet::Rational;
         fft_rect = whole_ray_rect(rational, w, h);
@@ -158,10 +155,12 @@ void integrate_rays_chains(ComputeContext& ctx, const DeviceSlopes& slopes, cons
             fft_values.resize(n);
             chain_share = 0.8;
             DeviceSlopes shared = slopes;
-            fft_ray_sums(c, shared, false, rational, [&] { return fft_values.data(); }, [&](double f) {
-                if (progress)
-                    progress((1.0 - chain_share) * f);
-            });
+            fft_ray_sums(
+                c, shared, false, rational, [&] { return fft_values.data(); },
+                [&](double f) {
+                    if (progress)
+                        progress((1.0 - chain_share) * f);
+                });
         } else {
             fft_rect = cl_int4{{0, 0, -1, -1}};
         }
@@ -173,9 +172,9 @@ void integrate_rays_chains(ComputeContext& ctx, const DeviceSlopes& slopes, cons
         // (each lane: its first window of K periods, then its walk).
         std::uint64_t per_lane = 0;
         for (const RationalDirection& d : dirs)
-            per_lane = std::max<std::uint64_t>(
-                per_lane, std::uint64_t(period_table(d, p.radius, w).whole) + 1 +
-                              std::uint64_t(chain_length(d, w, h, periodic)));
+            per_lane =
+                std::max<std::uint64_t>(per_lane, std::uint64_t(period_table(d, p.radius, w).whole) + 1 +
+                                                      std::uint64_t(chain_length(d, w, h, periodic)));
         int lanes = ctx.device().is_gpu ? 1 : 16;
         if (lanes > 1 && !c.loops_fit(per_lane * std::uint64_t(lanes)))
             lanes = 1;
@@ -183,11 +182,11 @@ void integrate_rays_chains(ComputeContext& ctx, const DeviceSlopes& slopes, cons
             throw Error("ray integration of a " + std::to_string(w) + "x" + std::to_string(h) +
                         " map walks chains of up to " + std::to_string(per_lane) +
                         " steps in one work-item, more than this device lets a work-item loop (it "
-                        "stops loops after " + std::to_string(c.loop_limit()) +
+                        "stops loops after " +
+                        std::to_string(c.loop_limit()) +
                         " iterations, as Mesa's llvmpipe does); use another OpenCL device");
-        cl::Program& prog =
-            c.program("rays_fast.cl", std::string(fp64 ? "-DRELIEF_FP64 " : "") +
-                                          "-DRELIEF_LANES=" + std::to_string(lanes));
+        cl::Program& prog = c.program("rays_fast.cl", std::string(fp64 ? "-DRELIEF_FP64 " : "") +
+                                                          "-DRELIEF_LANES=" + std::to_string(lanes));
         cl::Buffer sums = c.buffer(CL_MEM_READ_WRITE, sizeof(cl_float4) * n, "ray integration");
         cl::Buffer tail = c.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * n, "ray integration");
         cl::Buffer accum = c.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * n, "ray integration");
@@ -195,8 +194,7 @@ void integrate_rays_chains(ComputeContext& ctx, const DeviceSlopes& slopes, cons
         c.fill(accum, 0.0f, 0, sizeof(cl_float2) * n);
         RayReport skipped;
         int tiles_x = 0;
-        cl::Buffer active = active_tiles(c, slopes, p.radius + 2.0, periodic, p.skip_flat,
-                                         tiles_x, skipped);
+        cl::Buffer active = active_tiles(c, slopes, p.radius + 2.0, periodic, p.skip_flat, tiles_x, skipped);
         if (report)
             *report = skipped;
 
@@ -221,13 +219,13 @@ void integrate_rays_chains(ComputeContext& ctx, const DeviceSlopes& slopes, cons
             // is walked when q and q - K (a, b) both lie in the FFT's
             // rectangle (it is convex).
             const int rx = t.whole * d.a, ry = t.whole * d.b;
-            const cl_int4 unused{{std::max(fft_rect.s[0], fft_rect.s[0] + rx),
-                                  std::max(fft_rect.s[1], fft_rect.s[1] + ry),
-                                  std::min(fft_rect.s[2], fft_rect.s[2] + rx),
-                                  std::min(fft_rect.s[3], fft_rect.s[3] + ry)}};
+            const cl_int4 unused{
+                {std::max(fft_rect.s[0], fft_rect.s[0] + rx), std::max(fft_rect.s[1], fft_rect.s[1] + ry),
+                 std::min(fft_rect.s[2], fft_rect.s[2] + rx), std::min(fft_rect.s[3], fft_rect.s[3] + ry)}};
             std::size_t sums_needed = n;
             if (unused.s[0] <= unused.s[2] && unused.s[1] <= unused.s[3])
-                sums_needed -= std::size_t(unused.s[2] - unused.s[0] + 1) * std::size_t(unused.s[3] - unused.s[1] + 1);
+                sums_needed -=
+                    std::size_t(unused.s[2] - unused.s[0] + 1) * std::size_t(unused.s[3] - unused.s[1] + 1);
             const cl_float first_length = cl_float(std::min<double>(t.data[0].s[2], p.radius));
             set_args(period_sums, slopes.impl().buffer, cl_int(w), cl_int(h), cl_int(periodic), cl_int(d.a),
                      cl_int(d.b), segs, offsets, data, cut, linear, first_length, active, cl_int(kSkipTile),
@@ -270,4 +268,4 @@ void integrate_rays_chains(ComputeContext& ctx, const DeviceSlopes& slopes, cons
     remove_mean(height_out, n);
 }
 
-} // namespace relief::host
+}  // namespace relief::host

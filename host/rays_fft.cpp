@@ -46,28 +46,28 @@ void fft_ray_sums(ComputeContext::Impl& c, DeviceSlopes& slopes, bool consume, c
     std::vector<std::size_t> tap_index;
     std::vector<double> tap_x, tap_y;
     double total = 0.0;
-    for_each_packed_direction(p, [&](int, const std::vector<cl_int2>& offsets,
-                                     const std::vector<cl_float4>& data) {
-        const std::size_t segs = data.size();
-        const double dir_total = segs ? data[segs - 1].s[3] : 0.0;  // cumulative
-        for (std::size_t s = 0; s < segs; ++s) {
-            const double weight = data[s].s[2];
-            const double after = dir_total - data[s].s[3];  // later segments' weights
-            const double factor = 0.5 * weight + after;
-            const int ox = ((-offsets[s].s[0]) % w + w) % w;
-            const int oy = ((-offsets[s].s[1]) % h + h) % h;
-            const std::size_t at = transposed ? std::size_t(oy) : std::size_t(oy) * stride + ox;
-            auto [it, added] = slot.emplace(at, tap_index.size());
-            if (added) {
-                tap_index.push_back(at);
-                tap_x.push_back(0.0);
-                tap_y.push_back(0.0);
+    for_each_packed_direction(
+        p, [&](int, const std::vector<cl_int2>& offsets, const std::vector<cl_float4>& data) {
+            const std::size_t segs = data.size();
+            const double dir_total = segs ? data[segs - 1].s[3] : 0.0;  // cumulative
+            for (std::size_t s = 0; s < segs; ++s) {
+                const double weight = data[s].s[2];
+                const double after = dir_total - data[s].s[3];  // later segments' weights
+                const double factor = 0.5 * weight + after;
+                const int ox = ((-offsets[s].s[0]) % w + w) % w;
+                const int oy = ((-offsets[s].s[1]) % h + h) % h;
+                const std::size_t at = transposed ? std::size_t(oy) : std::size_t(oy) * stride + ox;
+                auto [it, added] = slot.emplace(at, tap_index.size());
+                if (added) {
+                    tap_index.push_back(at);
+                    tap_x.push_back(0.0);
+                    tap_y.push_back(0.0);
+                }
+                tap_x[it->second] += data[s].s[0] * factor;
+                tap_y[it->second] += data[s].s[1] * factor;
             }
-            tap_x[it->second] += data[s].s[0] * factor;
-            tap_y[it->second] += data[s].s[1] * factor;
-        }
-        total += dir_total;
-    });
+            total += dir_total;
+        });
     if (!(total > 0.0)) {
         std::fill_n(sink(), n, 0.0f);
         return;
@@ -152,9 +152,10 @@ void integrate_rays_by_fft(ComputeContext& ctx, DeviceSlopes& slopes, bool consu
     float* out = nullptr;
     {
         std::lock_guard<std::mutex> lock(ctx.impl().mutex);
-        fft_ray_sums(ctx.impl(), slopes, consume, p, [&] { return out = sink(); }, progress);
+        fft_ray_sums(
+            ctx.impl(), slopes, consume, p, [&] { return out = sink(); }, progress);
     }
     remove_mean(out, std::size_t(slopes.width()) * slopes.height());
 }
 
-} // namespace relief::host
+}  // namespace relief::host

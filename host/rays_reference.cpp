@@ -17,11 +17,10 @@ namespace relief::host {
 
 void for_each_packed_direction(const RayParams& p, const PackedWalkFn& fn)
 {
-    const std::vector<double> dir_weight =
-        angular_weights(ray_angles(p.rays, p.phase, p.directions));
-    const std::vector<RationalDirection> rational =
-        p.directions == DirectionSet::Rational ? rational_directions(p.rays, p.phase)
-                                               : std::vector<RationalDirection>();
+    const std::vector<double> dir_weight = angular_weights(ray_angles(p.rays, p.phase, p.directions));
+    const std::vector<RationalDirection> rational = p.directions == DirectionSet::Rational
+                                                        ? rational_directions(p.rays, p.phase)
+                                                        : std::vector<RationalDirection>();
     const std::vector<double> angles = p.directions == DirectionSet::Rational
                                            ? std::vector<double>()
                                            : ray_angles(p.rays, p.phase, p.directions);
@@ -38,8 +37,7 @@ void for_each_packed_direction(const RayParams& p, const PackedWalkFn& fn)
             const double weight = s.weight * dir_weight[j];
             cumulative += weight;
             offsets.push_back(cl_int2{{s.ox, s.oy}});
-            data.push_back(cl_float4{{float(s.ext_x), float(s.ext_y), float(weight),
-                                      float(cumulative)}});
+            data.push_back(cl_float4{{float(s.ext_x), float(s.ext_y), float(weight), float(cumulative)}});
         }
         fn(j, offsets, data);
     }
@@ -48,9 +46,9 @@ void for_each_packed_direction(const RayParams& p, const PackedWalkFn& fn)
 namespace {
 
 struct PackedTables {
-    std::vector<cl_int> dir_start;    // directions + 1
-    std::vector<cl_int2> offsets;     // per segment
-    std::vector<cl_float4> data;      // (ext x, ext y, weight, cumulative weight)
+    std::vector<cl_int> dir_start;  // directions + 1
+    std::vector<cl_int2> offsets;   // per segment
+    std::vector<cl_float4> data;    // (ext x, ext y, weight, cumulative weight)
 };
 
 // An upper bound on the segments of all walks: a ray crosses at most
@@ -68,28 +66,31 @@ PackedTables pack_tables(ComputeContext::Impl& c, const RayParams& p)
     const double bytes = walk_segments_bound(p) * sizeof(cl_float4);
     if (bytes > double(c.buffer_limit()) || walk_segments_bound(p) > double(INT32_MAX))
         throw Error("rays=" + std::to_string(p.rays) + " and radius=" +
-                    [&] { std::ostringstream r; r << p.radius; return r.str(); }() +
+                    [&] {
+                        std::ostringstream r;
+                        r << p.radius;
+                        return r.str();
+                    }() +
                     " need walk tables of up to " +
                     std::to_string(int(std::ceil(bytes / (1024.0 * 1024.0)))) +
                     " MiB, more than the device allows in one buffer (" +
                     std::to_string(c.buffer_limit() / (1024 * 1024)) +
                     " MiB); use impl=fast, or fewer rays or a shorter radius");
     PackedTables t;
-    for_each_packed_direction(p, [&](int, const std::vector<cl_int2>& offsets,
-                                     const std::vector<cl_float4>& data) {
-        t.dir_start.push_back(cl_int(t.offsets.size()));
-        t.offsets.insert(t.offsets.end(), offsets.begin(), offsets.end());
-        t.data.insert(t.data.end(), data.begin(), data.end());
-    });
+    for_each_packed_direction(
+        p, [&](int, const std::vector<cl_int2>& offsets, const std::vector<cl_float4>& data) {
+            t.dir_start.push_back(cl_int(t.offsets.size()));
+            t.offsets.insert(t.offsets.end(), offsets.begin(), offsets.end());
+            t.data.insert(t.data.end(), data.begin(), data.end());
+        });
     t.dir_start.push_back(cl_int(t.offsets.size()));
     return t;
 }
 
-} // namespace
+}  // namespace
 
-void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
-                              const RayParams& p, float* height_out, const Progress& progress,
-                              RayReport* report)
+void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes, const RayParams& p,
+                              float* height_out, const Progress& progress, RayReport* report)
 {
     expect_ray_params(p);
     const int w = slopes.width(), h = slopes.height();
@@ -102,7 +103,8 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
         if (!c.loops_fit(std::uint64_t(t.offsets.size()) + std::uint64_t(p.rays)))
             throw Error("impl=reference walks " + std::to_string(t.offsets.size()) +
                         " ray segments per texel, more than this device lets a work-item loop (it "
-                        "stops loops after " + std::to_string(c.loop_limit()) +
+                        "stops loops after " +
+                        std::to_string(c.loop_limit()) +
                         " iterations, as Mesa's llvmpipe does); use fewer rays, a shorter radius "
                         "or impl=fast");
         cl::Buffer dir_start = constant_buffer(c, t.dir_start);
@@ -112,9 +114,8 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
 
         RayReport skipped;
         int tiles_x = 0;
-        cl::Buffer active = active_tiles(c, slopes, p.radius + 2.0,
-                                         p.boundary == RayBoundary::Periodic, p.skip_flat, tiles_x,
-                                         skipped);
+        cl::Buffer active = active_tiles(c, slopes, p.radius + 2.0, p.boundary == RayBoundary::Periodic,
+                                         p.skip_flat, tiles_x, skipped);
         if (report)
             *report = skipped;
         const bool fp64 = ctx.fp64() && !p.force_float;
@@ -152,4 +153,4 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes,
     remove_mean(height_out, n);
 }
 
-} // namespace relief::host
+}  // namespace relief::host

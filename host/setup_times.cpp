@@ -18,7 +18,7 @@ double now()
     return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-} // namespace
+}  // namespace
 
 SetupTimes setup_times()
 {
@@ -38,7 +38,7 @@ SetupTimer::~SetupTimer()
     if (parent_)
         parent_->children_ += total;
     std::lock_guard<std::mutex> lock(totals_mutex);
-    double& sum = ahead                    ? totals.prepared
+    double& sum = ahead                     ? totals.prepared
                   : kind_ == Kind::Device   ? totals.device
                   : kind_ == Kind::Programs ? totals.programs
                                             : totals.plans;
@@ -55,4 +55,4 @@ Ahead::~Ahead()
     ahead = was_;
 }
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -46,4 +46,4 @@ private:
     SetupTimer* parent_;
 };
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -12,13 +12,15 @@ namespace relief::host {
 
 namespace {
 
-std::size_t texel_count(int w, int h) { return std::size_t(w) * std::size_t(h); }
+std::size_t texel_count(int w, int h)
+{
+    return std::size_t(w) * std::size_t(h);
+}
 
 // Sums of squared curl per row of cells, then the RMS per cell for each
 // convention. Row sums are added in a fixed order, so the result does not
 // depend on the device's thread count.
-void measure_curl(ComputeContext::Impl& cl_, const cl::Buffer& slopes, int w, int h,
-                  SlopeStats& stats)
+void measure_curl(ComputeContext::Impl& cl_, const cl::Buffer& slopes, int w, int h, SlopeStats& stats)
 {
     if (w < 2 || h < 2)
         return;  // no cell: both norms stay 0 and the choice is ambiguous
@@ -42,10 +44,9 @@ void measure_curl(ComputeContext::Impl& cl_, const cl::Buffer& slopes, int w, in
     stats.curl_directx = std::sqrt(dx / cells);
 }
 
-} // namespace
+}  // namespace
 
-DeviceSlopes derive_slopes(ComputeContext& ctx, const float* normals, const SlopeParams& p,
-                           SlopeStats& stats)
+DeviceSlopes derive_slopes(ComputeContext& ctx, const float* normals, const SlopeParams& p, SlopeStats& stats)
 {
     const std::size_t row = std::size_t(p.width) * std::size_t(std::max(p.channels, 0));
     return derive_slopes(
@@ -74,13 +75,15 @@ DeviceSlopes derive_slopes(ComputeContext& ctx, const NormalRows& rows, const Sl
         // limit, and is 3 GB on the host that the file's bytes do not need.
         const std::size_t per_row = sizeof(float) * std::size_t(p.channels) * std::size_t(p.width);
         const std::size_t band_bytes = std::min<std::size_t>(c.buffer_limit(), std::size_t(64) << 20);
-        const int band = int(std::min<std::size_t>(std::size_t(p.height), std::max<std::size_t>(band_bytes / per_row, 1)));
+        const int band =
+            int(std::min<std::size_t>(std::size_t(p.height), std::max<std::size_t>(band_bytes / per_row, 1)));
         cl::Buffer in = c.buffer(CL_MEM_READ_ONLY, per_row * std::size_t(band), "the DDM stage");
         std::vector<float> staging(per_row / sizeof(float) * std::size_t(band));
         auto impl = std::make_shared<DeviceSlopes::Impl>();
         impl->buffer = c.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * n, "the DDM stage");
         cl_int zero[2] = {0, 0};
-        cl::Buffer counters = c.buffer(CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(zero), "the DDM stage", zero);
+        cl::Buffer counters =
+            c.buffer(CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(zero), "the DDM stage", zero);
 
         // Derive with OpenGL first; DirectX is the same field with gy negated.
         const double a = p.max_angle_deg * M_PI / 180.0;
@@ -142,8 +145,7 @@ DeviceSlopes upload_slopes(ComputeContext& ctx, const float* slopes, int width, 
     try {
         auto impl = std::make_shared<DeviceSlopes::Impl>();
         impl->buffer = c.buffer(CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR,
-                                sizeof(cl_float2) * texel_count(width, height), "the DDM stage",
-                                slopes);
+                                sizeof(cl_float2) * texel_count(width, height), "the DDM stage", slopes);
         return DeviceSlopes(width, height, impl);
     } catch (const cl::Error& e) {
         throw Error(std::string("OpenCL error uploading slopes: ") + e.what());
@@ -156,8 +158,7 @@ void read_slopes(ComputeContext& ctx, const DeviceSlopes& slopes, float* out)
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
         c.queue.enqueueReadBuffer(slopes.impl().buffer, CL_TRUE, 0,
-                                  sizeof(cl_float2) * texel_count(slopes.width(), slopes.height()),
-                                  out);
+                                  sizeof(cl_float2) * texel_count(slopes.width(), slopes.height()), out);
     } catch (const cl::Error& e) {
         throw Error(std::string("OpenCL error reading slopes: ") + e.what());
     }
@@ -194,4 +195,4 @@ void with_slopes_on_host(ComputeContext& ctx, const DeviceSlopes& slopes,
     use(static_cast<const float*>(p));
 }
 
-} // namespace relief::host
+}  // namespace relief::host

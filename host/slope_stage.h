@@ -16,8 +16,8 @@ enum class GreenConvention { Auto, OpenGL, DirectX };
 
 struct SlopeParams {
     int width = 0, height = 0;
-    int channels = 3;        // 2 (x, y; z reconstructed) or 3 values per texel
-    float scale = 2.0f;      // decoded = stored * scale + bias (UNORM: 2v - 1)
+    int channels = 3;    // 2 (x, y; z reconstructed) or 3 values per texel
+    float scale = 2.0f;  // decoded = stored * scale + bias (UNORM: 2v - 1)
     float bias = -1.0f;
     // Decoded x, y with |value| <= zero_band become exactly 0: for n-bit UNORM
     // maps 1/(2^n - 1), the codes either side of the midpoint. 0 for float.
@@ -64,4 +64,4 @@ void read_slopes(ComputeContext& ctx, const DeviceSlopes& slopes, float* out);
 void with_slopes_on_host(ComputeContext& ctx, const DeviceSlopes& slopes,
                          const std::function<void(const float*)>& use);
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -11,8 +11,7 @@ namespace {
 
 // |correlation| of slope component c along lines a and b (each `count`
 // texels, `stride` apart).
-double line_correlation(const float* g, std::size_t a, std::size_t b, int count,
-                        std::size_t stride, int c)
+double line_correlation(const float* g, std::size_t a, std::size_t b, int count, std::size_t stride, int c)
 {
     double ma = 0, mb = 0;
     for (int i = 0; i < count; ++i) {
@@ -33,15 +32,14 @@ double line_correlation(const float* g, std::size_t a, std::size_t b, int count,
 
 // Lines run across the axis: `lines` of them, `line_step` apart, each
 // `count` texels with `stride` between texels.
-AxisEvidence axis_evidence(const float* g, int lines, std::size_t line_step, int count,
-                           std::size_t stride)
+AxisEvidence axis_evidence(const float* g, int lines, std::size_t line_step, int count, std::size_t stride)
 {
     AxisEvidence e;
     if (lines < 3 || count < 3)
         return e;
     auto both = [&](std::size_t a, std::size_t b) {
-        return 0.5 * (line_correlation(g, a, b, count, stride, 0) +
-                      line_correlation(g, a, b, count, stride, 1));
+        return 0.5 *
+               (line_correlation(g, a, b, count, stride, 0) + line_correlation(g, a, b, count, stride, 1));
     };
     e.seam = both(std::size_t(lines - 1) * line_step, 0);
     const int samples = std::min(lines - 1, 64);
@@ -54,7 +52,7 @@ AxisEvidence axis_evidence(const float* g, int lines, std::size_t line_step, int
     return e;
 }
 
-} // namespace
+}  // namespace
 
 TilingEvidence tiling_evidence(const float* slopes, int w, int h)
 {
@@ -65,4 +63,4 @@ TilingEvidence tiling_evidence(const float* slopes, int w, int h)
     return e;
 }
 
-} // namespace relief::host
+}  // namespace relief::host

@@ -34,4 +34,4 @@ constexpr double kTilingCorrelationFraction = 0.5;
 // tiling (there is no interior to compare with).
 TilingEvidence tiling_evidence(const float* slopes, int width, int height);
 
-} // namespace relief::host
+}  // namespace relief::host

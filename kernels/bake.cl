@@ -20,9 +20,8 @@ inline float4 bake_cubic_weights(float f)
 
 // src, dst: w x h texels of nch interleaved floats; offsets: float2 per
 // texel in texture units.
-kernel void bake_gather(global const float* src, int w, int h, int nch,
-                        global const float2* offsets, int periodic, int bicubic,
-                        global float* dst)
+kernel void bake_gather(global const float* src, int w, int h, int nch, global const float2* offsets,
+                        int periodic, int bicubic, global float* dst)
 {
     const int gid = get_global_id(0);
     if (gid >= w * h)

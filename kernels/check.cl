@@ -7,8 +7,7 @@
 // wrapping when the map tiles; at the edges of a map that does not tile they
 // are one-sided (h[1] - h[0], h[n-1] - h[n-2]), and 0 across a single texel.
 
-inline float check_difference(global const float* h, int row, int stride, int i, int n,
-                              int periodic)
+inline float check_difference(global const float* h, int row, int stride, int i, int n, int periodic)
 {
     if (n < 2)
         return 0.0f;
@@ -31,8 +30,8 @@ inline float2 check_gradient(global const float* h, int w, int ht, int i, int j,
 // height -> unit normals, 3 floats per texel: n = normalize(-s gx, -s gy, 1)
 // in the image frame, its row component times `row_sign` (-1: OpenGL's
 // G = -n_y, +1: DirectX's G = +n_y).
-kernel void height_normals(global const float* h, int w, int ht, int periodic, float scale,
-                           float row_sign, global float* out)
+kernel void height_normals(global const float* h, int w, int ht, int periodic, float scale, float row_sign,
+                           global float* out)
 {
     const int gid = get_global_id(0);
     if (gid >= w * ht)
@@ -47,8 +46,8 @@ kernel void height_normals(global const float* h, int w, int ht, int periodic, f
 // The round trip of a height against the slopes g it was integrated from:
 // per texel the angle (degrees) between the normals (-g, 1) and (-grad h, 1),
 // and (|g - grad h|^2, |g|^2) for the residual share.
-kernel void round_trip(global const float2* g, global const float* h, int w, int ht,
-                       int periodic, global float* angle, global float2* residual)
+kernel void round_trip(global const float2* g, global const float* h, int w, int ht, int periodic,
+                       global float* angle, global float2* residual)
 {
     const int gid = get_global_id(0);
     if (gid >= w * ht)
@@ -87,8 +86,8 @@ inline float check_bilinear(global const float* h, int w, int ht, float x, float
 // bottom-right quarters), so a patch corner is always a diagonal's end and
 // no triangle of a patch with L >= 2 has two edges on the patch border: the
 // mesh's stitching relies on that. Stops at the first texel off by more.
-inline int check_level_passes(global const float* h, int w, int ht, int x0, int y0, int x1, int y1,
-                              int L, float error, float scale)
+inline int check_level_passes(global const float* h, int w, int ht, int x0, int y0, int x1, int y1, int L,
+                              float error, float scale)
 {
     const float sx = (float)(x1 - x0) / (float)L, sy = (float)(y1 - y0) / (float)L;
     for (int j = y0; j < y1; ++j) {
@@ -147,8 +146,8 @@ inline int check_flat(global const float* h, int w, int x0, int y0, int x1, int 
 // per patch), for maps with many patches; tessellation_pass, one work-item
 // per patch and level (the host takes the lowest that passes), for few
 // large patches, whose levels would otherwise run one after another.
-kernel void tessellation_levels(global const float* h, int w, int ht, int patch, float error,
-                                float scale, int patches_x, int patch_count, global uchar* level)
+kernel void tessellation_levels(global const float* h, int w, int ht, int patch, float error, float scale,
+                                int patches_x, int patch_count, global uchar* level)
 {
     const int p = get_global_id(0);
     if (p >= patch_count)
@@ -162,8 +161,8 @@ kernel void tessellation_levels(global const float* h, int w, int ht, int patch,
     level[p] = found;
 }
 
-kernel void tessellation_pass(global const float* h, int w, int ht, int patch, float error,
-                              float scale, int patches_x, int patch_count, global uchar* pass)
+kernel void tessellation_pass(global const float* h, int w, int ht, int patch, float error, float scale,
+                              int patches_x, int patch_count, global uchar* pass)
 {
     const int gid = get_global_id(0);
     if (gid >= patch_count * CHECK_MAX_LEVEL)

@@ -30,12 +30,12 @@ typedef double energy_t;
 typedef float energy_t;
 #endif
 
-#define CORRECT_TILE 16        // nodes per tile side (8 x 8 quads, one work-group)
-#define CORRECT_STEPS 31       // ternary search: at most this many steps ...
-#define CORRECT_WIDTH 1e-6f    // ... or until the bracket is this fraction of its start
-#define CORRECT_MAX_STEP 2.0f  // texels: the bracket when no triangle can flip
-#define CORRECT_FLAT 1e-7f     // relative energy difference below float rounding
-#define CORRECT_GAIN 1e-6f     // smallest relative fan-energy decrease that moves a node
+#define CORRECT_TILE 16                // nodes per tile side (8 x 8 quads, one work-group)
+#define CORRECT_STEPS 31               // ternary search: at most this many steps ...
+#define CORRECT_WIDTH 1e-6f            // ... or until the bracket is this fraction of its start
+#define CORRECT_MAX_STEP 2.0f          // texels: the bracket when no triangle can flip
+#define CORRECT_FLAT 1e-7f             // relative energy difference below float rounding
+#define CORRECT_GAIN 1e-6f             // smallest relative fan-energy decrease that moves a node
 #define CORRECT_GOLDEN_R 0.381966011f  // (3 - sqrt 5) / 2: golden-section interior points
 // Golden-section steps (one evaluation each): the bracket ends at 0.618^10
 // = 0.8% of its start.
@@ -48,7 +48,7 @@ typedef float energy_t;
 #define CORRECT_BRENT_EVALS 5
 #define CORRECT_BRENT_REL 0.01f
 #ifndef CORRECT_SEARCH
-#define CORRECT_SEARCH 2       // the host sets it: 0 ternary, 1 golden section, 2 Brent
+#define CORRECT_SEARCH 2  // the host sets it: 0 ternary, 1 golden section, 2 Brent
 #endif
 
 // k^theta: the host builds the program with CORRECT_ITHETA set when theta
@@ -72,8 +72,7 @@ inline energy_t correct_pow_theta_total(energy_t x, float theta)
 #endif
 }
 
-inline energy_t correct_triangle_energy(float2 e1, float2 e2, float3 f1, float3 f2, float theta,
-                                        int itheta)
+inline energy_t correct_triangle_energy(float2 e1, float2 e2, float3 f1, float3 f2, float theta, int itheta)
 {
     const float auv = 0.5f * (e1.y * e2.x - e1.x * e2.y);
     if (!(auv > 0.0f))
@@ -123,11 +122,10 @@ inline void correct_group_sum(energy_t value, local energy_t* scratch, global en
 // count) (count a multiple of the group size): the statistics of a large
 // map come in chunks that fit one device buffer; stats[0] is node `first`,
 // partial[0] its group.
-kernel void correct_energy(global const float2* c, global const float* z,
-                           global const float* fix_w, int use_fix, int nx, int ny, int periodic,
-                           float theta, int itheta, global energy_t* partial,
-                           local energy_t* scratch, global float4* stats, int want_stats,
-                           int first)
+kernel void correct_energy(global const float2* c, global const float* z, global const float* fix_w,
+                           int use_fix, int nx, int ny, int periodic, float theta, int itheta,
+                           global energy_t* partial, local energy_t* scratch, global float4* stats,
+                           int want_stats, int first)
 {
     const int gid = first + get_global_id(0);
     energy_t sum = 0;
@@ -157,11 +155,10 @@ kernel void correct_energy(global const float2* c, global const float* z,
                     const float3 fa = ff[t][0], fb = ff[t][1];
                     const float auv = 0.5f * (a.y * b.x - a.x * b.y);
                     const float a3 = 0.5f * length(cross(fa, fb));
-                    const float q = dot(fa, fa) * dot(b, b) - 2.0f * dot(fa, fb) * dot(a, b) +
-                                    dot(fb, fb) * dot(a, a);
+                    const float q =
+                        dot(fa, fa) * dot(b, b) - 2.0f * dot(fa, fb) * dot(a, b) + dot(fb, fb) * dot(a, a);
                     const float kk = q / (4.0f * a3 * auv);
-                    r[2 * t] = auv > 0.0f ? 0.5f * (kk + sqrt(fmax(kk * kk - 4.0f, 0.0f)))
-                                          : INFINITY;
+                    r[2 * t] = auv > 0.0f ? 0.5f * (kk + sqrt(fmax(kk * kk - 4.0f, 0.0f))) : INFINITY;
                     r[2 * t + 1] = auv > 0.0f ? a3 / auv : INFINITY;
                 }
                 st = (float4)(r[0], r[1], r[2], r[3]);
@@ -190,8 +187,8 @@ kernel void correct_gain_sum(global const energy_t* gain, int count, global ener
 // (including this phase's previous launch). A node whose fan has not
 // changed since its own last update, which moved nothing, would again move
 // nothing; skipping it changes no bit of the result.
-kernel void correct_active(global const uchar* moved, int slots, int tiles_x, int tiles_y,
-                           int periodic, global uchar* active)
+kernel void correct_active(global const uchar* moved, int slots, int tiles_x, int tiles_y, int periodic,
+                           global uchar* active)
 {
     const int t = get_global_id(0);
     const int count = tiles_x * tiles_y;
@@ -244,15 +241,14 @@ typedef struct {
     float fix_scale;  // K^-theta, for the fixation term
 } FanPolys;
 
-inline float correct_fan_energy(float t, const FanPolys* fp, float2 cp, float2 d, float w,
-                                int use_fix, float theta)
+inline float correct_fan_energy(float t, const FanPolys* fp, float2 cp, float2 d, float w, int use_fix,
+                                float theta)
 {
     const float8 auv = fp->a0 + t * fp->a1;
     const float8 q = fp->q0 + t * (fp->q1 + t * fp->q2);
     const float8 inv = 1.0f / (fp->a3 * auv);
     const float8 k = (fp->a3 * fp->a3 + auv * auv) * inv * fp->inv_k;
-    const float8 e8 = select((float8)(INFINITY), 0.25f * q * inv * correct_pow_theta8(k, theta),
-                             auv > 0.0f);
+    const float8 e8 = select((float8)(INFINITY), 0.25f * q * inv * correct_pow_theta8(k, theta), auv > 0.0f);
     const float4 e4 = e8.lo + e8.hi;
     float e = (e4.x + e4.y) + (e4.z + e4.w);
     if (use_fix)
@@ -274,10 +270,9 @@ typedef struct {
 
 // Gradient, direction and bracket of node (i, j); p = -1 when it cannot or
 // need not move (outside the grid, wrong class, fixed border, zero gradient).
-inline NodeSearch correct_prepare(global const float2* c, global const float* z,
-                                  global const float* fix_w, int use_fix, int nx, int ny,
-                                  int periodic, int class_x, int class_y, int i, int j,
-                                  float theta, int itheta)
+inline NodeSearch correct_prepare(global const float2* c, global const float* z, global const float* fix_w,
+                                  int use_fix, int nx, int ny, int periodic, int class_x, int class_y, int i,
+                                  int j, float theta, int itheta)
 {
     NodeSearch ns;
     ns.p = -1;
@@ -357,10 +352,10 @@ inline NodeSearch correct_prepare(global const float2* c, global const float* z,
     const float8 dE_dQ = 0.25f * inv * gk;
     const float8 dE_dA = F * (-gk / auv + theta * (gk / kk) * (1.0f / a3 - a3 / (auv * auv)));
     const float8 w22 = 2.0f * (m22 - m12), w11 = 2.0f * (m11 - m12);
-    const float8 gx8 = select((float8)(0.0f),
-                              -(dE_dQ * (w22 * e1x + w11 * e2x) + dE_dA * 0.5f * (e1y - e2y)), fan);
-    const float8 gy8 = select((float8)(0.0f),
-                              -(dE_dQ * (w22 * e1y + w11 * e2y) + dE_dA * 0.5f * (e2x - e1x)), fan);
+    const float8 gx8 =
+        select((float8)(0.0f), -(dE_dQ * (w22 * e1x + w11 * e2x) + dE_dA * 0.5f * (e1y - e2y)), fan);
+    const float8 gy8 =
+        select((float8)(0.0f), -(dE_dQ * (w22 * e1y + w11 * e2y) + dE_dA * 0.5f * (e2x - e1x)), fan);
     const float4 gx4 = gx8.lo + gx8.hi, gy4 = gy8.lo + gy8.hi;
     float2 g = (float2)((gx4.x + gx4.y) + (gx4.z + gx4.w), (gy4.x + gy4.y) + (gy4.z + gy4.w));
     if (use_fix) {
@@ -413,10 +408,9 @@ inline NodeSearch correct_prepare(global const float2* c, global const float* z,
 // shrinks slowly, shrink faster). A move must lower the fan energy by more
 // than rounding: moves within the noise would keep converged tiles busy
 // forever. Either way the fan energy falls, so the total never rises.
-inline void correct_finish(global float2* c, global uchar* moved, int moved_at,
-                           global energy_t* gain,
-                           const NodeSearch* ns, float t, float Et, float E0, float relax,
-                           int use_fix, float theta)
+inline void correct_finish(global float2* c, global uchar* moved, int moved_at, global energy_t* gain,
+                           const NodeSearch* ns, float t, float Et, float E0, float relax, int use_fix,
+                           float theta)
 {
     if (ns->p < 0)
         return;
@@ -450,11 +444,10 @@ inline void correct_finish(global float2* c, global uchar* moved, int moved_at,
 // of an odd periodic axis (it neighbours node 0 across the seam, so it
 // moves on its own). Nodes moving together share no triangle: the energy
 // never rises.
-kernel void correct_phase(global float2* c, global const float* z, global const float* fix_w,
-                          int use_fix, int nx, int ny, int periodic, int class_x, int class_y,
-                          int tiles_x, global const uchar* active, global uchar* moved,
-                          int moved_slot, float theta, int itheta, float relax,
-                          global energy_t* gain)
+kernel void correct_phase(global float2* c, global const float* z, global const float* fix_w, int use_fix,
+                          int nx, int ny, int periodic, int class_x, int class_y, int tiles_x,
+                          global const uchar* active, global uchar* moved, int moved_slot, float theta,
+                          int itheta, float relax, global energy_t* gain)
 {
     // A tile is 8 / CORRECT_NODES x 8 work-items (16 x 16 nodes); a
     // work-group lies within one.
@@ -467,8 +460,8 @@ kernel void correct_phase(global float2* c, global const float* z, global const 
 #pragma unroll
     for (int n = 0; n < CORRECT_NODES; ++n) {
         const int i = 2 * (CORRECT_NODES * get_global_id(0) + n) + (class_x == 1);
-        ns[n] = correct_prepare(c, z, fix_w, use_fix, nx, ny, periodic, class_x, class_y, i, j,
-                                theta, itheta);
+        ns[n] =
+            correct_prepare(c, z, fix_w, use_fix, nx, ny, periodic, class_x, class_y, i, j, theta, itheta);
         lo[n] = 0.0f;
         hi[n] = ns[n].tmax;
     }
@@ -481,8 +474,8 @@ kernel void correct_phase(global float2* c, global const float* z, global const 
     // cost alike: a golden-section search to the same relative precision
     // needs ~20 evaluations for a step of 1e-3 of its bracket.
     float a[CORRECT_NODES], x[CORRECT_NODES], w[CORRECT_NODES], v[CORRECT_NODES];
-    float fx[CORRECT_NODES], fw[CORRECT_NODES], fv[CORRECT_NODES], dd[CORRECT_NODES],
-        ee[CORRECT_NODES], E0[CORRECT_NODES];
+    float fx[CORRECT_NODES], fw[CORRECT_NODES], fv[CORRECT_NODES], dd[CORRECT_NODES], ee[CORRECT_NODES],
+        E0[CORRECT_NODES];
 #pragma unroll
     for (int n = 0; n < CORRECT_NODES; ++n) {
         a[n] = x[n] = w[n] = v[n] = dd[n] = ee[n] = 0.0f;
@@ -510,8 +503,8 @@ kernel void correct_phase(global float2* c, global const float* z, global const 
                 // A parabola through non-finite energies, or whose step is
                 // not less than half the one before last, or that leaves
                 // the bracket, is not trusted.
-                if (isfinite(p) && isfinite(q) && fabs(p) < fabs(0.5f * q * e_old) &&
-                    p > q * (a[n] - x[n]) && p < q * (b - x[n])) {
+                if (isfinite(p) && isfinite(q) && fabs(p) < fabs(0.5f * q * e_old) && p > q * (a[n] - x[n]) &&
+                    p < q * (b - x[n])) {
                     ee[n] = dd[n];
                     step = p / q;
                     const float u = x[n] + step;
@@ -558,8 +551,7 @@ kernel void correct_phase(global float2* c, global const float* z, global const 
     }
 #pragma unroll
     for (int n = 0; n < CORRECT_NODES; ++n)
-        correct_finish(c, moved, moved_slot + tile, gain, &ns[n], x[n], fx[n], E0[n], relax, use_fix,
-                       theta);
+        correct_finish(c, moved, moved_slot + tile, gain, &ns[n], x[n], fx[n], E0[n], relax, use_fix, theta);
 #elif CORRECT_SEARCH == 1
     // The interior point that survives a step is one of the next step's
     // two, so each step costs one evaluation. The step taken is the better

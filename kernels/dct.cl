@@ -23,8 +23,7 @@ inline int dct_source(int m, int n)
 
 // One work-item per float of the padded grid: the padding is set to 0, as
 // the transform reads it.
-__kernel void dct_reorder(__global const float* x, int n0, int n1, int stride,
-                          __global float* v)
+__kernel void dct_reorder(__global const float* x, int n0, int n1, int stride, __global float* v)
 {
     int gid = get_global_id(0);
     if (gid >= stride * n1)
@@ -33,8 +32,7 @@ __kernel void dct_reorder(__global const float* x, int n0, int n1, int stride,
     v[gid] = m0 < n0 ? x[dct_source(m1, n1) * n0 + dct_source(m0, n0)] : 0.0f;
 }
 
-__kernel void dct_unreorder(__global const float* v, int n0, int n1, int stride,
-                            __global float* x)
+__kernel void dct_unreorder(__global const float* v, int n0, int n1, int stride, __global float* x)
 {
     int gid = get_global_id(0);
     if (gid >= n0 * n1)

@@ -11,10 +11,9 @@
 // Grazing normals are clamped to max_angle from +z keeping their azimuth, so
 // the slope stays finite and points the same way. Unusable normals (NaN, Inf,
 // zero length, or pointing straight down) become flat and are counted.
-__kernel void ddm_slopes(__global const float* normals, int channels, int first, int count,
-                         float scale, float bias, float zero_band, float green_to_row,
-                         float cos_max_angle, float sin_max_angle,
-                         __global float2* slopes, __global int* counters)
+__kernel void ddm_slopes(__global const float* normals, int channels, int first, int count, float scale,
+                         float bias, float zero_band, float green_to_row, float cos_max_angle,
+                         float sin_max_angle, __global float2* slopes, __global int* counters)
 {
     int k = get_global_id(0);
     if (k >= count)

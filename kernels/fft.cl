@@ -3,8 +3,7 @@
 // (host/fft_plan.cpp): rows x columns complex values <-> columns x rows.
 // common.h is prepended by the host.
 
-__kernel void fft_transpose(__global const float2* in, int rows, int columns,
-                            __global float2* out)
+__kernel void fft_transpose(__global const float2* in, int rows, int columns, __global float2* out)
 {
     int gid = get_global_id(0);
     if (gid >= rows * columns)

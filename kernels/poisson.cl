@@ -29,9 +29,8 @@ inline float2 texel_slope(__global const float2* slopes, int width, int i, int j
 // One work-item per float of the n1 rows of `stride` floats: the padding
 // past n0 (the R2C rows' last one or two) is set to 0, as the transform
 // reads it.
-__kernel void poisson_split(__global const float2* slopes, int width, int n0, int n1,
-                            int transposed, int stride, int alternate, __global float* gx,
-                            __global float* gy)
+__kernel void poisson_split(__global const float2* slopes, int width, int n0, int n1, int transposed,
+                            int stride, int alternate, __global float* gx, __global float* gy)
 {
     int gid = get_global_id(0);
     if (gid >= stride * n1)
@@ -57,8 +56,8 @@ inline float highpass_gain(float w2, float sigma)
 }
 
 // In place on gx's spectrum: n0/2 + 1 complex values per row.
-__kernel void poisson_periodic_divide(__global float2* gx, __global const float2* gy, int n0,
-                                      int n1, float sigma)
+__kernel void poisson_periodic_divide(__global float2* gx, __global const float2* gy, int n0, int n1,
+                                      float sigma)
 {
     int columns = n0 / 2 + 1;
     int gid = get_global_id(0);
@@ -89,8 +88,7 @@ inline float free_coefficient(float b, float c, int k, int l, int n0, int n1, fl
 
 // In place on dx: a_kl needs dx at (n0 - k, l), so one work item solves the
 // pair k and n0 - k (k = 0 reads nothing from dx).
-__kernel void poisson_free_divide(__global float* dx, __global const float* dy, int n0, int n1,
-                                  float sigma)
+__kernel void poisson_free_divide(__global float* dx, __global const float* dy, int n0, int n1, float sigma)
 {
     int pairs = n0 / 2 + 1;
     int gid = get_global_id(0);

@@ -23,8 +23,8 @@
 // exactly by a DCT (free) or FFT (periodic).
 
 // s g per texel: the slopes an excluded texel contributes are 0.
-__kernel void weighted_mask_slopes(__global const float2* slopes, __global const float* weight,
-                                   int n, float eps, __global float2* out)
+__kernel void weighted_mask_slopes(__global const float2* slopes, __global const float* weight, int n,
+                                   float eps, __global float2* out)
 {
     int p = get_global_id(0);
     if (p >= n)
@@ -42,8 +42,8 @@ inline int right_of(int x, int width, int periodic)
 // below (y), from the masked slopes sg. unit: all weights 1 and no delta
 // (the discrete solve of mean(s g) that delta needs).
 __kernel void weighted_edges(__global const float2* sg, __global const float* weight,
-                             __global const float* delta, int width, int height, int periodic,
-                             float eps, int unit, __global float2* c, __global float2* t)
+                             __global const float* delta, int width, int height, int periodic, float eps,
+                             int unit, __global float2* c, __global float2* t)
 {
     int p = get_global_id(0);
     if (p >= width * height)
@@ -70,8 +70,8 @@ inline int left_of(int x, int width, int periodic)
     return x > 0 ? x - 1 : (periodic ? width - 1 : -1);
 }
 
-__kernel void weighted_rhs(__global const float2* c, __global const float2* t, int width,
-                           int height, int periodic, __global float* b)
+__kernel void weighted_rhs(__global const float2* c, __global const float2* t, int width, int height,
+                           int periodic, __global float* b)
 {
     int p = get_global_id(0);
     if (p >= width * height)
@@ -90,8 +90,8 @@ __kernel void weighted_rhs(__global const float2* c, __global const float2* t, i
     b[p] = v;
 }
 
-__kernel void weighted_apply(__global const float* h, __global const float2* c, int width,
-                             int height, int periodic, __global float* out)
+__kernel void weighted_apply(__global const float* h, __global const float2* c, int width, int height,
+                             int periodic, __global float* out)
 {
     int p = get_global_id(0);
     if (p >= width * height)
@@ -115,8 +115,8 @@ __kernel void weighted_apply(__global const float* h, __global const float2* c, 
 // host chose from the device's limits, with `s` one float per work-item
 // (the host adds the partials in a fixed order, in double: deterministic
 // whatever the device's threads).
-__kernel void weighted_dot(__global const float* a, __global const float* b, int n,
-                           __global float* partial, __local float* s)
+__kernel void weighted_dot(__global const float* a, __global const float* b, int n, __global float* partial,
+                           __local float* s)
 {
     int i = get_global_id(0), l = get_local_id(0);
     s[l] = i < n ? a[i] * b[i] : 0.0f;
@@ -148,8 +148,7 @@ __kernel void weighted_xpby(__global float* p, __global const float* z, float be
 
 // Dense n0 x n1 <-> padded transform grid. to_grid has one work-item per
 // float of the grid and sets the padding to 0, as the transform reads it.
-__kernel void weighted_to_grid(__global const float* v, int n0, int n1, int stride,
-                               __global float* grid)
+__kernel void weighted_to_grid(__global const float* v, int n0, int n1, int stride, __global float* grid)
 {
     int g = get_global_id(0);
     if (g >= stride * n1)
@@ -158,8 +157,7 @@ __kernel void weighted_to_grid(__global const float* v, int n0, int n1, int stri
     grid[g] = i < n0 ? v[j * n0 + i] : 0.0f;
 }
 
-__kernel void weighted_from_grid(__global const float* grid, int n0, int n1, int stride,
-                                 __global float* v)
+__kernel void weighted_from_grid(__global const float* grid, int n0, int n1, int stride, __global float* v)
 {
     int i = get_global_id(0);
     if (i < n0 * n1)

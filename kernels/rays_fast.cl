@@ -48,12 +48,11 @@ inline int texel_index(int x, int y, int w, int h, int periodic)
 
 // seg_cut[i] = (l'_i, l'_i / l_i, l'_i * tau'_i, 0): segment i cut at
 // `partial` (l' = 0 past it); seg_linear[i] = o_i.y * width + o_i.x.
-__kernel void rays_period_sums(__global const float2* slopes, int width, int height,
-                               int periodic, int step_x, int step_y, int segments,
-                               __constant int2* seg_offset, __constant float4* seg_data,
-                               __constant float4* seg_cut, __constant int* seg_linear,
-                               float origin_len, __global const uchar* active, int tile,
-                               int tiles_x, int4 unused, __global float4* sums,
+__kernel void rays_period_sums(__global const float2* slopes, int width, int height, int periodic, int step_x,
+                               int step_y, int segments, __constant int2* seg_offset,
+                               __constant float4* seg_data, __constant float4* seg_cut,
+                               __constant int* seg_linear, float origin_len, __global const uchar* active,
+                               int tile, int tiles_x, int4 unused, __global float4* sums,
                                __global float2* tail)
 {
     // Under clip, the texels whose rays all stay in the image come from the
@@ -99,8 +98,8 @@ __kernel void rays_period_sums(__global const float2* slopes, int width, int hei
     const float c0 = (g0.x * d0.x + g0.y * d0.y) * (origin_len / d0.z);
     const float origin = 0.25f * origin_len * origin_len * c0;
     // The period's texels lie in the box from q to q + (a, b).
-    const int interior = x + min(0, step_x) >= 0 && x + max(0, step_x) < width &&
-                         y + min(0, step_y) >= 0 && y + max(0, step_y) < height;
+    const int interior = x + min(0, step_x) >= 0 && x + max(0, step_x) < width && y + min(0, step_y) >= 0 &&
+                         y + max(0, step_y) < height;
     // Under clip a period leaving the image is never used whole; the chain
     // kernel walks such ends itself.
     if (interior || periodic) {
@@ -136,10 +135,9 @@ __kernel void rays_period_sums(__global const float2* slopes, int width, int hei
 // Weighted height sum and weight of the walk from chain point qe = p + m*(a, b)
 // on, cut at distance `limit` into the period and at the image edge (clip
 // only); h is the height at qe relative to p.
-inline void end_walk(__global const float2* slopes, int width, int height, int periodic,
-                     int qx, int qy, acc_t m_l, acc_t h, float limit, int segments,
-                     __constant int2* seg_offset, __constant float4* seg_data,
-                     acc_t* a_out, acc_t* w_out)
+inline void end_walk(__global const float2* slopes, int width, int height, int periodic, int qx, int qy,
+                     acc_t m_l, acc_t h, float limit, int segments, __constant int2* seg_offset,
+                     __constant float4* seg_data, acc_t* a_out, acc_t* w_out)
 {
     acc_t a = 0, w = 0;
     for (int i = 0; i < segments; ++i) {
@@ -177,8 +175,8 @@ inline int nonzero_sums(float4 f)
 }
 
 // The window of up to `k_max` whole periods starting at (x, y), summed afresh.
-inline Window window_from_scratch(__global const float4* sums, int width, int height,
-                                  int periodic, int step_x, int step_y, int x, int y, int k_max)
+inline Window window_from_scratch(__global const float4* sums, int width, int height, int periodic,
+                                  int step_x, int step_y, int x, int y, int k_max)
 {
     Window win = {0, 0, 0, 0, 0, 0, 0, 0};
     for (int m = 0; m < k_max; ++m) {
@@ -283,8 +281,7 @@ inline void chain_step(Chain* c, const ChainArgs* g)
     const int x = c->x, y = c->y;
     Window win = c->win;
     if (c->k == 0 || c->rebuild || (g->reanchor > 0 && c->k % g->reanchor == 0))
-        win = window_from_scratch(g->sums, width, height, periodic, step_x, step_y, x, y,
-                                  k_whole);
+        win = window_from_scratch(g->sums, width, height, periodic, step_x, step_y, x, y, k_whole);
     c->rebuild = 0;
     const acc_t L = g->period, K = k_whole;
     const acc_t n = (acc_t)win.count;
@@ -314,8 +311,7 @@ inline void chain_step(Chain* c, const ChainArgs* g)
             }
         } else if (!whole || partial > 0.0f) {
             end_walk(g->slopes, width, height, periodic, ex, ey, m_l, win.s0,
-                     whole ? partial : g->period + 1.0f, g->segments, g->seg_offset,
-                     g->seg_data, &a, &w);
+                     whole ? partial : g->period + 1.0f, g->segments, g->seg_offset, g->seg_data, &a, &w);
         }
         a -= g->tail[p].y;
         w -= g->origin_w;
@@ -373,24 +369,25 @@ inline void chain_step(Chain* c, const ChainArgs* g)
 #define RELIEF_LANES 1
 #endif
 
-__kernel void rays_chain_windows(__global const float2* slopes, int width, int height,
-                                 int periodic, int step_x, int step_y,
-                                 __global const int2* chain_start, int chains, int cycle,
-                                 int k_whole, float period, float w0, float w1, float pw0,
-                                 float pw1, float partial, int segments,
-                                 __constant int2* seg_offset, __constant float4* seg_data,
-                                 __global const float4* sums, __global const float2* tail,
-                                 int reanchor, float dir_weight, __global const uchar* active,
-                                 int tile, int tiles_x, int4 fft_rect, __global float2* accum)
+__kernel void rays_chain_windows(__global const float2* slopes, int width, int height, int periodic,
+                                 int step_x, int step_y, __global const int2* chain_start, int chains,
+                                 int cycle, int k_whole, float period, float w0, float w1, float pw0,
+                                 float pw1, float partial, int segments, __constant int2* seg_offset,
+                                 __constant float4* seg_data, __global const float4* sums,
+                                 __global const float2* tail, int reanchor, float dir_weight,
+                                 __global const uchar* active, int tile, int tiles_x, int4 fft_rect,
+                                 __global float2* accum)
 {
     const int first = get_global_id(0) * RELIEF_LANES;
     if (first >= chains)
         return;
     const float origin_len = fmin(seg_data[0].z, (float)(k_whole * period + partial));
-    const ChainArgs g = {slopes, width, height, periodic, step_x, step_y, cycle, k_whole,
-                         period, w0, w1, pw0, pw1, partial, segments, seg_offset, seg_data,
-                         sums, tail, reanchor, accum, active, tile, tiles_x,
-                         0.5 * (acc_t)origin_len * origin_len, dir_weight, fft_rect};
+    const ChainArgs g = {slopes,     width,    height,  periodic, step_x,
+                         step_y,     cycle,    k_whole, period,   w0,
+                         w1,         pw0,      pw1,     partial,  segments,
+                         seg_offset, seg_data, sums,    tail,     reanchor,
+                         accum,      active,   tile,    tiles_x,  0.5 * (acc_t)origin_len * origin_len,
+                         dir_weight, fft_rect};
     Chain lane[RELIEF_LANES];
     const int lanes = min(RELIEF_LANES, chains - first);
     for (int l = 0; l < lanes; ++l)
@@ -411,12 +408,11 @@ __kernel void rays_chain_windows(__global const float2* slopes, int width, int h
 // entry per lane) and stepped together in a loop the compiler can turn
 // into SIMD code. Same results as rays_chain_windows.
 __kernel void rays_cycle_windows(int width, int height, int step_x, int step_y,
-                                 __global const int2* chain_start, int chains, int cycle,
-                                 int k_whole, float period, float w0, float w1, float pw0,
-                                 float pw1, float partial, float origin_len,
-                                 __global const float4* sums, __global const float2* tail,
-                                 float dir_weight, __global const uchar* active, int tile,
-                                 int tiles_x, __global float2* accum)
+                                 __global const int2* chain_start, int chains, int cycle, int k_whole,
+                                 float period, float w0, float w1, float pw0, float pw1, float partial,
+                                 float origin_len, __global const float4* sums, __global const float2* tail,
+                                 float dir_weight, __global const uchar* active, int tile, int tiles_x,
+                                 __global float2* accum)
 {
     const int first = get_global_id(0) * RELIEF_LANES;
     if (first >= chains)
@@ -432,8 +428,8 @@ __kernel void rays_cycle_windows(int width, int height, int step_x, int step_y,
     const acc_t grow = k_whole > 0 ? 1.0 : 0.0;  // K = 0: the window stays empty
     const float wsum = (float)((acc_t)w0 * L * 0.5 * K * (K - 1.0) + (acc_t)w1 * K + pq -
                                0.5 * (acc_t)origin_len * origin_len);
-    acc_t s0[RELIEF_LANES], s1[RELIEF_LANES], s2[RELIEF_LANES], u0[RELIEF_LANES],
-        u1[RELIEF_LANES], v0[RELIEF_LANES];
+    acc_t s0[RELIEF_LANES], s1[RELIEF_LANES], s2[RELIEF_LANES], u0[RELIEF_LANES], u1[RELIEF_LANES],
+        v0[RELIEF_LANES];
     int nz[RELIEF_LANES], x[RELIEF_LANES], y[RELIEF_LANES], nx[RELIEF_LANES], ny[RELIEF_LANES];
     for (int l = 0; l < lanes; ++l) {
         const int2 st = chain_start[first + l];
@@ -441,8 +437,7 @@ __kernel void rays_cycle_windows(int width, int height, int step_x, int step_y,
         y[l] = st.y;
         nx[l] = relief_wrap(st.x + k_whole * step_x, width);
         ny[l] = relief_wrap(st.y + k_whole * step_y, height);
-        const Window win = window_from_scratch(sums, width, height, 1, step_x, step_y, st.x,
-                                               st.y, k_whole);
+        const Window win = window_from_scratch(sums, width, height, 1, step_x, step_y, st.x, st.y, k_whole);
         s0[l] = win.s0;
         s1[l] = win.s1;
         s2[l] = win.s2;
@@ -457,8 +452,8 @@ __kernel void rays_cycle_windows(int width, int height, int step_x, int step_y,
             const float4 f0 = (float)grow * sums[p];
             const float4 next = sums[e];
             const float on = active[(y[l] / tile) * tiles_x + x[l] / tile] ? dir_weight : 0.0f;
-            const acc_t a = ca * s0[l] + cb * (s2[l] + s1[l]) + cc * s1[l] + L * u1[l] + v0[l] +
-                            s0[l] * pq + with_partial * (m_l * next.w + tail[e].x) - tail[p].y;
+            const acc_t a = ca * s0[l] + cb * (s2[l] + s1[l]) + cc * s1[l] + L * u1[l] + v0[l] + s0[l] * pq +
+                            with_partial * (m_l * next.w + tail[e].x) - tail[p].y;
             const float2 acc = accum[p];
             accum[p] = (float2)(acc.x + on * (float)a, acc.y + on * wsum);
             // Slide: drop m = 0, shift, take in m = K - 1.

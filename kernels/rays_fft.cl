@@ -16,8 +16,8 @@
 // steps: Gx Kx*, then (that + Gy Ky*) / -W.
 
 // One kernel's non-zero taps into a zeroed grid (the indices are distinct).
-__kernel void rays_fft_scatter(__global float* grid, __global const int* index,
-                               __global const float* value, int count)
+__kernel void rays_fft_scatter(__global float* grid, __global const int* index, __global const float* value,
+                               int count)
 {
     int i = get_global_id(0);
     if (i < count)
@@ -35,8 +35,8 @@ __kernel void rays_fft_multiply(__global float2* g, __global const float2* k, in
 }
 
 // g = (g + h k) * scale, complex, in place.
-__kernel void rays_fft_multiply_add(__global float2* g, __global const float2* h,
-                                    __global const float2* k, int count, float scale)
+__kernel void rays_fft_multiply_add(__global float2* g, __global const float2* h, __global const float2* k,
+                                    int count, float scale)
 {
     int i = get_global_id(0);
     if (i >= count)

@@ -34,11 +34,9 @@ inline void acc_add(acc_t* s, acc_t* c, acc_t v)
     *s = t;
 }
 
-__kernel void rays_reference(__global const float2* slopes, int width, int height,
-                             int row0, int rows, int periodic, int directions,
-                             __global const int* dir_start,
-                             __global const int2* seg_offset,
-                             __global const float4* seg_data,
+__kernel void rays_reference(__global const float2* slopes, int width, int height, int row0, int rows,
+                             int periodic, int directions, __global const int* dir_start,
+                             __global const int2* seg_offset, __global const float4* seg_data,
                              __global const uchar* active, int tile, int tiles_x,
                              __global float* displacement)
 {

@@ -2,8 +2,8 @@
 // Which tiles of the slope field have any non-zero slope (docs/design.md §6:
 // content that needs no integration is skipped). common.h is prepended by
 // the host. One work-item per tile of tile x tile texels.
-__kernel void nonflat_tiles(__global const float2* slopes, int width, int height, int tile,
-                            int tiles_x, int tiles_y, __global uchar* nonflat)
+__kernel void nonflat_tiles(__global const float2* slopes, int width, int height, int tile, int tiles_x,
+                            int tiles_y, __global uchar* nonflat)
 {
     int t = get_global_id(0);
     if (t >= tiles_x * tiles_y)

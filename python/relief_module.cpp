@@ -47,8 +47,8 @@ ImageBuf to_imagebuf(const py::array& input, const relief::ImageSlot& slot, cons
     const TypeDesc type = pixel_type(input);
     const std::string what = op + ": input '" + slot.name + "'";
     if (input.ndim() != 2 && input.ndim() != 3)
-        throw py::value_error(what + " must be H x W or H x W x C, not " +
-                              std::to_string(input.ndim()) + "-dimensional");
+        throw py::value_error(what + " must be H x W or H x W x C, not " + std::to_string(input.ndim()) +
+                              "-dimensional");
     const py::array a = py::array::ensure(input, py::array::c_style);
     const int h = int(a.shape(0)), w = int(a.shape(1)), c = a.ndim() == 3 ? int(a.shape(2)) : 1;
     const std::string problem = relief::input_problem(op, slot, w, h, c);
@@ -84,17 +84,16 @@ std::map<std::string, std::string> metadata_of(const ImageBuf& img)
 // (float32 array H x W x C, metadata).
 py::tuple run(const std::string& op, const std::vector<py::array>& arrays,
               const std::vector<std::map<std::string, std::string>>& metadata,
-              const std::vector<std::pair<std::string, std::string>>& modifiers,
-              const std::string& device)
+              const std::vector<std::pair<std::string, std::string>>& modifiers, const std::string& device)
 {
     relief::OperationCall call;
     if (!relief::parse_modifiers(call, op, modifiers))
         throw py::value_error(relief::find_operation(op) ? op + ": " + relief::geterror()
-                                                          : relief::geterror());
+                                                         : relief::geterror());
     const relief::OperationInfo& info = *relief::find_operation(op);
     if (arrays.size() != info.inputs.size())
-        throw py::value_error(op + " takes " + std::to_string(info.inputs.size()) +
-                              " image(s), got " + std::to_string(arrays.size()));
+        throw py::value_error(op + " takes " + std::to_string(info.inputs.size()) + " image(s), got " +
+                              std::to_string(arrays.size()));
     std::vector<ImageBuf> bufs;
     for (std::size_t i = 0; i < arrays.size(); ++i)
         bufs.push_back(to_imagebuf(arrays[i], info.inputs[i], op,
@@ -149,8 +148,8 @@ py::tuple read_file(const std::string& path)
 }
 
 void write_file(const std::string& path, const py::array& input,
-           const std::map<std::string, std::string>& metadata, const std::string& type,
-           const std::string& compression)
+                const std::map<std::string, std::string>& metadata, const std::string& type,
+                const std::string& compression)
 {
     relief::ImageSlot any{"image", 1, 4096, ""};
     const ImageBuf img = to_imagebuf(input, any, "write", metadata);
@@ -169,15 +168,15 @@ void write_file(const std::string& path, const py::array& input,
         throw std::runtime_error(relief::geterror());
 }
 
-} // namespace
+}  // namespace
 
 PYBIND11_MODULE(_relief, m)
 {
     m.doc() = "relief's native module; use the relief package";
     m.attr("version") = relief::version();
     m.def("operations_json", &relief::operations_json);
-    m.def("run", &run, py::arg("operation"), py::arg("arrays"), py::arg("metadata"),
-          py::arg("modifiers"), py::arg("device") = "auto");
+    m.def("run", &run, py::arg("operation"), py::arg("arrays"), py::arg("metadata"), py::arg("modifiers"),
+          py::arg("device") = "auto");
     m.def("read", &read_file, py::arg("path"));
     m.def("write", &write_file, py::arg("path"), py::arg("array"), py::arg("metadata"),
           py::arg("type") = "float", py::arg("compression") = "");

@@ -43,7 +43,6 @@ fs::path scratch(const std::string& name)
     return d;
 }
 
-
 OIIO::ImageBuf image(int w, int h, int nch, const std::vector<float>& px)
 {
     OIIO::ImageBuf b(OIIO::ImageSpec(w, h, nch, OIIO::TypeDesc::FLOAT));
@@ -72,7 +71,7 @@ void edge_shifted_half_a_texel(int w, int h, std::vector<float>& src, std::vecto
         }
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("bake: device gather equals the golden model", "[bake]")
 {
@@ -85,8 +84,9 @@ TEST_CASE("bake: device gather equals the golden model", "[bake]")
             std::vector<float> out(src.size());
             host::bake_gather(*ctx, src.data(), w, h, nch, off.data(), periodic,
                               bicubic ? host::BakeFilter::Bicubic : host::BakeFilter::Bilinear, out.data());
-            const auto gold = reference::bake_gather(std::vector<double>(src.begin(), src.end()), w, h, nch,
-                                                     std::vector<double>(off.begin(), off.end()), periodic, bicubic);
+            const auto gold =
+                reference::bake_gather(std::vector<double>(src.begin(), src.end()), w, h, nch,
+                                       std::vector<double>(off.begin(), off.end()), periodic, bicubic);
             double worst = 0.0;
             for (std::size_t i = 0; i < out.size(); ++i)
                 worst = std::max(worst, std::abs(out[i] - gold[i]));
@@ -156,7 +156,8 @@ TEST_CASE("bake: periodic seams stay continuous", "[bake]")
     std::vector<float> src2(src.size()), off2(off.size());
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
-            const std::size_t from = std::size_t((y + sy) % h) * w + (x + sx) % w, to = std::size_t(y) * w + x;
+            const std::size_t from = std::size_t((y + sy) % h) * w + (x + sx) % w,
+                              to = std::size_t(y) * w + x;
             src2[to] = src[from];
             off2[2 * to] = off[2 * from];
             off2[2 * to + 1] = off[2 * from + 1];
@@ -240,8 +241,8 @@ std::array<double, 3> direction(const T* v, bool unorm)
 // The largest angle (radians) between the baked normals and the golden
 // gather's, renormalised; `length_error` gets the largest ||n| - 1| of the
 // baked ones (they are renormalised).
-double worst_normal_angle(const std::vector<float>& baked, const std::vector<double>& gold, int nch, bool unorm,
-                          double& length_error)
+double worst_normal_angle(const std::vector<float>& baked, const std::vector<double>& gold, int nch,
+                          bool unorm, double& length_error)
 {
     double worst = 0.0;
     length_error = 0.0;
@@ -267,7 +268,7 @@ OIIO::ImageBuf bumpy_normals(int w, int h, OIIO::TypeDesc type, int nch = 3)
     return test::normal_image(f.slopes(), w, h, test::Green::OpenGL, type, nch);
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("bake: 8- and 16-bit normal maps bake to the golden gather's directions", "[bake]")
 {
@@ -288,8 +289,9 @@ TEST_CASE("bake: 8- and 16-bit normal maps bake to the golden gather's direction
                 CHECK(said.find("normal map") != std::string::npos);
                 CHECK(out.spec().get_string_attribute("relief:native_format") == type.c_str());
                 const auto got = pixels(out);
-                const auto gold = reference::bake_gather(std::vector<double>(src.begin(), src.end()), w, h, nch,
-                                                         std::vector<double>(off.begin(), off.end()), periodic, false);
+                const auto gold =
+                    reference::bake_gather(std::vector<double>(src.begin(), src.end()), w, h, nch,
+                                           std::vector<double>(off.begin(), off.end()), periodic, false);
                 double length_error = 0.0;
                 CHECK(worst_normal_angle(got, gold, nch, true, length_error) < 1e-5);
                 CHECK(length_error < 1e-5);
@@ -348,7 +350,8 @@ TEST_CASE("bake: colorspace=auto decodes 8-bit PNGs as sRGB, floats as linear", 
             return pixels(out);
         };
         const auto automatic = baked(BakeColorspace::Auto);
-        const BakeColorspace other = c.same_as == BakeColorspace::SRGB ? BakeColorspace::Linear : BakeColorspace::SRGB;
+        const BakeColorspace other =
+            c.same_as == BakeColorspace::SRGB ? BakeColorspace::Linear : BakeColorspace::SRGB;
         CHECK(automatic == baked(c.same_as));
         CHECK(test::max_abs_diff(automatic, baked(other)) > 1e-3);
     }
@@ -452,8 +455,9 @@ colorspaces:
     REQUIRE(image(w, h, 2, off).write((dir / "offsets.exr").string()));
     const std::string args = "'" + (dir / "albedo.png").string() + "' '" + (dir / "offsets.exr").string() +
                              "' --bake:kind=color -o '";
-    for (const auto& [env, code] : {std::pair{std::string("OCIO='") + (dir / "config.ocio").string() + "'", 180},
-                                    std::pair{std::string("OCIO="), 188}}) {
+    for (const auto& [env, code] :
+         {std::pair{std::string("OCIO='") + (dir / "config.ocio").string() + "'", 180},
+          std::pair{std::string("OCIO="), 188}}) {
         INFO(env);
         auto r = run_cli(args + (dir / "out.png").string() + "'", env);
         INFO(r.err);
@@ -516,7 +520,7 @@ OIIO::ImageBuf read(const std::string& path)
     return b;
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("cli: correct and bake, the documented examples, equal the API's results", "[cli][bake]")
 {
@@ -578,7 +582,7 @@ TEST_CASE("cli: correct and bake, the documented examples, equal the API's resul
     const OIIO::ImageBuf api_baked = relief::bake(read(normal), off2, bo);
     REQUIRE_FALSE(api_baked.has_error());
     const auto want = pixels(api_baked), got = pixels(baked);
-    CHECK(test::max_abs_diff(got, want) <= 0.5 / 255.0 + 1e-6);  // 8-bit rounding only
+    CHECK(test::max_abs_diff(got, want) <= 0.5 / 255.0 + 1e-6);                // 8-bit rounding only
     CHECK(test::max_abs_diff(got, test::file_pixels(normal)) > 10.0 / 255.0);  // it moved
 
     // Zero offsets bake an 8-bit texture back exactly.
@@ -619,7 +623,8 @@ TEST_CASE("cli: correct and bake refuse bad input and leave nothing behind", "[c
     r = run_cli("'" + normal + "' '" + height + "' --bake -o '" + out + "'");
     CHECK(r.rc != 0);
     CHECK(r.err.find("2 (du, dv") != std::string::npos);
-    r = run_cli("'" + height + "' --correct:scale=0.05 --report '" + (dir / "r.json").string() + "' --correct:scale=0.1 -o '" + out + "'");
+    r = run_cli("'" + height + "' --correct:scale=0.05 --report '" + (dir / "r.json").string() +
+                "' --correct:scale=0.1 -o '" + out + "'");
     CHECK(r.rc == 2);
     CHECK(fs::is_empty(dir));
 }
@@ -640,8 +645,7 @@ TEST_CASE("bake: a 3-channel map is offsets only when relief says so", "[bake][e
     CHECK(relief::bake(out, tex, normals));
 }
 
-TEST_CASE("bake: a texture larger than one device buffer goes one channel at a time, same bits",
-          "[bake]")
+TEST_CASE("bake: a texture larger than one device buffer goes one channel at a time, same bits", "[bake]")
 {
     // 37 x 29 x 4 floats = 17168 bytes; the offsets take 8584. A cap between
     // them makes the gather run per channel plane.

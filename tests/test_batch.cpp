@@ -45,7 +45,7 @@ std::vector<std::string> lines_of(const fs::path& p)
     return v;
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("batch: manifest lines split like a shell, without expansion", "[batch][parse]")
 {
@@ -55,7 +55,8 @@ TEST_CASE("batch: manifest lines split like a shell, without expansion", "[batch
     CHECK(relief::cli::split_words("# a comment") == V{});
     CHECK(relief::cli::split_words("in.png --height # trailing") == V{"in.png", "--height"});
     CHECK(relief::cli::split_words("a#b") == V{"a#b"});
-    CHECK(relief::cli::split_words("'my map.png' -o \"out dir/h.exr\"") == V{"my map.png", "-o", "out dir/h.exr"});
+    CHECK(relief::cli::split_words("'my map.png' -o \"out dir/h.exr\"") ==
+          V{"my map.png", "-o", "out dir/h.exr"});
     CHECK(relief::cli::split_words("'$HOME/*.png'") == V{"$HOME/*.png"});
     CHECK(relief::cli::split_words("$HOME *.png ~") == V{"$HOME", "*.png", "~"});
     CHECK(relief::cli::split_words(R"("a \"q\" \\ \$x \n")") == V{R"(a "q" \ $x \n)"});
@@ -91,7 +92,8 @@ TEST_CASE("batch: shards take the jobs congruent to I mod N, every job exactly o
 
     const fs::path d = scratch("parse");
     const fs::path m = d / "jobs.txt";
-    std::ofstream(m) << "# header\n\n" << kNormal << " --height -o a.exr\n  \n'" << kNormal << "' --slopes -o 'b c.exr'\n";
+    std::ofstream(m) << "# header\n\n"
+                     << kNormal << " --height -o a.exr\n  \n'" << kNormal << "' --slopes -o 'b c.exr'\n";
     const std::vector<Job> read = relief::cli::read_jobs(m.string());
     REQUIRE(read.size() == 2);
     CHECK(read[0].index == 0);
@@ -112,10 +114,12 @@ TEST_CASE("batch: shards take the jobs congruent to I mod N, every job exactly o
     CHECK_THROWS_AS(parse_command_line({"--batch", m.string(), kNormal, "--height"}), UsageError);
     CHECK_THROWS_AS(parse_command_line({kNormal, "--height", "--shard", "0/2"}), UsageError);
     CHECK_THROWS_AS(parse_command_line({"--batch", (d / "none.txt").string()}), UsageError);
-    CHECK_THROWS_AS(parse_command_line({"--batch", m.string(), "--log", (d / "no" / "l.jsonl").string()}), UsageError);
+    CHECK_THROWS_AS(parse_command_line({"--batch", m.string(), "--log", (d / "no" / "l.jsonl").string()}),
+                    UsageError);
 }
 
-TEST_CASE("batch: jobs run in one process, a failed job alone fails, the log says what each did", "[batch][cli]")
+TEST_CASE("batch: jobs run in one process, a failed job alone fails, the log says what each did",
+          "[batch][cli]")
 {
     const fs::path d = scratch("run");
     const fs::path m = d / "jobs.txt";
@@ -133,7 +137,8 @@ TEST_CASE("batch: jobs run in one process, a failed job alone fails, the log say
     INFO(r.err);
     CHECK(r.rc == 1);
     CHECK(r.err.find("job 2 (" + m.string() + ":4): error: cannot read") != std::string::npos);
-    CHECK(r.err.find("job 3 (" + m.string() + ":5): error: --height:rays=-3: rays=-3 must be") != std::string::npos);
+    CHECK(r.err.find("job 3 (" + m.string() + ":5): error: --height:rays=-3: rays=-3 must be") !=
+          std::string::npos);
     CHECK(r.err.find("relief: job 0: boundary:") != std::string::npos);  // messages name their job
     CHECK(r.err.find("3 ok, 0 skipped, 2 failed of 5 job(s)") != std::string::npos);
     CHECK_FALSE(fs::exists(d / "h2.exr"));
@@ -154,10 +159,11 @@ TEST_CASE("batch: jobs run in one process, a failed job alone fails, the log say
 
     const std::vector<std::string> lines = lines_of(log);
     REQUIRE(lines.size() == 5);
-    CHECK(lines[0].rfind("{\"job\": 0, \"line\": 2, \"args\": [\"" + kNormal + "\", \"--height:normal=opengl\", \"-o\", \"" +
-                            (d / "h 0.exr").string() + "\"], \"inputs\": [\"" + kNormal + "\"], \"outputs\": [\"" +
-                            (d / "h 0.exr").string() + "\"], \"status\": \"ok\", \"seconds\": ",
-                        0) == 0);
+    CHECK(lines[0].rfind("{\"job\": 0, \"line\": 2, \"args\": [\"" + kNormal +
+                             "\", \"--height:normal=opengl\", \"-o\", \"" + (d / "h 0.exr").string() +
+                             "\"], \"inputs\": [\"" + kNormal + "\"], \"outputs\": [\"" +
+                             (d / "h 0.exr").string() + "\"], \"status\": \"ok\", \"seconds\": ",
+                         0) == 0);
     CHECK(lines[2].find("\"job\": 2, \"line\": 4,") != std::string::npos);
     CHECK(lines[2].find("\"status\": \"failed\"") != std::string::npos);
     CHECK(lines[2].find("\"message\": \"cannot read") != std::string::npos);
@@ -173,7 +179,8 @@ TEST_CASE("batch: jobs run in one process, a failed job alone fails, the log say
     CHECK(nodev.rc == 1);
     CHECK(nodev.err.find("job 0 (") != std::string::npos);
     CHECK(nodev.err.find("no OpenCL device 9:9") != std::string::npos);
-    std::ofstream(d / "own.txt") << "--device cpu " << kDem << " --slopes -o " << (d / "g2.exr").string() << "\n";
+    std::ofstream(d / "own.txt") << "--device cpu " << kDem << " --slopes -o " << (d / "g2.exr").string()
+                                 << "\n";
     CHECK(run_cli("--device 9:9 --batch '" + (d / "own.txt").string() + "'").rc == 0);
     // the manifest's own syntax is a usage error before any job
     std::ofstream(d / "bad.txt") << kDem << " --slopes -o " << (d / "never.exr").string() << "\n'open\n";
@@ -195,10 +202,12 @@ TEST_CASE("batch: three shards of six jobs cover each job exactly once", "[batch
     std::multiset<int> done;
     for (int s = 0; s < 3; ++s) {
         const fs::path log = d / ("shard" + std::to_string(s) + ".jsonl");
-        auto r = run_cli("--batch '" + m.string() + "' --shard " + std::to_string(s) + "/3 --log '" + log.string() + "'");
+        auto r = run_cli("--batch '" + m.string() + "' --shard " + std::to_string(s) + "/3 --log '" +
+                         log.string() + "'");
         INFO(r.err);
         REQUIRE(r.rc == 0);
-        CHECK(r.err.find("2 ok, 0 skipped, 0 failed of 2 job(s) (shard " + std::to_string(s) + "/3 of 6)") != std::string::npos);
+        CHECK(r.err.find("2 ok, 0 skipped, 0 failed of 2 job(s) (shard " + std::to_string(s) + "/3 of 6)") !=
+              std::string::npos);
         for (const std::string& l : lines_of(log)) {
             const int job = std::stoi(l.substr(std::string("{\"job\": ").size()));
             CHECK(job % 3 == s);
@@ -231,7 +240,7 @@ std::vector<std::string> statuses(const fs::path& log)
     return s;
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("names: <UDIM>, # @ %0Nd and --frames expand as oiiotool's", "[names][parse]")
 {
@@ -248,13 +257,17 @@ TEST_CASE("names: <UDIM>, # @ %0Nd and --frames expand as oiiotool's", "[names][
              {tile("1002"), "--height", "-o", "h.1002.exr"},
              {tile("1011"), "--height", "-o", "h.1011.exr"}});
     // nothing to expand: the arguments as they are; # is literal without --frames
-    CHECK(expand_names({"a#.png", "--height", "-o", "b@%04d.exr"}) == VV{{"a#.png", "--height", "-o", "b@%04d.exr"}});
+    CHECK(expand_names({"a#.png", "--height", "-o", "b@%04d.exr"}) ==
+          VV{{"a#.png", "--height", "-o", "b@%04d.exr"}});
     CHECK(expand_names({"f.#.png", "--frames", "9-10,12", "-o", "o.%04d.exr"}) ==
-          VV{{"f.0009.png", "-o", "o.0009.exr"}, {"f.0010.png", "-o", "o.0010.exr"}, {"f.0012.png", "-o", "o.0012.exr"}});
+          VV{{"f.0009.png", "-o", "o.0009.exr"},
+             {"f.0010.png", "-o", "o.0010.exr"},
+             {"f.0012.png", "-o", "o.0012.exr"}});
     CHECK(expand_names({"f.@@@.png", "--frames", "7", "-o", "o.%d.exr", "x.####.y%03dz##"}) ==
           VV{{"f.007.png", "-o", "o.7.exr", "x.0007.y007z07"}});
     CHECK(expand_names({"--frames", "1-2", in, "-o", "h.<UDIM>.#.exr"}).size() == 6);
-    CHECK(expand_names({"--frames", "1-2", in, "-o", "h.<UDIM>.#.exr"})[4] == V{tile("1002"), "-o", "h.1002.0002.exr"});
+    CHECK(expand_names({"--frames", "1-2", in, "-o", "h.<UDIM>.#.exr"})[4] ==
+          V{tile("1002"), "-o", "h.1002.0002.exr"});
     // tiles and frames in one input name: each frame's own tiles
     for (const char* f : {"t.1001.0001.png", "t.1002.0001.png", "t.1001.0002.png"})
         std::ofstream(d / f) << "x";
@@ -278,15 +291,17 @@ TEST_CASE("names: <UDIM>, # @ %0Nd and --frames expand as oiiotool's", "[names][
     // (an earlier output with tiles of its own: o.1005.exr)
     std::ofstream(d / "o.1005.exr") << "x";
     CHECK(expand_names({"-o", (d / "o.<UDIM>.exr").string(), in}).size() == 3);
-    for (const V& bad : {V{"x.<UDIM>.png"}, V{"a.png", "-o", "h.<UDIM>.exr"}, V{"a.png", "--frames", "1-3"},
-                         V{"a#.png", "--frames"}, V{"a#.png", "--frames", "3-1"}, V{"a#.png", "--frames", "1-"},
-                         V{"a#.png", "--frames", "1,,2"}, V{"a#.png", "--frames", "x"}, V{"a#.png", "--frames", "0-100000"},
-                         V{"a#.png", "--frames", "99999999999"}, V{"a#.png", "--frames", "5-99999999999"},
-                         V{"a#.png", "--frames", "2147483647"}, V{"a#.png", "--frames", "1", "--frames", "2"},
-                         V{"a%040d.png", "--frames", "1"}})
+    for (const V& bad :
+         {V{"x.<UDIM>.png"}, V{"a.png", "-o", "h.<UDIM>.exr"}, V{"a.png", "--frames", "1-3"},
+          V{"a#.png", "--frames"}, V{"a#.png", "--frames", "3-1"}, V{"a#.png", "--frames", "1-"},
+          V{"a#.png", "--frames", "1,,2"}, V{"a#.png", "--frames", "x"}, V{"a#.png", "--frames", "0-100000"},
+          V{"a#.png", "--frames", "99999999999"}, V{"a#.png", "--frames", "5-99999999999"},
+          V{"a#.png", "--frames", "2147483647"}, V{"a#.png", "--frames", "1", "--frames", "2"},
+          V{"a%040d.png", "--frames", "1"}})
         CHECK_THROWS_AS(expand_names(bad), UsageError);
     // in a manifest, each line expands into jobs of its own; a line that cannot fails alone
-    std::ofstream(d / "jobs.txt") << "'" << in << "' --slopes -o 'h.<UDIM>.exr'\nnone.<UDIM>.png --slopes -o x.exr\n"
+    std::ofstream(d / "jobs.txt") << "'" << in
+                                  << "' --slopes -o 'h.<UDIM>.exr'\nnone.<UDIM>.png --slopes -o x.exr\n"
                                   << tile("1001") << " --slopes -o y.exr\n";
     const std::vector<Job> jobs = relief::cli::read_jobs((d / "jobs.txt").string());
     REQUIRE(jobs.size() == 5);
@@ -298,7 +313,8 @@ TEST_CASE("names: <UDIM>, # @ %0Nd and --frames expand as oiiotool's", "[names][
     CHECK(jobs[4].error.empty());
 }
 
-TEST_CASE("names: the tiles of <UDIM> are the files that exist, the token in a folder or twice in a name", "[names][parse]")
+TEST_CASE("names: the tiles of <UDIM> are the files that exist, the token in a folder or twice in a name",
+          "[names][parse]")
 {
     using V = std::vector<std::string>;
     using relief::cli::expand_names;
@@ -307,7 +323,7 @@ TEST_CASE("names: the tiles of <UDIM> are the files that exist, the token in a f
     for (const char* f : {"n.1001.png", "n.1999.png", "n.10010.png", "n.0999.png", "n.2000.png", "n.1a01.png",
                           "m.1002.png", "n.1003.png.bak"})
         std::ofstream(d / f) << "x";
-    fs::create_directory(d / "n.1004.png");  // a folder is a name that exists, as before
+    fs::create_directory(d / "n.1004.png");                // a folder is a name that exists, as before
     fs::create_symlink(d / "gone.png", d / "n.1005.png");  // a dangling link is not
     const auto tiles_of = [](const std::string& pattern) {
         V firsts;
@@ -346,14 +362,16 @@ TEST_CASE("names: the tiles of <UDIM> are the files that exist, the token in a f
     CHECK_THROWS_WITH(expand_names(line), Catch::Contains("frames hold more than 64 MiB of arguments"));
 }
 
-TEST_CASE("names: a <UDIM> set and a # sequence run one job per existing tile and frame, each as its own run", "[names][cli]")
+TEST_CASE("names: a <UDIM> set and a # sequence run one job per existing tile and frame, each as its own run",
+          "[names][cli]")
 {
     const fs::path d = scratch("tile-runs");
     write_crop(kNormal, d / "n.1001.png", 0);
     write_crop(kNormal, d / "n.1002.png", 96);
     write_crop(kDem, d / "n.1012.png", 0);
     fs::create_directories(d / "out");
-    auto r = run_cli("'" + (d / "n.<UDIM>.png").string() + "' --height -o '" + (d / "out/h.<UDIM>.exr").string() + "'");
+    auto r = run_cli("'" + (d / "n.<UDIM>.png").string() + "' --height -o '" +
+                     (d / "out/h.<UDIM>.exr").string() + "'");
     INFO(r.err);
     CHECK(r.rc == 0);
     CHECK(r.err.find("3 ok, 0 skipped, 0 failed of 3 job(s)") != std::string::npos);
@@ -363,19 +381,25 @@ TEST_CASE("names: a <UDIM> set and a # sequence run one job per existing tile an
     CHECK(made == std::set<std::string>{"h.1001.exr", "h.1002.exr", "h.1012.exr"});
     for (const char* t : {"1001", "1012"}) {
         const fs::path single = d / ("single." + std::string(t) + ".exr");
-        REQUIRE(run_cli("'" + (d / ("n." + std::string(t) + ".png")).string() + "' --height -o '" + single.string() + "'").rc == 0);
-        CHECK(relief::test::file_pixels(single) == relief::test::file_pixels(d / "out" / ("h." + std::string(t) + ".exr")));
+        REQUIRE(run_cli("'" + (d / ("n." + std::string(t) + ".png")).string() + "' --height -o '" +
+                        single.string() + "'")
+                    .rc == 0);
+        CHECK(relief::test::file_pixels(single) ==
+              relief::test::file_pixels(d / "out" / ("h." + std::string(t) + ".exr")));
     }
     // frames 1001-1003: 1003 does not exist and fails alone
-    auto f = run_cli("'" + (d / "n.#.png").string() + "' --frames 1001-1003 --slopes -o '" + (d / "out/s.%04d.exr").string() + "'");
+    auto f = run_cli("'" + (d / "n.#.png").string() + "' --frames 1001-1003 --slopes -o '" +
+                     (d / "out/s.%04d.exr").string() + "'");
     CHECK(f.rc == 1);
-    CHECK(f.err.find("job 2 (command line): error: cannot read '" + (d / "n.1003.png").string()) != std::string::npos);
+    CHECK(f.err.find("job 2 (command line): error: cannot read '" + (d / "n.1003.png").string()) !=
+          std::string::npos);
     CHECK(fs::exists(d / "out/s.1001.exr"));
     CHECK(fs::exists(d / "out/s.1002.exr"));
     CHECK_FALSE(fs::exists(d / "out/s.1003.exr"));
 }
 
-TEST_CASE("update: a job is skipped exactly when its outputs record the digest it would write", "[update][cli]")
+TEST_CASE("update: a job is skipped exactly when its outputs record the digest it would write",
+          "[update][cli]")
 {
     const fs::path d = scratch("update");
     for (int i = 0; i < 4; ++i)
@@ -393,7 +417,8 @@ TEST_CASE("update: a job is skipped exactly when its outputs record the digest i
     const fs::path log = d / "log.jsonl";
     auto run = [&](const std::string& extra = "", const std::string& env = "") {
         fs::remove(log);  // --log appends: each run's lines alone
-        return relief::test::run_cli("--batch jobs.txt --update --log log.jsonl " + extra, env + " cd '" + d.string() + "' &&");
+        return relief::test::run_cli("--batch jobs.txt --update --log log.jsonl " + extra,
+                                     env + " cd '" + d.string() + "' &&");
     };
     using S = std::vector<std::string>;
     auto r = run();
@@ -404,7 +429,8 @@ TEST_CASE("update: a job is skipped exactly when its outputs record the digest i
     CHECK(digest.size() == 32);
     // each output records its own place in the job
     CHECK(relief::recorded_digest((d / "h1.png").string()).size() == 32);
-    CHECK(relief::recorded_digest((d / "h1.png").string()) != relief::recorded_digest((d / "h1.exr").string()));
+    CHECK(relief::recorded_digest((d / "h1.png").string()) !=
+          relief::recorded_digest((d / "h1.exr").string()));
     CHECK(relief::recorded_digest((d / "h3.tif").string()).size() == 32);
     CHECK(relief::recorded_digest((d / "n0.png").string()).empty());
     const auto h0_time = fs::last_write_time(d / "h0.exr");
@@ -439,16 +465,18 @@ TEST_CASE("update: a job is skipped exactly when its outputs record the digest i
     CHECK(statuses((run(), log)) == S{"skipped", "skipped", "skipped", "skipped"});
     // without --update every job runs
     fs::remove(log);
-    CHECK(statuses((relief::test::run_cli("--batch jobs.txt --log log.jsonl", "cd '" + d.string() + "' &&"), log)) ==
-          S{"ok", "ok", "ok", "ok"});
+    CHECK(statuses((relief::test::run_cli("--batch jobs.txt --log log.jsonl", "cd '" + d.string() + "' &&"),
+                    log)) == S{"ok", "ok", "ok", "ok"});
 
     // other kernels (RELIEF_KERNEL_DIR) are another implementation: every job is pending
     const fs::path kernels = d / "kernels";
     fs::copy(RELIEF_KERNELS_DIR, kernels);
-    dry = relief::test::run_cli("--batch jobs.txt --update --dry-run", "cd '" + d.string() + "' && RELIEF_KERNEL_DIR='" + kernels.string() + "'");
+    dry = relief::test::run_cli("--batch jobs.txt --update --dry-run",
+                                "cd '" + d.string() + "' && RELIEF_KERNEL_DIR='" + kernels.string() + "'");
     CHECK(dry.err.find("0 pending, 4 skipped") != std::string::npos);  // the same sources
     std::ofstream(kernels / "ddm.cl", std::ios::app) << "\n// changed\n";
-    dry = relief::test::run_cli("--batch jobs.txt --update --dry-run", "cd '" + d.string() + "' && RELIEF_KERNEL_DIR='" + kernels.string() + "'");
+    dry = relief::test::run_cli("--batch jobs.txt --update --dry-run",
+                                "cd '" + d.string() + "' && RELIEF_KERNEL_DIR='" + kernels.string() + "'");
     CHECK(dry.err.find("4 pending, 0 skipped") != std::string::npos);
 
     // a digest belongs to its file: reading an output does not carry it into another

@@ -45,7 +45,6 @@ namespace {
 
 const std::string kNormalMap = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
 
-
 std::vector<double> as_double(const std::vector<float>& v)
 {
     return std::vector<double>(v.begin(), v.end());
@@ -128,7 +127,8 @@ MeshFile read_gltf(const fs::path& p)
         using T = decltype(type_tag);
         const tinygltf::Accessor& a = model.accessors.at(std::size_t(accessor));
         const tinygltf::BufferView& view = model.bufferViews.at(std::size_t(a.bufferView));
-        const auto* data = reinterpret_cast<const T*>(model.buffers.at(0).data.data() + view.byteOffset + a.byteOffset);
+        const auto* data =
+            reinterpret_cast<const T*>(model.buffers.at(0).data.data() + view.byteOffset + a.byteOffset);
         return std::vector<T>(data, data + view.byteLength / sizeof(T));
     };
     MeshFile m;
@@ -196,7 +196,7 @@ MeshCheck check_mesh(const MeshFile& m, const std::vector<float>& h, int w, int 
     return c;
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("normals: the device equals the golden model", "[check]")
 {
@@ -204,7 +204,8 @@ TEST_CASE("normals: the device equals the golden model", "[check]")
     for (auto [w, ht] : {std::pair{37, 23}, std::pair{1, 9}, std::pair{2, 5}, std::pair{64, 64}})
         for (bool periodic : {true, false})
             for (bool directx : {false, true}) {
-                const std::vector<float> h = test::random_field(std::size_t(w) * ht, unsigned(w * 7 + ht), -3.0f, 3.0f);
+                const std::vector<float> h =
+                    test::random_field(std::size_t(w) * ht, unsigned(w * 7 + ht), -3.0f, 3.0f);
                 NormalsOptions o;
                 o.boundary = periodic ? Boundary::Periodic : Boundary::Free;
                 o.convention = directx ? NormalConvention::DirectX : NormalConvention::OpenGL;
@@ -268,7 +269,8 @@ TEST_CASE("normals: refuses NaN heights and directx/opengl only", "[check]")
     CHECK_FALSE(relief::normals(out, test::image(4, 4, 1, std::vector<float>(16, 0.0f)), o));
 }
 
-TEST_CASE("normals: the command line writes (v + 1)/2 in integer files and the decoded height round-trips", "[check][cli]")
+TEST_CASE("normals: the command line writes (v + 1)/2 in integer files and the decoded height round-trips",
+          "[check][cli]")
 {
     const fs::path d = test::scratch("check_normals_cli");
     const auto r = run_cli("'" + kNormalMap + "' --height:normal=opengl -o '" + (d / "h.exr").string() +
@@ -389,9 +391,11 @@ TEST_CASE("round trip: --report's height object matches an independent computati
         const std::string json = test::slurp(d / "r.json");
         REQUIRE(json.find("\"height\": {") != std::string::npos);
         CHECK(json.find("\"correct\"") == std::string::npos);
-        CHECK(json.find(std::string("\"method\": \"") + (periodic ? "rays" : "poisson") + "\"") != std::string::npos);
+        CHECK(json.find(std::string("\"method\": \"") + (periodic ? "rays" : "poisson") + "\"") !=
+              std::string::npos);
         CHECK(json.find("\"normal_convention\": \"directx\"") != std::string::npos);
-        CHECK(json.find(std::string("\"boundary\": \"") + (periodic ? "periodic" : "free") + "\"") != std::string::npos);
+        CHECK(json.find(std::string("\"boundary\": \"") + (periodic ? "periodic" : "free") + "\"") !=
+              std::string::npos);
         const auto h = test::file_pixels(d / "h.exr");
         const auto g = reference::ddm(codes, 3, 2.0, -1.0, +1.0, 85.0, 1.001 / 255.0).slopes;
         const auto want = reference::round_trip(g, as_double(h), 512, 512, periodic);
@@ -408,8 +412,9 @@ TEST_CASE("round trip: --report's height object matches an independent computati
 TEST_CASE("round trip: --report holds height and correct, written only when the job ends", "[check][cli]")
 {
     const fs::path d = test::scratch("check_report_both");
-    auto r = run_cli("'" + kNormalMap + "' --dup --height -o '" + (d / "h.exr").string() +
-                     "' --correct --report '" + (d / "r.json").string() + "' -o '" + (d / "o.exr").string() + "'");
+    auto r =
+        run_cli("'" + kNormalMap + "' --dup --height -o '" + (d / "h.exr").string() +
+                "' --correct --report '" + (d / "r.json").string() + "' -o '" + (d / "o.exr").string() + "'");
     INFO(r.err);
     REQUIRE(r.rc == 0);
     const std::string json = test::slurp(d / "r.json");
@@ -425,18 +430,21 @@ TEST_CASE("round trip: --report holds height and correct, written only when the 
     fs::remove(d / "r.json");
     REQUIRE(write_image(test::image(4, 4, 1, std::vector<float>(16, 1.0f)), (d / "fix.exr").string()));
     r = run_cli("'" + kNormalMap + "' --height --report '" + (d / "r.json").string() + "' -o '" +
-                (d / "h2.exr").string() + "' --correct:fix=" + (d / "fix.exr").string() + " -o '" + (d / "o2.exr").string() + "'");
+                (d / "h2.exr").string() + "' --correct:fix=" + (d / "fix.exr").string() + " -o '" +
+                (d / "o2.exr").string() + "'");
     CHECK(r.rc == 1);
     CHECK_FALSE(fs::exists(d / "r.json"));
 }
 
-TEST_CASE("mesh: within E at every texel centre, no cracks, fewer triangles, on a real map", "[check][mesh][cli]")
+TEST_CASE("mesh: within E at every texel centre, no cracks, fewer triangles, on a real map",
+          "[check][mesh][cli]")
 {
     const fs::path d = test::scratch("check_mesh");
     // --mesh leaves the height on the stack for the next command.
     const auto r = run_cli("'" + kNormalMap + "' --height -o '" + (d / "h.exr").string() +
-                           "' --mesh:patch=32:error=0.5:out='" + (d / "m.obj").string() + "' --mesh:patch=32:error=0.5:out='" +
-                           (d / "m.ply").string() + "' --mesh:patch=32:error=0.5:out='" + (d / "m.glb").string() +
+                           "' --mesh:patch=32:error=0.5:out='" + (d / "m.obj").string() +
+                           "' --mesh:patch=32:error=0.5:out='" + (d / "m.ply").string() +
+                           "' --mesh:patch=32:error=0.5:out='" + (d / "m.glb").string() +
                            "' --mesh:patch=32:error=0.5:out='" + (d / "m.gltf").string() +
                            "' --tessellation:patch=32:error=0.5 -o '" + (d / "levels.exr").string() + "' -v");
     INFO(r.err);
@@ -463,7 +471,8 @@ TEST_CASE("mesh: within E at every texel centre, no cracks, fewer triangles, on 
     // The other formats hold the same mesh (glTF's v from the top).
     for (const char* name : {"m.ply", "m.glb", "m.gltf"}) {
         INFO(name);
-        const MeshFile other = fs::path(name).extension() == ".ply" ? read_ply(d / name) : read_gltf(d / name);
+        const MeshFile other =
+            fs::path(name).extension() == ".ply" ? read_ply(d / name) : read_gltf(d / name);
         REQUIRE(other.f == obj.f);
         CHECK(test::max_abs_diff(other.v, obj.v) < 1e-5);
         std::vector<double> uv = other.uv;
@@ -477,7 +486,8 @@ TEST_CASE("mesh: within E at every texel centre, no cracks, fewer triangles, on 
 TEST_CASE("mesh: stitched sides between a flat half and waves, scale and odd sizes", "[check][mesh]")
 {
     for (auto [w, ht, patch, scale, error] :
-         {std::tuple{200, 130, 32, 1.0f, 0.5f}, std::tuple{97, 61, 16, 3.0f, 0.25f}, std::tuple{64, 64, 7, 1.0f, 0.1f}}) {
+         {std::tuple{200, 130, 32, 1.0f, 0.5f}, std::tuple{97, 61, 16, 3.0f, 0.25f},
+          std::tuple{64, 64, 7, 1.0f, 0.1f}}) {
         std::vector<float> h = test::waves(w, ht, 12.0, unsigned(w));
         for (int y = 0; y < ht; ++y)
             for (int x = 0; x < w / 2; ++x)
@@ -509,12 +519,15 @@ TEST_CASE("mesh: stitched sides between a flat half and waves, scale and odd siz
     }
 }
 
-TEST_CASE("mesh: bad out= values are refused before anything runs, failures leave no file", "[check][mesh][cli][errors]")
+TEST_CASE("mesh: bad out= values are refused before anything runs, failures leave no file",
+          "[check][mesh][cli][errors]")
 {
     const fs::path d = test::scratch("check_mesh_errors");
-    for (const std::string& mods : {std::string("out=") + (d / "m.stl").string(), std::string("out=/nonexistent-folder/m.obj"),
-                                    std::string("patch=32"), std::string("out=") + d.string() + ".obj:patch=0"}) {
-        const auto r = run_cli("'" + kNormalMap + "' --height --mesh:" + mods + " -o '" + (d / "h.exr").string() + "'");
+    for (const std::string& mods :
+         {std::string("out=") + (d / "m.stl").string(), std::string("out=/nonexistent-folder/m.obj"),
+          std::string("patch=32"), std::string("out=") + d.string() + ".obj:patch=0"}) {
+        const auto r =
+            run_cli("'" + kNormalMap + "' --height --mesh:" + mods + " -o '" + (d / "h.exr").string() + "'");
         INFO(mods << ": " << r.err);
         CHECK(r.rc == 2);
         CHECK(r.err.find("relief: error: --mesh") != std::string::npos);
@@ -529,7 +542,8 @@ TEST_CASE("mesh: bad out= values are refused before anything runs, failures leav
     // So does a scale that takes the surface past single precision.
     h[9] = 1e30f;
     REQUIRE(write_image(test::image(8, 8, 1, h), (d / "huge.exr").string()));
-    const auto s = run_cli("'" + (d / "huge.exr").string() + "' --mesh:scale=1e9:out='" + (d / "m.obj").string() + "'");
+    const auto s =
+        run_cli("'" + (d / "huge.exr").string() + "' --mesh:scale=1e9:out='" + (d / "m.obj").string() + "'");
     CHECK(s.rc == 1);
     CHECK(s.err.find("overflows single precision") != std::string::npos);
     for (const auto& e : fs::directory_iterator(d))
@@ -579,13 +593,16 @@ TEST_CASE("tessellation: patch=1 and patches larger than the map", "[check]")
         CHECK(got[0] == want);
 }
 
-TEST_CASE("tessellation: per-patch and per-level launches give the same levels as the golden model", "[check]")
+TEST_CASE("tessellation: per-patch and per-level launches give the same levels as the golden model",
+          "[check]")
 {
     auto ctx = host::ComputeContext::acquire("auto");
     for (auto [w, ht, patch, e] : {std::tuple{200, 150, 8, 0.3f}, std::tuple{131, 77, 40, 0.1f}}) {
         const std::vector<float> h = test::waves(w, ht, 15.0, unsigned(ht));
-        const auto a = host::tessellation_levels(*ctx, h.data(), w, ht, patch, e, 1.0f, host::TessellationLaunch::PerPatch);
-        const auto b = host::tessellation_levels(*ctx, h.data(), w, ht, patch, e, 1.0f, host::TessellationLaunch::PerLevel);
+        const auto a = host::tessellation_levels(*ctx, h.data(), w, ht, patch, e, 1.0f,
+                                                 host::TessellationLaunch::PerPatch);
+        const auto b = host::tessellation_levels(*ctx, h.data(), w, ht, patch, e, 1.0f,
+                                                 host::TessellationLaunch::PerLevel);
         INFO(w << "x" << ht << " patch " << patch);
         CHECK(a == b);
         const auto err = reference::tessellation_errors(as_double(h), w, ht, patch, 1.0);
@@ -608,11 +625,14 @@ TEST_CASE("tessellation: per-patch and per-level launches give the same levels a
     }
 }
 
-TEST_CASE("normals and levels read back from integer files are plain data: writing them again keeps the codes", "[check][io]")
+TEST_CASE(
+    "normals and levels read back from integer files are plain data: writing them again keeps the codes",
+    "[check][io]")
 {
     const fs::path d = test::scratch("check_reencode");
     const OIIO::ImageBuf h = test::image(16, 12, 1, test::waves(16, 12, 3.0, 2));
-    for (const OIIO::ImageBuf& img : {relief::normals(h), relief::tessellation(h, TessellationOptions{4, 0.05f, 1.0f, {}})}) {
+    for (const OIIO::ImageBuf& img :
+         {relief::normals(h), relief::tessellation(h, TessellationOptions{4, 0.05f, 1.0f, {}})}) {
         INFO(img.spec().get_string_attribute("relief:method"));
         WriteOptions w;
         w.format = OIIO::TypeDesc::UINT8;
@@ -644,7 +664,7 @@ double panel_mean(const OIIO::ImageBuf& sheet, int col, int row, int pw, int ph,
     return sum / n;
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("preview: spherical-harmonic irradiance of analytic environments", "[check][preview]")
 {
@@ -653,7 +673,8 @@ TEST_CASE("preview: spherical-harmonic irradiance of analytic environments", "[c
     const float one[3] = {1.0f, 1.0f, 1.0f};
     OIIO::ImageBufAlgo::fill(uniform, one);
     const SphericalHarmonics u = environment_harmonics(uniform);
-    for (const auto& n : {std::array<float, 3>{0, 0, 1}, std::array<float, 3>{1, 0, 0}, std::array<float, 3>{0, -0.6f, 0.8f}}) {
+    for (const auto& n : {std::array<float, 3>{0, 0, 1}, std::array<float, 3>{1, 0, 0},
+                          std::array<float, 3>{0, -0.6f, 0.8f}}) {
         float e[3];
         irradiance(u, n.data(), e);
         CHECK(e[0] == Approx(M_PI).epsilon(0.01));
@@ -688,8 +709,9 @@ TEST_CASE("preview: spherical-harmonic irradiance of analytic environments", "[c
 TEST_CASE("preview: the documented command writes an 8-bit sheet at least 1024 wide", "[check][preview][cli]")
 {
     const fs::path d = test::scratch("check_preview");
-    const auto r = run_cli("'" + kNormalMap + "' --dup --height -o '" + (d / "h.exr").string() + "' --report '" +
-                           (d / "r.json").string() + "' --preview -o '" + (d / "sheet.png").string() + "'");
+    const auto r =
+        run_cli("'" + kNormalMap + "' --dup --height -o '" + (d / "h.exr").string() + "' --report '" +
+                (d / "r.json").string() + "' --preview -o '" + (d / "sheet.png").string() + "'");
     INFO(r.err);
     REQUIRE(r.rc == 0);
     auto in = OIIO::ImageInput::open((d / "sheet.png").string());
@@ -710,7 +732,8 @@ TEST_CASE("preview: any size lays out, from 1x1 to 65536x1, in the CLI, a batch 
     struct Size {
         int w, h;
     };
-    const std::vector<Size> sizes = {{1, 1}, {6, 1}, {100, 16}, {1000, 50}, {4096, 128}, {65536, 1}, {1, 4096}};
+    const std::vector<Size> sizes = {{1, 1},      {6, 1},     {100, 16}, {1000, 50},
+                                     {4096, 128}, {65536, 1}, {1, 4096}};
     std::ofstream manifest(d / "jobs.txt");
     std::vector<std::vector<float>> maps;
     for (const Size& z : sizes) {
@@ -764,7 +787,8 @@ TEST_CASE("preview: any size lays out, from 1x1 to 65536x1, in the CLI, a batch 
     }
 }
 
-TEST_CASE("preview: a height's own normals light as the height does, and the light comes from where it says", "[check][preview]")
+TEST_CASE("preview: a height's own normals light as the height does, and the light comes from where it says",
+          "[check][preview]")
 {
     // A ramp rising to the right (free edges): its normals lean to -x.
     const int w = 64, ht = 48;
@@ -786,7 +810,8 @@ TEST_CASE("preview: a height's own normals light as the height does, and the lig
     const int pw = 344, ph = int(std::lround(48 * 344.0 / 64));
     CHECK(from_left.spec().width == 3 * pw + 4 * 16);
     for (int c = 0; c < 3; ++c)
-        CHECK(std::abs(panel_mean(from_left, 0, 0, pw, ph, c) - panel_mean(from_left, 1, 0, pw, ph, c)) < 2.0 / 255);
+        CHECK(std::abs(panel_mean(from_left, 0, 0, pw, ph, c) - panel_mean(from_left, 1, 0, pw, ph, c)) <
+              2.0 / 255);
     o.azimuth = 0.0f;
     OIIO::ImageBuf from_right = relief::preview(normals, height, o);
     // The same ramp turned to rise down the image faces a light from the
@@ -827,7 +852,8 @@ TEST_CASE("preview: refuses mismatched sizes, bad lights and environments", "[ch
     const OIIO::ImageBuf height = test::image(8, 8, 1, std::vector<float>(64, 0.0f));
     const OIIO::ImageBuf normals = relief::normals(height);
     OIIO::ImageBuf out;
-    CHECK_FALSE(relief::preview(out, relief::normals(test::image(8, 6, 1, std::vector<float>(48, 0.0f))), height));
+    CHECK_FALSE(
+        relief::preview(out, relief::normals(test::image(8, 6, 1, std::vector<float>(48, 0.0f))), height));
     CHECK_THAT(geterror(), Catch::Contains("the normal map is 8x6, the height 8x8"));
     PreviewOptions o;
     o.elevation = 0.0f;
@@ -843,24 +869,28 @@ TEST_CASE("preview: refuses mismatched sizes, bad lights and environments", "[ch
     const std::string in = (d / "n.exr").string(), hf = (d / "h.exr").string();
     REQUIRE(write_image(normals, in));
     REQUIRE(write_image(height, hf));
-    for (const std::string& mods : {std::string("light=90"), std::string("light=90,0"), std::string("light=400,30"),
-                                    std::string("env=") + (d / "missing.exr").string()}) {
-        const auto r = run_cli("'" + in + "' '" + hf + "' --preview:" + mods + " -o '" + (d / "s.png").string() + "'");
+    for (const std::string& mods :
+         {std::string("light=90"), std::string("light=90,0"), std::string("light=400,30"),
+          std::string("env=") + (d / "missing.exr").string()}) {
+        const auto r =
+            run_cli("'" + in + "' '" + hf + "' --preview:" + mods + " -o '" + (d / "s.png").string() + "'");
         INFO(mods << ": " << r.err);
         CHECK(r.rc == 2);
         CHECK_FALSE(fs::exists(d / "s.png"));
     }
 }
 
-TEST_CASE("mesh and tessellation outputs: --update skips an unchanged mesh, integer files hold the level", "[check][mesh][cli]")
+TEST_CASE("mesh and tessellation outputs: --update skips an unchanged mesh, integer files hold the level",
+          "[check][mesh][cli]")
 {
     const fs::path d = test::scratch("check_mesh_update");
     const std::string h = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
     const std::string log = (d / "log.jsonl").string();
     auto run = [&](const std::string& error) {
         fs::remove(log);  // --log appends: each run's line alone
-        return run_cli("--update --log '" + log + "' '" + h + "' --mesh:error=" + error + ":out='" + (d / "m.ply").string() +
-                       "' --tessellation:error=" + error + " -d uint8 -o '" + (d / "levels.png").string() + "'");
+        return run_cli("--update --log '" + log + "' '" + h + "' --mesh:error=" + error + ":out='" +
+                       (d / "m.ply").string() + "' --tessellation:error=" + error + " -d uint8 -o '" +
+                       (d / "levels.png").string() + "'");
     };
     REQUIRE(run("0.02").rc == 0);
     CHECK(test::slurp(log).find("\"status\": \"ok\"") != std::string::npos);

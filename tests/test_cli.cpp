@@ -15,8 +15,8 @@
 #include "support/run_cli.h"
 
 namespace fs = std::filesystem;
-using relief::test::run_cli;
 using relief::test::max_abs_diff;
+using relief::test::run_cli;
 using relief::test::slurp;
 
 namespace {
@@ -40,14 +40,16 @@ bool folder_is_empty_but(const fs::path& dir, const std::string& keep = "")
     return true;
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("cli: the documented example writes a float EXR height map with metadata", "[cli]")
 {
     auto dir = scratch("example");
     auto out = dir / "height.exr";
-    auto r = run_cli("'" + kNormal + "' --height:method=rays:impl=reference:normal=directx:rays=16:"
-                     "radius=32:phase=0.5:boundary=clip -o '" + out.string() + "'");
+    auto r = run_cli("'" + kNormal +
+                     "' --height:method=rays:impl=reference:normal=directx:rays=16:"
+                     "radius=32:phase=0.5:boundary=clip -o '" +
+                     out.string() + "'");
     INFO(r.err);
     REQUIRE(r.rc == 0);
     OIIO::ImageBuf h(out.string());
@@ -76,8 +78,7 @@ TEST_CASE("cli: -v reports device and convention, integer outputs state their sc
     CHECK(r.err.find("normal convention: directx") != std::string::npos);
     CHECK(r.err.find("uint16 values v hold data = (v - 0.5) *") != std::string::npos);
 
-    OIIO::ImageBuf f((dir / "h.exr").string()), q((dir / "h8.png").string()),
-        tif((dir / "h8.tif").string());
+    OIIO::ImageBuf f((dir / "h.exr").string()), q((dir / "h8.png").string()), tif((dir / "h8.tif").string());
     REQUIRE(tif.read());
     CHECK(tif.spec().get_string_attribute("ImageDescription").find("relief: data = (value - 0.5) *") == 0);
     REQUIRE(f.read());
@@ -177,14 +178,17 @@ TEST_CASE("cli: bad input fails with a clear message, a non-zero exit and no out
         {"mask size mismatch", ok + " --height:mask=" + in("gray.png") + " -o " + out, "",
          "the mask is 16x16"},
         {"alpha mask without alpha", ok + " --height:mask=alpha -o " + out, "", "4 channels"},
-        {"mask with rays", ok + " --height:rays=8:mask=alpha -o " + out, "", "a mask applies to method=poisson, not to rays"},
+        {"mask with rays", ok + " --height:rays=8:mask=alpha -o " + out, "",
+         "a mask applies to method=poisson, not to rays"},
         {"bad type", ok + " --height -d int7 -o " + out, "", "int7"},
         {"missing output folder", ok + " --height -o '" + (dir / "nowhere" / "h.exr").string() + "'", "",
          "does not exist"},
         {"unknown output format", ok + " --height -o '" + (dir / "h.xyz").string() + "'", "",
          "unknown image format"},
-        {"output is a folder", ok + " --height -o '" + (dir / "kernels").string() + "'", "", "it is a folder"},
-        {"input is a folder", "'" + (dir / "no_vendors").string() + "' --height -o " + out, "", "it is a folder"},
+        {"output is a folder", ok + " --height -o '" + (dir / "kernels").string() + "'", "",
+         "it is a folder"},
+        {"input is a folder", "'" + (dir / "no_vendors").string() + "' --height -o " + out, "",
+         "it is a folder"},
         {"empty stack", "--height -o " + out, "", "needs 1 image"},
         {"-o without a value", ok + " --height -o", "", "needs a value"},
         {"no OpenCL device", ok + " --height -o " + out,
@@ -284,7 +288,7 @@ std::vector<float> cli_result(const fs::path& dir, const std::string& args)
     return relief::test::file_pixels(out);
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("cli: results equal the API's for the same modifiers and files", "[cli][options]")
 {
@@ -298,7 +302,8 @@ TEST_CASE("cli: results equal the API's for the same modifiers and files", "[cli
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
             const std::size_t i = std::size_t(y) * w + x;
-            const double gx = 0.8 * std::sin(0.3 * x) + 0.2 * std::cos(0.7 * y), gy = 0.5 * std::cos(0.21 * x * y / 9.0);
+            const double gx = 0.8 * std::sin(0.3 * x) + 0.2 * std::cos(0.7 * y),
+                         gy = 0.5 * std::cos(0.21 * x * y / 9.0);
             const double len = std::sqrt(gx * gx + gy * gy + 1.0);
             rgba[4 * i] = float(0.5 - 0.5 * gx / len);
             rgba[4 * i + 1] = float(0.5 + 0.5 * gy / len);
@@ -308,8 +313,8 @@ TEST_CASE("cli: results equal the API's for the same modifiers and files", "[cli
             mask[3 * i + 1] = 1.0f - mask[3 * i];
             mask[3 * i + 2] = 0.0f;
         }
-    const fs::path normals = dir / "n_unsigned.exr", normals_png = dir / "n.png", mask_file = dir / "mask.tif",
-                   heights = dir / "h.exr";
+    const fs::path normals = dir / "n_unsigned.exr", normals_png = dir / "n.png",
+                   mask_file = dir / "mask.tif", heights = dir / "h.exr";
     REQUIRE(relief::test::image(w, h, 4, rgba).write(normals.string()));
     OIIO::ImageBuf png = relief::test::image(w, h, 4, rgba, OIIO::TypeDesc::UINT8);
     png.specmod().attribute("oiio:UnassociatedAlpha", 1);
@@ -333,8 +338,9 @@ TEST_CASE("cli: results equal the API's for the same modifiers and files", "[cli
     const OIIO::ImageBuf api_rays = relief::height(read(normals.string()), ho);
     INFO(relief::geterror());
     REQUIRE_FALSE(api_rays.has_error());
-    CHECK(max_abs_diff(cli_result(dir, in(normals) + "--height:range=unsigned:max_angle=40:normal=directx:rays=8:"
-                                                     "radius=10:phase=0.25:boundary=clip"),
+    CHECK(max_abs_diff(cli_result(dir, in(normals) +
+                                           "--height:range=unsigned:max_angle=40:normal=directx:rays=8:"
+                                           "radius=10:phase=0.25:boundary=clip"),
                        relief::test::pixels(api_rays)) == 0.0);
 
     HeightOptions mo;
@@ -342,19 +348,19 @@ TEST_CASE("cli: results equal the API's for the same modifiers and files", "[cli
     mo.boundary = Boundary::Free;
     mo.mask_alpha = true;
     const auto by_alpha = relief::test::pixels(relief::height(read(normals_png.string()), mo));
-    CHECK(max_abs_diff(cli_result(dir, in(normals_png) + "--height:normal=opengl:boundary=free:mask=alpha"), by_alpha) ==
-          0.0);
+    CHECK(max_abs_diff(cli_result(dir, in(normals_png) + "--height:normal=opengl:boundary=free:mask=alpha"),
+                       by_alpha) == 0.0);
     const OIIO::ImageBuf mask_image = read(mask_file.string());
     mo.mask_alpha = false;
     mo.mask = &mask_image;
     const auto by_file = relief::test::pixels(relief::height(read(normals_png.string()), mo));
-    CHECK(max_abs_diff(cli_result(dir, in(normals_png) + "--height:normal=opengl:boundary=free:mask=" +
-                                           mask_file.string()),
+    CHECK(max_abs_diff(cli_result(dir, in(normals_png) +
+                                           "--height:normal=opengl:boundary=free:mask=" + mask_file.string()),
                        by_file) == 0.0);
     CHECK(max_abs_diff(by_alpha, by_file) == 0.0);  // the same 8-bit weights
     mo.mask = nullptr;
-    CHECK(relief::test::max_abs_diff(relief::test::pixels(relief::height(read(normals_png.string()), mo)), by_file) >
-          1e-3);
+    CHECK(relief::test::max_abs_diff(relief::test::pixels(relief::height(read(normals_png.string()), mo)),
+                                     by_file) > 1e-3);
 
     // Correction with a fixation mask file and with a height tent.
     std::vector<float> hts(std::size_t(w) * h);
@@ -367,8 +373,9 @@ TEST_CASE("cli: results equal the API's for the same modifiers and files", "[cli
     co.nodes = CorrectNodes::Center;
     co.fix_mask = &mask_image;
     const auto fixed_by_file = relief::test::pixels(relief::correct(read(heights.string()), co));
-    CHECK(max_abs_diff(cli_result(dir, in(heights) + "--correct:scale=0.1:nodes=center:fix=" + mask_file.string()),
-                       fixed_by_file) == 0.0);
+    CHECK(max_abs_diff(
+              cli_result(dir, in(heights) + "--correct:scale=0.1:nodes=center:fix=" + mask_file.string()),
+              fixed_by_file) == 0.0);
     co.fix_mask = nullptr;
     co.fix_height = 0.5f;
     co.fix_width = 0.25f;
@@ -407,8 +414,7 @@ TEST_CASE("cli: a mask file weights the least-squares solve", "[cli][mask]")
     CHECK(relief::test::max_abs_diff(api, relief::test::pixels(relief::height(read(kNormal)))) > 1e-2);
 }
 
-TEST_CASE("cli: a damaged file gives one line of relief's own, library noise only under -v",
-          "[cli][errors]")
+TEST_CASE("cli: a damaged file gives one line of relief's own, library noise only under -v", "[cli][errors]")
 {
     auto dir = scratch("damaged");
     const std::string png = slurp(kNormal);

@@ -29,7 +29,7 @@ Step step_of(const std::string& command)
     return p.steps[2];
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("parse: the API's defaults are the documented ones", "[cli][parse]")
 {
@@ -150,8 +150,8 @@ TEST_CASE("parse: every --height modifier lands in its field", "[cli][parse]")
     CHECK(h("method=rays").method == HeightMethod::Rays);
     CHECK(h("method=auto").method == HeightMethod::Auto);
     // A ray modifier makes auto mean rays.
-    for (const char* ray_mod : {"rays=8", "radius=9", "phase=0.1", "impl=fast", "skip=on",
-                                "directions=rational"}) {
+    for (const char* ray_mod :
+         {"rays=8", "radius=9", "phase=0.1", "impl=fast", "skip=on", "directions=rational"}) {
         INFO(ray_mod);
         CHECK(h(ray_mod).method == HeightMethod::Rays);
     }
@@ -176,7 +176,8 @@ TEST_CASE("parse: every --height modifier lands in its field", "[cli][parse]")
     const Step file_mask = step_of("--height:mask=" + kHeight);
     CHECK(file_mask.mask_file == kHeight);
     CHECK_FALSE(file_mask.height.mask_alpha);
-    const HeightOptions many = h("rays=5:radius=7:phase=0.75:boundary=clip:impl=reference:directions=exact:skip=off");
+    const HeightOptions many =
+        h("rays=5:radius=7:phase=0.75:boundary=clip:impl=reference:directions=exact:skip=off");
     CHECK(many.method == HeightMethod::Rays);
     CHECK(many.rays == 5);
     CHECK(many.radius == 7.0f);
@@ -247,10 +248,11 @@ TEST_CASE("parse: every --bake modifier lands in its field", "[cli][parse]")
 
 TEST_CASE("parse: options apply to the steps that follow, the stack is tracked", "[cli][parse]")
 {
-    const Program p = parse_command_line({"-v", "--device", "cpu", kIn, "--height", "-o", "a.exr", "-d",
-                                          "uint16", "--compression", "zip", "-o", "b.png", "-d", "half",
-                                          "-o", "c.exr", "--report", "r.json", kHeight, "--correct:scale=1",
-                                          "-o", "d.exr"});
+    const Program p = parse_command_line(
+        {"-v",   "--device", "cpu",           kIn,        "--height", "-o",    "a.exr",
+         "-d",   "uint16",   "--compression", "zip",      "-o",       "b.png", "-d",
+         "half", "-o",       "c.exr",         "--report", "r.json",   kHeight, "--correct:scale=1",
+         "-o",   "d.exr"});
     CHECK(p.verbose);
     CHECK(p.device == "cpu");
     CHECK(p.report == "r.json");
@@ -283,7 +285,8 @@ TEST_CASE("parse: options apply to the steps that follow, the stack is tracked",
     CHECK(parse_command_line({"--help"}).help);
     CHECK_FALSE(parse_command_line({"--help"}).help_markdown);
     CHECK(parse_command_line({"--help:format=markdown"}).help_markdown);
-    CHECK_THROWS_WITH(parse_command_line({"--help:format=html"}), Catch::Contains("--help takes :format=markdown"));
+    CHECK_THROWS_WITH(parse_command_line({"--help:format=html"}),
+                      Catch::Contains("--help takes :format=markdown"));
     CHECK(parse_command_line({"--version"}).version);
     CHECK(parse_command_line({"--list-devices"}).list_devices);
     CHECK_FALSE(parse_command_line({kIn}).verbose);
@@ -340,8 +343,11 @@ TEST_CASE("parse: nonsense is a usage error naming the argument", "[cli][parse][
         {{kIn, kIn, "--bake:wrap=mirror"}, "wrap=mirror"},
         {{kIn, "-d", "int16", "-o", "x.exr"}, "int16"},
         {{kIn, "--compression", "", "-o", "x.exr"}, "needs a name"},
-        {{kIn, "--report", "r.json", "--slopes"}, "--report needs one --height or --correct, at most one of each; there are 0 --height and 0 --correct"},
-        {{kIn, "--dup", "--height", "--report", "r.json", "--dup", "--height"}, "there are 2 --height and 0 --correct"},
+        {{kIn, "--report", "r.json", "--slopes"},
+         "--report needs one --height or --correct, at most one of each; there are 0 --height and 0 "
+         "--correct"},
+        {{kIn, "--dup", "--height", "--report", "r.json", "--dup", "--height"},
+         "there are 2 --height and 0 --correct"},
         {{"--dup", kIn}, "--dup needs 1 image(s) on the stack, has 0"},
         {{"-o", "x.exr"}, "needs 1 image(s)"},
         {{kIn, "--device"}, "needs a value"},

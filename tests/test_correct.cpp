@@ -24,8 +24,8 @@ using relief::test::waves;
 namespace {
 
 // The golden model's grid for centre nodes (heights in texels).
-ref::CorrectionGrid centre_grid(const std::vector<float>& h, int w, int ht, double scale,
-                                bool periodic, double theta = 5.0)
+ref::CorrectionGrid centre_grid(const std::vector<float>& h, int w, int ht, double scale, bool periodic,
+                                double theta = 5.0)
 {
     ref::CorrectionGrid g;
     g.nx = w;
@@ -66,7 +66,7 @@ std::vector<float> run(const std::vector<float>& h, int w, int ht, const host::C
     return out;
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("correct: closed-form triangle energy equals the SVD's", "[correct]")
 {
@@ -79,8 +79,8 @@ TEST_CASE("correct: closed-form triangle energy equals the SVD's", "[correct]")
             f2{0.2 * u(rng), -1.0 + 0.2 * u(rng), 3.0 * u(rng)};
         for (double theta : {0.0, 1.0, 5.0, 7.5}) {
             const auto sv = ref::triangle_singular_values(e1, e2, f1, f2);
-            const double expect = (sv[0] / sv[1] + sv[1] / sv[0]) *
-                                  std::pow(sv[0] * sv[1] + 1.0 / (sv[0] * sv[1]), theta);
+            const double expect =
+                (sv[0] / sv[1] + sv[1] / sv[0]) * std::pow(sv[0] * sv[1] + 1.0 / (sv[0] * sv[1]), theta);
             const double got = ref::triangle_energy(e1, e2, f1, f2, theta);
             REQUIRE(std::isfinite(got));
             REQUIRE(std::abs(got - expect) <= 1e-10 * expect);
@@ -117,9 +117,11 @@ TEST_CASE("correct: analytic fan gradient equals finite differences", "[correct]
                         auto cp = c, cm = c;
                         cp[2 * (j * w + i) + d] += step;
                         cm[2 * (j * w + i) + d] -= step;
-                        const double fd = (ref::fan_energy(g, cp, i, j) - ref::fan_energy(g, cm, i, j)) / (2 * step);
+                        const double fd =
+                            (ref::fan_energy(g, cp, i, j) - ref::fan_energy(g, cm, i, j)) / (2 * step);
                         // The whole energy changes only through p's fan.
-                        const double fd_total = (ref::total_energy(g, cp) - ref::total_energy(g, cm)) / (2 * step);
+                        const double fd_total =
+                            (ref::total_energy(g, cp) - ref::total_energy(g, cm)) / (2 * step);
                         worst = std::max(worst, std::abs(grad[d] - fd) / (1.0 + std::abs(fd)));
                         REQUIRE(std::abs(fd_total - fd) <= 1e-5 * (1.0 + std::abs(fd)));
                     }
@@ -176,7 +178,8 @@ struct Search {
 const Search kSearches[] = {
     {host::CorrectParams::Search::Brent, ref::CorrectionGrid::Search::Brent, 1.5, "brent, relax 1.5", 1e-2},
     {host::CorrectParams::Search::Brent, ref::CorrectionGrid::Search::Brent, 1.0, "brent", 1e-2},
-    {host::CorrectParams::Search::Golden, ref::CorrectionGrid::Search::Golden, 1.5, "golden, relax 1.5", 2e-2},
+    {host::CorrectParams::Search::Golden, ref::CorrectionGrid::Search::Golden, 1.5, "golden, relax 1.5",
+     2e-2},
     {host::CorrectParams::Search::Ternary, ref::CorrectionGrid::Search::Ternary, 1.0, "ternary", 2e-3}};
 
 // A bump in a flat sea (160 x 128): at a single resolution, tiles far from
@@ -199,40 +202,39 @@ host::CorrectParams with_search(host::CorrectParams p, const Search& s)
     return p;
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("correct: one device iteration equals the golden model's", "[correct]")
 {
     // Odd periodic sizes exercise the extra phase class of the last node.
     for (const Search& search : kSearches)
-    for (auto [w, h, periodic] : {std::tuple{24, 16, true}, std::tuple{23, 17, true},
-                                  std::tuple{20, 19, false}}) {
-        const auto hts = waves(w, h, 1.0, 9);
-        const double scale = 0.3;
-        ref::CorrectionGrid g = centre_grid(hts, w, h, scale, periodic);
-        g.search = search.golden_model;
-        g.relax = search.relax;
-        std::vector<double> c(2 * std::size_t(w) * h, 0.0);
-        ref::iterate(g, c);
-        const auto out = run(hts, w, h, one_iteration(with_search(params(scale, periodic), search)));
-        double worst = 0.0, largest = 0.0;
-        std::vector<double> dev(c.size());
-        for (std::size_t k = 0; k < c.size(); ++k) {
-            dev[k] = double(out[k]) * (k % 2 ? h : w);
-            worst = std::max(worst, std::abs(dev[k] - c[k]));
-            largest = std::max(largest, std::abs(c[k]));
+        for (auto [w, h, periodic] :
+             {std::tuple{24, 16, true}, std::tuple{23, 17, true}, std::tuple{20, 19, false}}) {
+            const auto hts = waves(w, h, 1.0, 9);
+            const double scale = 0.3;
+            ref::CorrectionGrid g = centre_grid(hts, w, h, scale, periodic);
+            g.search = search.golden_model;
+            g.relax = search.relax;
+            std::vector<double> c(2 * std::size_t(w) * h, 0.0);
+            ref::iterate(g, c);
+            const auto out = run(hts, w, h, one_iteration(with_search(params(scale, periodic), search)));
+            double worst = 0.0, largest = 0.0;
+            std::vector<double> dev(c.size());
+            for (std::size_t k = 0; k < c.size(); ++k) {
+                dev[k] = double(out[k]) * (k % 2 ? h : w);
+                worst = std::max(worst, std::abs(dev[k] - c[k]));
+                largest = std::max(largest, std::abs(c[k]));
+            }
+            INFO(search.name << ", " << w << "x" << h << " periodic " << periodic << ": max |offset| "
+                             << largest << " texels, max |device - golden| " << worst);
+            CHECK(largest > 1e-2);
+            CHECK(worst <= search.agreement * largest);
+            const double e_dev = ref::total_energy(g, dev), e_gold = ref::total_energy(g, c);
+            // Golden and ternary steps compare two energies: a device whose
+            // built-ins (pow, sqrt) round otherwise may take the other side
+            // (Rusticl's llvmpipe: 3e-5 of the energy at 20x19).
+            CHECK(std::abs(e_dev - e_gold) <= 1e-4 * e_gold);
         }
-        INFO(search.name << ", " << w << "x" << h << " periodic " << periodic << ": max |offset| "
-                         << largest
-                << " texels, max |device - golden| " << worst);
-        CHECK(largest > 1e-2);
-        CHECK(worst <= search.agreement * largest);
-        const double e_dev = ref::total_energy(g, dev), e_gold = ref::total_energy(g, c);
-        // Golden and ternary steps compare two energies: a device whose
-        // built-ins (pow, sqrt) round otherwise may take the other side
-        // (Rusticl's llvmpipe: 3e-5 of the energy at 20x19).
-        CHECK(std::abs(e_dev - e_gold) <= 1e-4 * e_gold);
-    }
 }
 
 TEST_CASE("correct: corner nodes, one device iteration equals the golden model's", "[correct]")
@@ -242,47 +244,48 @@ TEST_CASE("correct: corner nodes, one device iteration equals the golden model's
     // heights (wrapping when periodic, clamped at a fixed border: W+1 x H+1
     // nodes); the offset of a texel is the mean of its four corners'.
     for (const Search& search : kSearches)
-    for (auto [w, h, periodic] : {std::tuple{24, 16, true}, std::tuple{23, 17, true},
-                                  std::tuple{20, 19, false}, std::tuple{17, 22, false}}) {
-        const auto hts = waves(w, h, 1.0, 10);
-        const double scale = 0.3;
-        const int nx = periodic ? w : w + 1, ny = periodic ? h : h + 1;
-        auto texel = [&](int x, int y) {
-            x = periodic ? (x + w) % w : std::clamp(x, 0, w - 1);
-            y = periodic ? (y + h) % h : std::clamp(y, 0, h - 1);
-            return double(hts[std::size_t(y) * w + x]);
-        };
-        ref::CorrectionGrid g;
-        g.nx = nx;
-        g.ny = ny;
-        g.periodic = periodic;
-        g.theta = 5.0;
-        g.search = search.golden_model;
-        g.relax = search.relax;
-        for (int j = 0; j < ny; ++j)
-            for (int i = 0; i < nx; ++i)
-                g.z.push_back(0.25 * (texel(i - 1, j - 1) + texel(i, j - 1) + texel(i - 1, j) + texel(i, j)) *
-                              scale * w);
-        std::vector<double> c(2 * std::size_t(nx) * ny, 0.0);
-        ref::iterate(g, c);
-        auto node = [&](int i, int j, int ch) { return c[2 * (std::size_t(j % ny) * nx + i % nx) + ch]; };
-        const auto out = run(hts, w, h, one_iteration(with_search(params(scale, periodic, true), search)));
-        double worst = 0.0, largest = 0.0;
-        for (int y = 0; y < h; ++y)
-            for (int x = 0; x < w; ++x)
-                for (int ch = 0; ch < 2; ++ch) {
-                    const double gold = 0.25 * (node(x, y, ch) + node(x + 1, y, ch) + node(x, y + 1, ch) +
-                                                node(x + 1, y + 1, ch));
-                    const double dev = double(out[2 * (std::size_t(y) * w + x) + ch]) * (ch ? h : w);
-                    worst = std::max(worst, std::abs(dev - gold));
-                    largest = std::max(largest, std::abs(gold));
-                }
-        INFO(search.name << ", " << w << "x" << h << " periodic " << periodic
-                         << ": max |texel offset| " << largest
-                << " texels, max |device - golden| " << worst);
-        CHECK(largest > 1e-2);
-        CHECK(worst <= search.agreement * largest);
-    }
+        for (auto [w, h, periodic] : {std::tuple{24, 16, true}, std::tuple{23, 17, true},
+                                      std::tuple{20, 19, false}, std::tuple{17, 22, false}}) {
+            const auto hts = waves(w, h, 1.0, 10);
+            const double scale = 0.3;
+            const int nx = periodic ? w : w + 1, ny = periodic ? h : h + 1;
+            auto texel = [&](int x, int y) {
+                x = periodic ? (x + w) % w : std::clamp(x, 0, w - 1);
+                y = periodic ? (y + h) % h : std::clamp(y, 0, h - 1);
+                return double(hts[std::size_t(y) * w + x]);
+            };
+            ref::CorrectionGrid g;
+            g.nx = nx;
+            g.ny = ny;
+            g.periodic = periodic;
+            g.theta = 5.0;
+            g.search = search.golden_model;
+            g.relax = search.relax;
+            for (int j = 0; j < ny; ++j)
+                for (int i = 0; i < nx; ++i)
+                    g.z.push_back(0.25 *
+                                  (texel(i - 1, j - 1) + texel(i, j - 1) + texel(i - 1, j) + texel(i, j)) *
+                                  scale * w);
+            std::vector<double> c(2 * std::size_t(nx) * ny, 0.0);
+            ref::iterate(g, c);
+            auto node = [&](int i, int j, int ch) { return c[2 * (std::size_t(j % ny) * nx + i % nx) + ch]; };
+            const auto out =
+                run(hts, w, h, one_iteration(with_search(params(scale, periodic, true), search)));
+            double worst = 0.0, largest = 0.0;
+            for (int y = 0; y < h; ++y)
+                for (int x = 0; x < w; ++x)
+                    for (int ch = 0; ch < 2; ++ch) {
+                        const double gold = 0.25 * (node(x, y, ch) + node(x + 1, y, ch) + node(x, y + 1, ch) +
+                                                    node(x + 1, y + 1, ch));
+                        const double dev = double(out[2 * (std::size_t(y) * w + x) + ch]) * (ch ? h : w);
+                        worst = std::max(worst, std::abs(dev - gold));
+                        largest = std::max(largest, std::abs(gold));
+                    }
+            INFO(search.name << ", " << w << "x" << h << " periodic " << periodic << ": max |texel offset| "
+                             << largest << " texels, max |device - golden| " << worst);
+            CHECK(largest > 1e-2);
+            CHECK(worst <= search.agreement * largest);
+        }
 }
 
 TEST_CASE("correct: the energy never rises, iteration after iteration", "[correct]")
@@ -291,28 +294,29 @@ TEST_CASE("correct: the energy never rises, iteration after iteration", "[correc
     const auto hts = waves(w, h, 1.0, 4);
     auto ctx = host::ComputeContext::acquire("auto");
     for (const Search& search : kSearches)
-    for (bool corner : {false, true})
-        for (bool periodic : {true, false}) {
-            double previous = INFINITY, first = 0.0;
-            for (int it = 0; it <= 6; ++it) {
-                auto p = with_search(params(0.4, periodic, corner), search);
-                p.levels = 1;
-                p.iterations = std::max(it, 1);
-                p.threshold = 0.0;
-                host::CorrectReport rep;
-                run(hts, w, h, p, &rep);
-                const double e = it == 0 ? rep.energy_before : rep.energy_after;
-                INFO(search.name << ", corner " << corner << " periodic " << periodic << " iteration " << it);
-                REQUIRE(std::isfinite(e));
-                CHECK(e <= previous * (1.0 + 1e-7));
-                if (it == 0)
-                    first = e;
-                previous = e;
+        for (bool corner : {false, true})
+            for (bool periodic : {true, false}) {
+                double previous = INFINITY, first = 0.0;
+                for (int it = 0; it <= 6; ++it) {
+                    auto p = with_search(params(0.4, periodic, corner), search);
+                    p.levels = 1;
+                    p.iterations = std::max(it, 1);
+                    p.threshold = 0.0;
+                    host::CorrectReport rep;
+                    run(hts, w, h, p, &rep);
+                    const double e = it == 0 ? rep.energy_before : rep.energy_after;
+                    INFO(search.name << ", corner " << corner << " periodic " << periodic << " iteration "
+                                     << it);
+                    REQUIRE(std::isfinite(e));
+                    CHECK(e <= previous * (1.0 + 1e-7));
+                    if (it == 0)
+                        first = e;
+                    previous = e;
+                }
+                // ... and it does fall: something moved.
+                INFO("corner " << corner << " periodic " << periodic << ": " << first << " -> " << previous);
+                CHECK(previous < first * (1.0 - 1e-3));
             }
-            // ... and it does fall: something moved.
-            INFO("corner " << corner << " periodic " << periodic << ": " << first << " -> " << previous);
-            CHECK(previous < first * (1.0 - 1e-3));
-        }
 }
 
 TEST_CASE("correct: convergence from the nodes' energy falls decides as the energy does", "[correct]")
@@ -524,7 +528,9 @@ TEST_CASE("correct: the distortion statistics are the triangles' singular values
     const int w = 9, h = 8;
     const double scale = 0.3;
     const auto hts = waves(w, h, 1.0, 14);
-    auto z = [&](int i, int j) { return double(hts[std::size_t((j + h) % h) * w + (i + w) % w]) * scale * w; };
+    auto z = [&](int i, int j) {
+        return double(hts[std::size_t((j + h) % h) * w + (i + w) % w]) * scale * w;
+    };
     std::vector<double> aniso, area;
     for (int j = 0; j < h; ++j)
         for (int i = 0; i < w; ++i)
@@ -571,8 +577,8 @@ TEST_CASE("correct: every pyramid level measures heights in its own texels", "[c
     const auto& coarsest = rep.levels.front();
     REQUIRE(coarsest.width == 16);
     const auto small = host::area_downsample(hts, w, h, 16, 16);
-    const double gold = ref::total_energy(centre_grid(small, 16, 16, 0.3, true),
-                                          std::vector<double>(2 * 16 * 16, 0.0));
+    const double gold =
+        ref::total_energy(centre_grid(small, 16, 16, 0.3, true), std::vector<double>(2 * 16 * 16, 0.0));
     CHECK(coarsest.energy_start == Approx(gold).epsilon(1e-5));
     CHECK(rep.energy_before == Approx(ref::total_energy(centre_grid(hts, w, h, 0.3, true),
                                                         std::vector<double>(2 * std::size_t(w) * h, 0.0)))
@@ -707,8 +713,7 @@ TEST_CASE("correct: progress moves steadily and ends at 1", "[correct]")
     CHECK(seen[seen.size() - 2] < 1.0);
 }
 
-TEST_CASE("correct: statistics larger than one device buffer come in chunks, same bits",
-          "[correct]")
+TEST_CASE("correct: statistics larger than one device buffer come in chunks, same bits", "[correct]")
 {
     // 16 bytes of statistics per node passed the 4 GiB allocation limit of
     // PoCL at 16384^2. A cap between the offsets' 8 and the statistics' 16

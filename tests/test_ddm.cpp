@@ -11,8 +11,8 @@
 #include "support/images.h"
 
 using namespace relief;
-using relief::test::Green;
 using OIIO::TypeDesc;
+using relief::test::Green;
 
 namespace {
 
@@ -41,7 +41,7 @@ double max_diff(const std::vector<float>& a, const std::vector<double>& b)
     return m;
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("slopes of an analytic field are exact for float normals, both conventions", "[ddm]")
 {
@@ -81,8 +81,8 @@ TEST_CASE("every encoding decodes like the reference and within its quantisation
     };
     for (const Case& c : cases) {
         INFO(c.name);
-        auto img = test::normal_image(g, kField.width, kField.height, Green::OpenGL, c.type,
-                                      c.channels, c.unsigned_float);
+        auto img = test::normal_image(g, kField.width, kField.height, Green::OpenGL, c.type, c.channels,
+                                      c.unsigned_float);
         SlopeOptions o = with(NormalConvention::OpenGL);
         if (c.unsigned_float)
             o.normals.float_encoding = FloatEncoding::Unsigned;
@@ -96,16 +96,17 @@ TEST_CASE("every encoding decodes like the reference and within its quantisation
         OIIO::ROI roi = img.roi();
         roi.chend = used;
         img.get_pixels(roi, TypeDesc::FLOAT, stored.data());
-        const bool decode = c.type.basetype == TypeDesc::UINT8 ||
-                            c.type.basetype == TypeDesc::UINT16 || c.unsigned_float;
+        const bool decode =
+            c.type.basetype == TypeDesc::UINT8 || c.type.basetype == TypeDesc::UINT16 || c.unsigned_float;
         const double band = c.type.basetype == TypeDesc::UINT8    ? 1.0 / 255.0
                             : c.type.basetype == TypeDesc::UINT16 ? 1.0 / 65535.0
                                                                   : 0.0;
-        auto ref = reference::ddm(stored, used, decode ? 2.0 : 1.0, decode ? -1.0 : 0.0, -1.0, 85.0,
-                                  band * 1.001);
+        auto ref =
+            reference::ddm(stored, used, decode ? 2.0 : 1.0, decode ? -1.0 : 0.0, -1.0, 85.0, band * 1.001);
         double worst_rel = 0;
         for (std::size_t i = 0; i < got.size(); ++i)
-            worst_rel = std::max(worst_rel, std::abs(got[i] - ref.slopes[i]) / (1.0 + std::abs(ref.slopes[i])));
+            worst_rel =
+                std::max(worst_rel, std::abs(got[i] - ref.slopes[i]) / (1.0 + std::abs(ref.slopes[i])));
         CHECK(worst_rel < 1e-5);
         CHECK(max_diff(got, g) < c.analytic_tolerance);
     }
@@ -138,9 +139,9 @@ TEST_CASE("auto finds the convention of a flipped map and reports both curl norm
         CHECK(max_diff(pixels(out), g) < 0.15);
 
         // The kernel's curl norm agrees with the reference's.
-        auto ref_curl = reference::curl_rms(
-            reference::ddm(pixels(img), 3, 2.0, -1.0, -1.0, 85.0, 1.001 / 255.0).slopes, kField.width,
-            kField.height);
+        auto ref_curl =
+            reference::curl_rms(reference::ddm(pixels(img), 3, 2.0, -1.0, -1.0, 85.0, 1.001 / 255.0).slopes,
+                                kField.width, kField.height);
         CHECK(gl == Approx(ref_curl).epsilon(1e-3));
     }
 }
@@ -254,7 +255,8 @@ TEST_CASE("an ROI gives the same slopes as the whole image over that region", "[
     for (int y = 0; y < 20; ++y)
         for (int x = 0; x < 30; ++x)
             for (int c = 0; c < 2; ++c)
-                CHECK(std::abs(got[2 * (y * 30 + x) + c] - g[2 * ((y + 5) * kField.width + x + 10) + c]) < 2e-5);
+                CHECK(std::abs(got[2 * (y * 30 + x) + c] - g[2 * ((y + 5) * kField.width + x + 10) + c]) <
+                      2e-5);
 }
 
 TEST_CASE("8- and 16-bit flat codes decode to exactly zero slope", "[ddm]")
@@ -305,7 +307,7 @@ TEST_CASE("the normal map goes to the device in chunks: same slopes, same counts
     auto normals = test::normal_image(kField.slopes(), w, h, Green::OpenGL, TypeDesc::FLOAT);
     std::vector<float> px = pixels(normals);
     px[3 * 10] = std::numeric_limits<float>::quiet_NaN();  // chunk 1
-    px[3 * 6000 + 2] = 0.01f;                               // chunk 2: grazing
+    px[3 * 6000 + 2] = 0.01f;                              // chunk 2: grazing
     const OIIO::ImageBuf damaged = test::image(w, h, 3, px);
     const SlopeOptions o = with(NormalConvention::OpenGL);
     const OIIO::ImageBuf a = slopes(damaged, o);

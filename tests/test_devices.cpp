@@ -79,9 +79,10 @@ std::vector<float> run_to_pixels(const std::string& args, const fs::path& out, c
     return relief::test::file_pixels(out);
 }
 
-} // namespace
+}  // namespace
 
-TEST_CASE("devices: auto ranks hardware GPUs, then CPUs, then others, simulators last, by fp64, then memory", "[devices]")
+TEST_CASE("devices: auto ranks hardware GPUs, then CPUs, then others, simulators last, by fp64, then memory",
+          "[devices]")
 {
     const std::vector<DeviceInfo> listed = {
         device("Oclgrind", "Oclgrind Simulator", true, false, true, 1ull << 40, 0),
@@ -123,12 +124,13 @@ TEST_CASE("devices: RELIEF_DEVICE says what auto means, explicit specs are left 
     }
     {
         ScopedEnv env("RELIEF_DEVICE", "42:0");
-        CHECK_THROWS_WITH(choose_device("auto"), Catch::Contains("no OpenCL device 42:0 (RELIEF_DEVICE=42:0)"));
+        CHECK_THROWS_WITH(choose_device("auto"),
+                          Catch::Contains("no OpenCL device 42:0 (RELIEF_DEVICE=42:0)"));
     }
     {
         ScopedEnv env("RELIEF_DEVICE", "banana");
-        CHECK_THROWS_WITH(choose_device("auto"), Catch::Contains("bad device 'banana'") &&
-                                                    Catch::Contains("(RELIEF_DEVICE)"));
+        CHECK_THROWS_WITH(choose_device("auto"),
+                          Catch::Contains("bad device 'banana'") && Catch::Contains("(RELIEF_DEVICE)"));
     }
     {
         ScopedEnv env("RELIEF_DEVICE", "");
@@ -151,7 +153,8 @@ TEST_CASE("devices: RELIEF_FP64 picks the accumulation path and -v names it", "[
     {
         ScopedEnv env("RELIEF_FP64", "off");
         CHECK_FALSE(ctx.fp64());
-        CHECK(ctx.device().describe().find(has ? "float: RELIEF_FP64=off" : "float: no fp64") != std::string::npos);
+        CHECK(ctx.device().describe().find(has ? "float: RELIEF_FP64=off" : "float: no fp64") !=
+              std::string::npos);
     }
     {
         ScopedEnv env("RELIEF_FP64", nullptr);
@@ -174,13 +177,15 @@ TEST_CASE("devices: RELIEF_FP64 picks the accumulation path and -v names it", "[
     auto off = run_cli("-v '" + normal + "' --slopes -o '" + (d / "s.exr").string() + "'", "RELIEF_FP64=off");
     CHECK(off.rc == 0);
     CHECK(off.err.find(has ? "float: RELIEF_FP64=off" : "float: no fp64") != std::string::npos);
-    auto bad = run_cli("'" + normal + "' --height:method=rays -o '" + (d / "h.exr").string() + "'", "RELIEF_FP64=yes");
+    auto bad = run_cli("'" + normal + "' --height:method=rays -o '" + (d / "h.exr").string() + "'",
+                       "RELIEF_FP64=yes");
     CHECK(bad.rc == 1);
     CHECK(bad.err.find("RELIEF_FP64 must be auto, on or off") != std::string::npos);
     CHECK_FALSE(fs::exists(d / "h.exr"));
 }
 
-TEST_CASE("devices: with RELIEF_FP64=off the Poisson, ray and correction results equal the fp64 ones", "[devices]")
+TEST_CASE("devices: with RELIEF_FP64=off the Poisson, ray and correction results equal the fp64 ones",
+          "[devices]")
 {
     // The float paths: Kahan-compensated ray sums, prefix sums re-anchored in
     // blocks, the correction's energies summed in float per work-group (the
@@ -201,7 +206,8 @@ TEST_CASE("devices: with RELIEF_FP64=off the Poisson, ray and correction results
         {"poisson", "'" + dem + "' --height -o OUT", false},
         {"rays periodic", "'" + normal + "' --height:method=rays:boundary=periodic -o OUT", false},
         {"rays clip", "'" + dem + "' --height:method=rays:boundary=clip -o OUT", false},
-        {"rays reference", "'" + dem + "' --height:method=rays:impl=reference:rays=16:radius=32 -o OUT", false},
+        {"rays reference", "'" + dem + "' --height:method=rays:impl=reference:rays=16:radius=32 -o OUT",
+         false},
         {"correct", "'" + own_height.string() + "' --correct:levels=2:tolerance=1e-4 -o OUT", true},
     };
     for (const Run& r : runs) {
@@ -258,7 +264,8 @@ TEST_CASE("devices: work-groups come from the device's and the kernel's limits",
         CHECK(c.group_size(k) <= 64);
         CHECK(c.group_size(k, 1024) <= 16);
         // the longer side halves until the device and the kernel allow it
-        const std::size_t limit = std::min<std::size_t>(64, k.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(c.device));
+        const std::size_t limit =
+            std::min<std::size_t>(64, k.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(c.device));
         const cl::NDRange shape = c.group_shape(k, 4, 32);
         CHECK(shape[0] * shape[1] <= limit);
         CHECK(2 * shape[0] * shape[1] > limit);
@@ -267,12 +274,14 @@ TEST_CASE("devices: work-groups come from the device's and the kernel's limits",
     }
     {
         ScopedEnv g("RELIEF_MAX_WORK_GROUP_SIZE", "lots");
-        CHECK_THROWS_WITH(ComputeContext(choose_device("auto")),
-                          Catch::Contains("RELIEF_MAX_WORK_GROUP_SIZE must be a whole number > 0, not 'lots'"));
+        CHECK_THROWS_WITH(
+            ComputeContext(choose_device("auto")),
+            Catch::Contains("RELIEF_MAX_WORK_GROUP_SIZE must be a whole number > 0, not 'lots'"));
     }
 }
 
-TEST_CASE("devices: results under 64-item groups and 16 KiB equal the device's own launch shapes", "[devices]")
+TEST_CASE("devices: results under 64-item groups and 16 KiB equal the device's own launch shapes",
+          "[devices]")
 {
     // Every stage whose sums or tiles follow the group size: the masked
     // solve's dot products, the correction's energy sums and phases, the
@@ -308,7 +317,8 @@ TEST_CASE("devices: results under 64-item groups and 16 KiB equal the device's o
         {"free poisson", "'" + normal + "' --height:boundary=free -o OUT", 1e-5},
         {"clip rays", "'" + normal + "' --height:method=rays:rays=8:radius=16:boundary=clip -o OUT", 1e-5},
         {"correct", "'" + height + "' --correct:scale=0.05:iterations=3:levels=2 -o OUT", 0.02},
-        {"periodic 4099 wide", "'" + wide.string() + "' --height:boundary=periodic:normal=opengl -o OUT", 1e-4},
+        {"periodic 4099 wide", "'" + wide.string() + "' --height:boundary=periodic:normal=opengl -o OUT",
+         1e-4},
         {"free 4099 wide", "'" + wide.string() + "' --height:boundary=free:normal=opengl -o OUT", 1e-4},
     };
     for (const Run& r : runs) {
@@ -339,7 +349,8 @@ TEST_CASE("devices: a loop limit is found by the probe and respected by the laun
     {
         const std::vector<float> h = relief::test::waves(200, 150, 15.0, 150);
         ComputeContext plain(choose_device("auto"));
-        const auto want = tessellation_levels(plain, h.data(), 200, 150, 32, 0.3f, 1.0f, TessellationLaunch::PerPatch);
+        const auto want =
+            tessellation_levels(plain, h.data(), 200, 150, 32, 0.3f, 1.0f, TessellationLaunch::PerPatch);
         ScopedEnv env("RELIEF_LOOP_LIMIT", "20000");
         ComputeContext ctx(choose_device("auto"));
         {
@@ -347,7 +358,8 @@ TEST_CASE("devices: a loop limit is found by the probe and respected by the laun
             CHECK(ctx.impl().loop_limit() <= 20000);
             CHECK_FALSE(ctx.impl().loops_fit(20001));
         }
-        const auto got = tessellation_levels(ctx, h.data(), 200, 150, 32, 0.3f, 1.0f, TessellationLaunch::PerPatch);
+        const auto got =
+            tessellation_levels(ctx, h.data(), 200, 150, 32, 0.3f, 1.0f, TessellationLaunch::PerPatch);
         CHECK(got == want);
         // 128-texel patches need more than 20000 iterations even per level
         CHECK_THROWS_WITH(tessellation_levels(ctx, h.data(), 200, 150, 128, 0.3f, 1.0f),
@@ -380,9 +392,11 @@ TEST_CASE("devices: a loop limit is found by the probe and respected by the laun
     CHECK(relief::test::max_abs_diff(pa, pb) <= 1e-5 * relief::test::max_abs(pa));
 }
 
-TEST_CASE("devices: PoCL, Rusticl and Oclgrind registered at once are all listed and each can be picked", "[devices]")
+TEST_CASE("devices: PoCL, Rusticl and Oclgrind registered at once are all listed and each can be picked",
+          "[devices]")
 {
-    const char* libs[] = {"/usr/lib/x86_64-linux-gnu/libpocl.so.2", "/usr/lib/x86_64-linux-gnu/libRusticlOpenCL.so.1",
+    const char* libs[] = {"/usr/lib/x86_64-linux-gnu/libpocl.so.2",
+                          "/usr/lib/x86_64-linux-gnu/libRusticlOpenCL.so.1",
                           "/usr/lib/oclgrind/liboclgrind-rt-icd.so"};
     for (const char* lib : libs)
         if (!fs::exists(lib)) {
@@ -395,7 +409,8 @@ TEST_CASE("devices: PoCL, Rusticl and Oclgrind registered at once are all listed
     std::ofstream(vendors / "pocl.icd") << libs[0] << "\n";
     std::ofstream(vendors / "rusticl.icd") << libs[1] << "\n";
     std::ofstream(vendors / "oclgrind.icd") << libs[2] << "\n";
-    const std::string env = "OCL_ICD_VENDORS='" + vendors.string() + "' RUSTICL_ENABLE=llvmpipe RELIEF_DEVICE=";
+    const std::string env =
+        "OCL_ICD_VENDORS='" + vendors.string() + "' RUSTICL_ENABLE=llvmpipe RELIEF_DEVICE=";
     auto l = run_cli("--list-devices", env);
     INFO(l.out << l.err);
     REQUIRE(l.rc == 0);

@@ -70,12 +70,19 @@ std::vector<fs::path> damaged_files(const fs::path& dir)
             std::string d = bytes;
             const std::size_t size = d.size(), head = std::min<std::size_t>(64, size);
             switch (k) {
-            case 0: case 1: case 2: case 3: case 4: {
+            case 0:
+            case 1:
+            case 2:
+            case 3:
+            case 4: {
                 const double keep[] = {0.125, 0.25, 0.5, 0.75, 0.95};
                 d.resize(std::size_t(size * keep[k]));
                 break;
             }
-            case 5: case 6: case 7: case 8:
+            case 5:
+            case 6:
+            case 7:
+            case 8:
                 for (int i = 0; i < (1 << (k - 5)); ++i)
                     d[at(0, head)] ^= char(1 + rng() % 255);
                 break;
@@ -123,8 +130,8 @@ void run_damaged(const std::string& command, const std::string& tag)
     int ok = 0, refused = 0;
     for (const fs::path& in : files) {
         const fs::path out = dir / ("out-" + in.filename().string() + ".exr");
-        const auto r = test::run_cli("'" + in.string() + "' " + command + " -o '" + out.string() + "'",
-                                     "timeout 120");
+        const auto r =
+            test::run_cli("'" + in.string() + "' " + command + " -o '" + out.string() + "'", "timeout 120");
         INFO(in.filename().string() << ": exit " << r.rc << "\n" << r.err);
         REQUIRE((r.rc == 0 || r.rc == 1));
         if (r.rc == 1) {
@@ -146,9 +153,10 @@ void run_damaged(const std::string& command, const std::string& tag)
         CHECK(e.path().filename().string().rfind("damaged-", 0) == 0);  // nothing else left behind
 }
 
-} // namespace
+}  // namespace
 
-TEST_CASE("hardening: 128 damaged files through --height exit 0 or 1, say why, leave nothing", "[stress][damaged]")
+TEST_CASE("hardening: 128 damaged files through --height exit 0 or 1, say why, leave nothing",
+          "[stress][damaged]")
 {
     run_damaged("--height", "poisson");
 }
@@ -168,7 +176,8 @@ TEST_CASE("hardening: 128 damaged files through --correct:scale=0.05", "[stress]
 // every kind of size (1 x 1, single rows and columns, primes, odd, even).
 TEST_CASE("hardening: size sweep, every boundary: taking the slopes over changes no bit", "[stress][sizes]")
 {
-    const int sizes[][2] = {{1, 1}, {1, 9}, {9, 1}, {2, 2}, {3, 5}, {17, 31}, {64, 64}, {127, 129}, {257, 3}, {1000, 999}};
+    const int sizes[][2] = {{1, 1},   {1, 9},   {9, 1},     {2, 2},   {3, 5},
+                            {17, 31}, {64, 64}, {127, 129}, {257, 3}, {1000, 999}};
     for (const auto& wh : sizes) {
         const int w = wh[0], h = wh[1];
         std::vector<float> px(std::size_t(w) * h * 3);
@@ -219,8 +228,9 @@ TEST_CASE("hardening: size sweep, every boundary: taking the slopes over changes
 // The issue's bound: 24 bytes a texel at the peak, the process's own
 // (OpenCL, PoCL's compiler, the libraries) included; and periodic results
 // of a map made of 8 x 8 copies of a tile equal the tile's own.
-TEST_CASE("hardening: a 16384^2 tiling map peaks under 24 bytes a texel and its tile equals the 2048^2 result",
-          "[stress][huge]")
+TEST_CASE(
+    "hardening: a 16384^2 tiling map peaks under 24 bytes a texel and its tile equals the 2048^2 result",
+    "[stress][huge]")
 {
     const fs::path dir = test::scratch("hardening/huge");
     const int tile = 2048, repeats = 8, n = tile * repeats;
@@ -233,11 +243,12 @@ TEST_CASE("hardening: a 16384^2 tiling map peaks under 24 bytes a texel and its 
         const std::string out_big = (dir / "big.exr").string(), out_small = (dir / "tile.exr").string();
         double peak = 0, peak_small = 0;
         const std::string cli = "'" + std::string(RELIEF_CLI) + "' ";
-        REQUIRE(test::run_measured(cli + "'" + small + "' " + command + " -o '" + out_small + "'", peak_small) == 0);
+        REQUIRE(test::run_measured(cli + "'" + small + "' " + command + " -o '" + out_small + "'",
+                                   peak_small) == 0);
         REQUIRE(test::run_measured(cli + "'" + big + "' " + command + " -o '" + out_big + "'", peak) == 0);
         const double per_texel = peak / (double(n) * n);
-        std::printf("%s on %dx%d: peak RSS %.2f GB, %.2f bytes per texel\n", command.c_str(), n, n, peak / 1e9,
-                    per_texel);
+        std::printf("%s on %dx%d: peak RSS %.2f GB, %.2f bytes per texel\n", command.c_str(), n, n,
+                    peak / 1e9, per_texel);
         if (!RELIEF_SANITIZE)  // the sanitizers' shadow memory and quarantine are theirs
             CHECK(per_texel <= 24.0);
 
@@ -274,7 +285,8 @@ TEST_CASE("hardening: a 16384^2 tiling map peaks under 24 bytes a texel and its 
 // VkFFT's Bluestein kernels crash PoCL past about 21000 points (a damaged
 // TIFF header made a 40 x 65320 map): such lengths are refused with what to
 // do before the integration starts, and clip rays walk every ray instead.
-TEST_CASE("hardening: an axis too long for Bluestein's FFT is refused, clip rays walk instead", "[cli][errors]")
+TEST_CASE("hardening: an axis too long for Bluestein's FFT is refused, clip rays walk instead",
+          "[cli][errors]")
 {
     const fs::path dir = test::scratch("hardening/bluestein");
     const int w = 40, h = 25013;  // prime; wide enough for clip's FFT interior at radius 8
@@ -286,18 +298,20 @@ TEST_CASE("hardening: an axis too long for Bluestein's FFT is refused, clip rays
     }
     const std::string in = (dir / "long.png").string(), out = (dir / "h.exr").string();
     REQUIRE(test::image(w, h, 3, px, OIIO::TypeDesc::UINT8).write(in));
-    for (const char* command : {"--height:boundary=periodic", "--height:boundary=free",
-                                "--height:method=rays:boundary=periodic"}) {
+    for (const char* command :
+         {"--height:boundary=periodic", "--height:boundary=free", "--height:method=rays:boundary=periodic"}) {
         INFO(command);
         const auto r = test::run_cli("'" + in + "' " + command + " -o '" + out + "'");
         CHECK(r.rc == 1);
         CHECK(r.err.find("relief: error: height: ") != std::string::npos);
-        CHECK(r.err.find("an FFT along an axis of 25013 texels, which has a prime factor above 13, is "
-                         "supported only up to 20000 texels; crop the map to 25000 or pad it to 25025 texels") !=
+        CHECK(r.err.find(
+                  "an FFT along an axis of 25013 texels, which has a prime factor above 13, is "
+                  "supported only up to 20000 texels; crop the map to 25000 or pad it to 25025 texels") !=
               std::string::npos);
         CHECK_FALSE(fs::exists(out));
     }
-    const auto r = test::run_cli("'" + in + "' --height:method=rays:radius=8:boundary=clip:normal=opengl -o '" + out + "'");
+    const auto r = test::run_cli(
+        "'" + in + "' --height:method=rays:radius=8:boundary=clip:normal=opengl -o '" + out + "'");
     CHECK(r.rc == 0);
     const std::vector<float> v = test::file_pixels(out);
     REQUIRE(v.size() == std::size_t(w) * h);

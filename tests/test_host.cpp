@@ -28,8 +28,8 @@ TEST_CASE("device specs: auto finds a device, malformed specs are refused", "[ho
     auto chosen = choose_device("auto");
     CHECK(chosen.platform_index >= 0);
     CHECK_FALSE(chosen.describe().empty());
-    auto same = choose_device(std::to_string(chosen.platform_index) + ":" +
-                              std::to_string(chosen.device_index));
+    auto same =
+        choose_device(std::to_string(chosen.platform_index) + ":" + std::to_string(chosen.device_index));
     CHECK(same.name == chosen.name);
     // PoCL's CPU device is there wherever the tests run; "gpu" finds a GPU
     // or fails, never falling back to something else.
@@ -47,15 +47,15 @@ TEST_CASE("device specs: auto finds a device, malformed specs are refused", "[ho
     CHECK_THROWS_AS(choose_device("99:99"), NoDeviceError);
 }
 
-TEST_CASE("a kernel that does not compile raises KernelBuildError with the compiler's log",
-          "[host][errors]")
+TEST_CASE("a kernel that does not compile raises KernelBuildError with the compiler's log", "[host][errors]")
 {
     namespace fs = std::filesystem;
     fs::path dir = fs::path(RELIEF_TEST_TMP) / "broken_kernels";
     fs::create_directories(dir);
     fs::copy_file(fs::path(RELIEF_KERNELS_DIR) / "common.h", dir / "common.h",
                   fs::copy_options::overwrite_existing);
-    std::ofstream(dir / "ddm.cl") << "__kernel void ddm_slopes(__global float* x) { x[0] = undeclared_name; }\n";
+    std::ofstream(dir / "ddm.cl")
+        << "__kernel void ddm_slopes(__global float* x) { x[0] = undeclared_name; }\n";
 
     ::setenv("RELIEF_KERNEL_DIR", dir.c_str(), 1);
     // A fresh context: acquire() would hand back one that already built ddm.cl.
@@ -79,9 +79,9 @@ TEST_CASE("maps past the kernels' 32-bit indices are refused before any work", "
     CHECK_THROWS_AS(check_index_range(1 << 30, 1, "test"), Error);
     // Each stage checks before it reads a pixel (null pointers: nothing is read).
     auto ctx = ComputeContext::acquire("auto");
-    CHECK_THROWS_WITH(bake_gather(*ctx, nullptr, 46340, 46340, 3, nullptr, true,
-                                  BakeFilter::Bilinear, nullptr),
-                      Catch::Contains("bake: a 46340x46340 map"));
+    CHECK_THROWS_WITH(
+        bake_gather(*ctx, nullptr, 46340, 46340, 3, nullptr, true, BakeFilter::Bilinear, nullptr),
+        Catch::Contains("bake: a 46340x46340 map"));
     CHECK_THROWS_WITH(upload_slopes(*ctx, nullptr, 50000, 50000),
                       Catch::Contains("slopes: a 50000x50000 map"));
     CorrectParams p;
@@ -134,7 +134,7 @@ bool refuses_foreign_binaries_by_aborting()
     return choose_device("auto").platform == "rusticl";
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("compiled programs are kept on disk and a damaged entry is rebuilt", "[host][cache]")
 {
@@ -203,7 +203,8 @@ TEST_CASE("compiled programs are kept on disk and a damaged entry is rebuilt", "
     CHECK(bake_entry.size() > 0);
 }
 
-TEST_CASE("VkFFT's programs are kept on disk too, and an unusable entry falls back to source", "[host][cache]")
+TEST_CASE("VkFFT's programs are kept on disk too, and an unusable entry falls back to source",
+          "[host][cache]")
 {
     namespace fs = std::filesystem;
     const fs::path dir = fs::path(RELIEF_TEST_TMP) / "vkfft_cache";
@@ -220,7 +221,8 @@ TEST_CASE("VkFFT's programs are kept on disk too, and an unusable entry falls ba
         for (std::size_t r = 0; r < 48; ++r)
             for (std::size_t i = 0; i < 64; ++i)
                 x[r * stride + i] = float(std::sin(0.1 * double(i) + 0.3 * double(r)));
-        cl::Buffer buf(c.context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(float) * x.size(), x.data());
+        cl::Buffer buf(c.context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(float) * x.size(),
+                       x.data());
         FftPlan plan(c, 64, 48, buf);
         plan.forward(buf);
         c.queue.enqueueReadBuffer(buf, CL_TRUE, 0, sizeof(float) * y.size(), y.data());
@@ -302,7 +304,8 @@ TEST_CASE("plans are kept by kind and size, the least recently used dropped firs
     double worst = 0;
     for (std::size_t r = 0; r < 48; ++r)
         for (std::size_t i = 0; i < 64; ++i)
-            worst = std::max(worst, double(std::abs(y[r * FftPlan::row_stride(64) + i] - x[r * FftPlan::row_stride(64) + i])));
+            worst = std::max(worst, double(std::abs(y[r * FftPlan::row_stride(64) + i] -
+                                                    x[r * FftPlan::row_stride(64) + i])));
     CHECK(worst < 1e-3);
     CHECK(e != nullptr);
 }

@@ -68,7 +68,7 @@ const char* child_arg()
     return a && *a ? a : nullptr;
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("io: (child) write a 256x256 relief result to $RELIEF_TEST_CHILD_ARG", "[.][io-child]")
 {
@@ -94,8 +94,8 @@ namespace {
 // limit of `limit` bytes: the old contents `old` must survive, with no
 // temporary left; without the limit the same write must succeed and leave
 // no temporary either. Returns what it wrote.
-std::string write_on_full_disk(const fs::path& dir, const std::string& child, const char* name,
-                               rlim_t limit, const std::string& old)
+std::string write_on_full_disk(const fs::path& dir, const std::string& child, const char* name, rlim_t limit,
+                               const std::string& old)
 {
     const fs::path target = dir / name;
     std::ofstream(target, std::ios::binary) << old;
@@ -109,7 +109,7 @@ std::string write_on_full_disk(const fs::path& dir, const std::string& child, co
     return written;
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("io: a write that fails half-way keeps the old file and leaves no temporary", "[io][errors]")
 {
@@ -192,8 +192,8 @@ TEST_CASE("cli: a full disk during -o keeps the old file, exit 1", "[cli][io][er
     // from its cache): 16 MiB holds those but not the 32 MiB of slopes of a
     // 2048^2 map (a flat 8-bit PNG of a few KiB).
     const std::string limited = "trap '' XFSZ; ulimit -f 32768;";
-    OIIO::ImageBuf flat = relief::test::image(2048, 2048, 3, std::vector<float>(2048 * 2048 * 3, 0.5f),
-                                              OIIO::TypeDesc::UINT8);
+    OIIO::ImageBuf flat =
+        relief::test::image(2048, 2048, 3, std::vector<float>(2048 * 2048 * 3, 0.5f), OIIO::TypeDesc::UINT8);
     const fs::path input = dir / "flat.png";
     REQUIRE(flat.write(input.string()));
     {
@@ -214,10 +214,11 @@ TEST_CASE("cli: --compression and -d reach the file", "[cli][io]")
 {
     const auto dir = relief::test::scratch("io/formats");
     auto r = run_cli("'" + kNormal + "' --height:normal=directx -o '" + (dir / "plain.exr").string() +
-                     "' --compression zip -o '" + (dir / "zip.exr").string() + "' --compression piz -d half -o '" +
-                     (dir / "piz_half.exr").string() + "' -d uint16 -o '" + (dir / "h16.tif").string() +
-                     "' -d uint8 -o '" + (dir / "h8.tif").string() + "' -d float -o '" +
-                     (dir / "float_asked.png").string() + "' -d half -o '" + (dir / "half_asked.png").string() + "'");
+                     "' --compression zip -o '" + (dir / "zip.exr").string() +
+                     "' --compression piz -d half -o '" + (dir / "piz_half.exr").string() +
+                     "' -d uint16 -o '" + (dir / "h16.tif").string() + "' -d uint8 -o '" +
+                     (dir / "h8.tif").string() + "' -d float -o '" + (dir / "float_asked.png").string() +
+                     "' -d half -o '" + (dir / "half_asked.png").string() + "'");
     INFO(r.err);
     REQUIRE(r.rc == 0);
     struct Expect {
@@ -225,14 +226,14 @@ TEST_CASE("cli: --compression and -d reach the file", "[cli][io]")
         OIIO::TypeDesc format;
         const char* compression;  // nullptr: not checked
     };
-    for (const Expect& e : {Expect{"plain.exr", OIIO::TypeDesc::FLOAT, "none"},
-                            Expect{"zip.exr", OIIO::TypeDesc::FLOAT, "zip"},
-                            Expect{"piz_half.exr", OIIO::TypeDesc::HALF, "piz"},
-                            Expect{"h16.tif", OIIO::TypeDesc::UINT16, nullptr},
-                            Expect{"h8.tif", OIIO::TypeDesc::UINT8, nullptr},
-                            // PNG has no float pixels: 16 bits rather than 8.
-                            Expect{"float_asked.png", OIIO::TypeDesc::UINT16, nullptr},
-                            Expect{"half_asked.png", OIIO::TypeDesc::UINT16, nullptr}}) {
+    for (const Expect& e :
+         {Expect{"plain.exr", OIIO::TypeDesc::FLOAT, "none"}, Expect{"zip.exr", OIIO::TypeDesc::FLOAT, "zip"},
+          Expect{"piz_half.exr", OIIO::TypeDesc::HALF, "piz"},
+          Expect{"h16.tif", OIIO::TypeDesc::UINT16, nullptr},
+          Expect{"h8.tif", OIIO::TypeDesc::UINT8, nullptr},
+          // PNG has no float pixels: 16 bits rather than 8.
+          Expect{"float_asked.png", OIIO::TypeDesc::UINT16, nullptr},
+          Expect{"half_asked.png", OIIO::TypeDesc::UINT16, nullptr}}) {
         INFO(e.file);
         OIIO::ImageBuf b((dir / e.file).string());
         REQUIRE(b.read());
@@ -289,9 +290,9 @@ TEST_CASE("io: maps stay in their file's pixel type in memory (8-bit, 16-bit, ha
 {
     const auto dir = relief::test::scratch("io/native");
     const std::vector<float> px(4 * 3 * 3, 0.5f);
-    for (const auto& [name, type] : {std::pair{"n8.png", OIIO::TypeDesc::UINT8},
-                                     std::pair{"n16.png", OIIO::TypeDesc::UINT16},
-                                     std::pair{"nh.exr", OIIO::TypeDesc::HALF}}) {
+    for (const auto& [name, type] :
+         {std::pair{"n8.png", OIIO::TypeDesc::UINT8}, std::pair{"n16.png", OIIO::TypeDesc::UINT16},
+          std::pair{"nh.exr", OIIO::TypeDesc::HALF}}) {
         INFO(name);
         OIIO::ImageBuf out = relief::test::image(4, 3, 3, px, type);
         REQUIRE(out.write((dir / name).string()));
@@ -303,7 +304,8 @@ TEST_CASE("io: maps stay in their file's pixel type in memory (8-bit, 16-bit, ha
     }
 }
 
-TEST_CASE("io: a header claiming more pixels than memory holds is refused before reading", "[io][memory][errors]")
+TEST_CASE("io: a header claiming more pixels than memory holds is refused before reading",
+          "[io][memory][errors]")
 {
     const auto dir = relief::test::scratch("io/huge-header");
     // An 8-bit RGB PNG that says it is 60000 x 60000 (10.8 GB): a valid
@@ -332,23 +334,28 @@ TEST_CASE("io: a header claiming more pixels than memory holds is refused before
                      "RELIEF_MEMORY_LIMIT=2G");
     CHECK(r.rc == 1);
     CHECK(r.err.find("relief: error: cannot read '") != std::string::npos);
-    CHECK(r.err.find("needs 10.8 GB of memory, this machine has 2.1 GB (RELIEF_MEMORY_LIMIT)") != std::string::npos);
+    CHECK(r.err.find("needs 10.8 GB of memory, this machine has 2.1 GB (RELIEF_MEMORY_LIMIT)") !=
+          std::string::npos);
     CHECK_FALSE(fs::exists(dir / "h.exr"));
 }
 
-TEST_CASE("cli: a height that does not fit is refused with the numbers, before it starts", "[cli][memory][errors]")
+TEST_CASE("cli: a height that does not fit is refused with the numbers, before it starts",
+          "[cli][memory][errors]")
 {
     const auto dir = relief::test::scratch("io/memory-limit");
     const std::string normal = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";  // 512 x 512
     const std::string out = (dir / "h.exr").string();
     // The map (0.8 MB) is read; its slopes (2.1 MB) and grids are not made.
-    auto r = run_cli("'" + normal + "' --height:boundary=periodic -o '" + out + "'", "RELIEF_MEMORY_LIMIT=3M");
+    auto r =
+        run_cli("'" + normal + "' --height:boundary=periodic -o '" + out + "'", "RELIEF_MEMORY_LIMIT=3M");
     CHECK(r.rc == 1);
-    CHECK(r.err.find("relief: error: height: the Poisson integration of a 512x512 map needs ") != std::string::npos);
+    CHECK(r.err.find("relief: error: height: the Poisson integration of a 512x512 map needs ") !=
+          std::string::npos);
     CHECK(r.err.find("of memory, this machine has 3.1 MB (RELIEF_MEMORY_LIMIT)") != std::string::npos);
     CHECK(r.err.find("rays") == std::string::npos);
     CHECK_FALSE(fs::exists(out));
-    r = run_cli("'" + normal + "' --height:method=rays:boundary=periodic -o '" + out + "'", "RELIEF_MEMORY_LIMIT=3M");
+    r = run_cli("'" + normal + "' --height:method=rays:boundary=periodic -o '" + out + "'",
+                "RELIEF_MEMORY_LIMIT=3M");
     CHECK(r.rc == 1);
     CHECK(r.err.find("relief: error: height: ray integration of a 512x512 map needs ") != std::string::npos);
     CHECK_FALSE(fs::exists(out));
@@ -358,6 +365,7 @@ TEST_CASE("cli: a height that does not fit is refused with the numbers, before i
     CHECK(fs::exists(out));
     r = run_cli("'" + normal + "' --height -o '" + out + "'", "RELIEF_MEMORY_LIMIT=lots");
     CHECK(r.rc == 1);
-    CHECK(r.err.find("RELIEF_MEMORY_LIMIT must be a size in bytes > 0 (suffix K, M, G or T allowed), not 'lots'") !=
+    CHECK(r.err.find(
+              "RELIEF_MEMORY_LIMIT must be a size in bytes > 0 (suffix K, M, G or T allowed), not 'lots'") !=
           std::string::npos);
 }

@@ -37,18 +37,15 @@ bool same_options(const OperationCall& a, const OperationCall& b)
     };
     const HeightOptions &h = a.height, &g = b.height;
     const CorrectOptions &c = a.correct, &d = b.correct;
-    return dec(a.slopes.normals, b.slopes.normals) && dec(h.normals, g.normals) &&
-           h.method == g.method && h.boundary == g.boundary && h.impl == g.impl &&
-           h.rays == g.rays && h.radius == g.radius && h.phase == g.phase &&
-           h.directions == g.directions && h.skip_flat == g.skip_flat &&
-           h.highpass == g.highpass && h.mask_alpha == g.mask_alpha &&
-           a.mask_file == b.mask_file && c.scale == d.scale && c.theta == d.theta &&
-           c.nodes == d.nodes && c.boundary == d.boundary && c.fix_height == d.fix_height &&
-           c.fix_width == d.fix_width && a.fix_file == b.fix_file &&
+    return dec(a.slopes.normals, b.slopes.normals) && dec(h.normals, g.normals) && h.method == g.method &&
+           h.boundary == g.boundary && h.impl == g.impl && h.rays == g.rays && h.radius == g.radius &&
+           h.phase == g.phase && h.directions == g.directions && h.skip_flat == g.skip_flat &&
+           h.highpass == g.highpass && h.mask_alpha == g.mask_alpha && a.mask_file == b.mask_file &&
+           c.scale == d.scale && c.theta == d.theta && c.nodes == d.nodes && c.boundary == d.boundary &&
+           c.fix_height == d.fix_height && c.fix_width == d.fix_width && a.fix_file == b.fix_file &&
            c.iterations == d.iterations && c.tolerance == d.tolerance && c.levels == d.levels &&
-           c.threshold == d.threshold && c.skip_tiles == d.skip_tiles &&
-           c.search == d.search && c.relax == d.relax &&
-           a.bake.filter == b.bake.filter && a.bake.colorspace == b.bake.colorspace &&
+           c.threshold == d.threshold && c.skip_tiles == d.skip_tiles && c.search == d.search &&
+           c.relax == d.relax && a.bake.filter == b.bake.filter && a.bake.colorspace == b.bake.colorspace &&
            a.bake.kind == b.bake.kind && a.bake.wrap == b.bake.wrap &&
            a.normals.convention == b.normals.convention && a.normals.scale == b.normals.scale &&
            a.normals.boundary == b.normals.boundary && same_tessellation(a.tessellation, b.tessellation) &&
@@ -69,7 +66,8 @@ std::vector<float> wavy_normals(int w, int h)
     std::vector<float> px(std::size_t(w) * h * 3);
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
-            const double gx = 0.3 * std::cos(6.283185307 * 2 * x / w), gy = 0.2 * std::sin(6.283185307 * y / h);
+            const double gx = 0.3 * std::cos(6.283185307 * 2 * x / w),
+                         gy = 0.2 * std::sin(6.283185307 * y / h);
             const double n = std::sqrt(1 + gx * gx + gy * gy);
             float* p = &px[3 * (std::size_t(y) * w + x)];
             p[0] = float(-gx / n);
@@ -79,7 +77,7 @@ std::vector<float> wavy_normals(int w, int h)
     return px;
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("operations: the table lists each operation with its slots and typed modifiers", "[operations]")
 {
@@ -141,7 +139,8 @@ TEST_CASE("operations: defaults are the option structs' own, and each parses bac
     CHECK(find("bake", "filter").default_value == "bilinear");
 }
 
-TEST_CASE("operations: modifier_text writes every modifier, and any change to one changes it", "[operations][digest]")
+TEST_CASE("operations: modifier_text writes every modifier, and any change to one changes it",
+          "[operations][digest]")
 {
     for (const OperationInfo& op : operations()) {
         OperationCall base;
@@ -157,7 +156,8 @@ TEST_CASE("operations: modifier_text writes every modifier, and any change to on
             std::vector<std::string> values = m.choices;
             if (m.type == ModifierType::Integer || m.type == ModifierType::Number)
                 for (double v : {m.min + 1.0, m.max - 1.0, (m.min + m.max) / 2, m.min + 0.25})
-                    values.push_back(m.type == ModifierType::Integer ? std::to_string(long(v)) : std::to_string(v));
+                    values.push_back(m.type == ModifierType::Integer ? std::to_string(long(v))
+                                                                     : std::to_string(v));
             if (m.type == ModifierType::File)
                 values.push_back(kHeight);
             if (m.type == ModifierType::Output)
@@ -191,7 +191,8 @@ TEST_CASE("operations: modifier_text writes every modifier, and any change to on
     CHECK(relief::implementation_digest() == relief::implementation_digest());
 }
 
-TEST_CASE("operations: --help and the JSON show every operation and modifier from the table", "[operations][cli]")
+TEST_CASE("operations: --help and the JSON show every operation and modifier from the table",
+          "[operations][cli]")
 {
     const std::string help = cli::usage_text();
     const std::string json = operations_json();
@@ -211,9 +212,11 @@ TEST_CASE("operations: --help and the JSON show every operation and modifier fro
             CHECK(json.find("\"default\": \"" + m.default_value + "\"") != std::string::npos);
         }
     }
-    CHECK(help.find("rays=J              ray directions per texel; an integer in [1, 4096]") != std::string::npos);
+    CHECK(help.find("rays=J              ray directions per texel; an integer in [1, 4096]") !=
+          std::string::npos);
     CHECK(help.find("  with method=rays:\n") != std::string::npos);
-    CHECK(json.find("{\"name\": \"rays\", \"type\": \"integer\", \"choices\": [], \"min\": 1, \"max\": 4096,") !=
+    CHECK(json.find(
+              "{\"name\": \"rays\", \"type\": \"integer\", \"choices\": [], \"min\": 1, \"max\": 4096,") !=
           std::string::npos);
 }
 
@@ -224,7 +227,8 @@ TEST_CASE("operations: modifier strings parse as on the command line", "[operati
     CHECK(c.correct.fix_height == 0.25f);
     CHECK(c.correct.fix_width == 0.5f);
     CHECK(c.correct.theta == 3.0f);
-    REQUIRE(parse_modifiers(c, "height", std::vector<std::pair<std::string, std::string>>{{"rays", "8"}, {"skip", "off"}}));
+    REQUIRE(parse_modifiers(
+        c, "height", std::vector<std::pair<std::string, std::string>>{{"rays", "8"}, {"skip", "off"}}));
     CHECK(c.height.rays == 8);
     CHECK(c.height.method == HeightMethod::Rays);
     CHECK_FALSE(c.height.skip_flat);
@@ -251,7 +255,9 @@ TEST_CASE("operations: modifier strings parse as on the command line", "[operati
         {"correct", "iterations=2.5", "iterations=2.5 must be an integer in [1, 1000000] or auto"},
         {"correct", "scale=0", "scale=0 is out of range; it must be in (0, 1e+09] or auto"},
         {"bake", "colour=red", "unknown modifier 'colour' (known: filter, colorspace, kind, wrap)"},
-        {"warp", "", "unknown operation 'warp' (known: slopes, height, correct, bake, normals, tessellation, mesh, preview)"},
+        {"warp", "",
+         "unknown operation 'warp' (known: slopes, height, correct, bake, normals, tessellation, mesh, "
+         "preview)"},
         {"mesh", "patch=8", "a mesh needs a file name (out=FILE.obj|.ply|.gltf|.glb)"},
         {"mesh", "out=m.stl", "unknown mesh format '.stl'"},
         {"mesh", "out=/nonexistent-folder/m.obj", "the folder '/nonexistent-folder' does not exist"},
@@ -284,18 +290,24 @@ TEST_CASE("operations: the API refuses what the parser refuses, with the same wo
         HeightOptions o;
         const std::string m = mods;
         const double v = std::atof(m.substr(m.find('=') + 1).c_str());
-        if (m.rfind("rays", 0) == 0) o.rays = int(v);
-        if (m.rfind("radius", 0) == 0) o.radius = float(v);
-        if (m.rfind("phase", 0) == 0) o.phase = float(v);
-        if (m.rfind("max_angle", 0) == 0) o.normals.max_angle = float(v);
-        if (m.rfind("highpass", 0) == 0) o.highpass = float(v);
+        if (m.rfind("rays", 0) == 0)
+            o.rays = int(v);
+        if (m.rfind("radius", 0) == 0)
+            o.radius = float(v);
+        if (m.rfind("phase", 0) == 0)
+            o.phase = float(v);
+        if (m.rfind("max_angle", 0) == 0)
+            o.normals.max_angle = float(v);
+        if (m.rfind("highpass", 0) == 0)
+            o.highpass = float(v);
         ImageBuf out;
         CHECK_FALSE(relief::height(out, n, o));
         CHECK(geterror() == "height: " + from_parser);
     }
 }
 
-TEST_CASE("operations: run_operation reads mask and fix files and equals the direct calls", "[operations][mask]")
+TEST_CASE("operations: run_operation reads mask and fix files and equals the direct calls",
+          "[operations][mask]")
 {
     const int w = 64, h = 64;
     const ImageBuf n = test::image(w, h, 3, wavy_normals(w, h));
@@ -389,7 +401,8 @@ TEST_CASE("operations: run_operation checks its inputs and takes the execution g
     CHECK(said.find("boundary:") != std::string::npos);
 }
 
-TEST_CASE("prepare: set-up ahead, beside a running height, changes nothing but the time", "[operations][prepare]")
+TEST_CASE("prepare: set-up ahead, beside a running height, changes nothing but the time",
+          "[operations][prepare]")
 {
     // sizes no other test plans, so that prepare() really plans them here
     const int w = 70, h = 54;
@@ -422,7 +435,8 @@ TEST_CASE("prepare: set-up ahead, beside a running height, changes nothing but t
     CHECK(relief::geterror() == error);
 }
 
-TEST_CASE("operations: what a front end asks of a call, answered by the table without its name", "[operations][parse]")
+TEST_CASE("operations: what a front end asks of a call, answered by the table without its name",
+          "[operations][parse]")
 {
     const std::string dir = std::string(RELIEF_TEST_TMP) + "/operations";
     std::filesystem::create_directories(dir);
@@ -458,7 +472,8 @@ TEST_CASE("operations: what a front end asks of a call, answered by the table wi
     CHECK_FALSE(sets_up_ahead(call("slopes", "")));
     CHECK_FALSE(sets_up_ahead(call("correct", "")));
     // -v's description: what height resolves, nothing for the others
-    CHECK(describe(call("height", "method=rays:rays=16")) == describe(call("height", "method=rays:rays=16").height));
+    CHECK(describe(call("height", "method=rays:rays=16")) ==
+          describe(call("height", "method=rays:rays=16").height));
     CHECK_FALSE(describe(call("height", "")).empty());
     CHECK(describe(call("slopes", "")).empty());
     // reports: the two operations that have one, under their own names
@@ -487,7 +502,8 @@ TEST_CASE("validate: a rule reads the same from validate(), the modifiers and th
     const Case cases[] = {
         {"height", "phase=1", [](OperationCall& c) { c.height.phase = 1.0f; },
          "phase=1 is out of range; it must be in [0, 1)"},
-        {"height", "rays=0", [](OperationCall& c) { c.height.rays = 0; }, "rays=0 must be an integer in [1, 4096]"},
+        {"height", "rays=0", [](OperationCall& c) { c.height.rays = 0; },
+         "rays=0 must be an integer in [1, 4096]"},
         {"height", "max_angle=90", [](OperationCall& c) { c.height.normals.max_angle = 90.0f; },
          "max_angle=90 is out of range; it must be in (0, 90) degrees"},
         {"height", "method=rays:directions=exact",

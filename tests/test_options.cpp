@@ -94,7 +94,8 @@ struct HeightCase {
     std::function<std::vector<float>(const std::vector<float>&)> host;
 };
 
-host::RayParams rays(int j, double r, double phase, bool periodic, host::DirectionSet d = host::DirectionSet::Rational)
+host::RayParams rays(int j, double r, double phase, bool periodic,
+                     host::DirectionSet d = host::DirectionSet::Rational)
 {
     host::RayParams p;
     p.rays = j;
@@ -124,7 +125,7 @@ std::vector<float> random_weights(std::size_t n, unsigned seed)
     return w;
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("options: every height option reaches its integrator", "[options][height]")
 {
@@ -135,34 +136,62 @@ TEST_CASE("options: every height option reaches its integrator", "[options][heig
     using DS = host::DirectionSet;
     const HeightCase cases[] = {
         {"poisson periodic",
-         [](HeightOptions& o) { o.method = HeightMethod::Poisson; o.boundary = Boundary::Periodic; },
+         [](HeightOptions& o) {
+             o.method = HeightMethod::Poisson;
+             o.boundary = Boundary::Periodic;
+         },
          [&](const auto& s) { return host_poisson(s, w, h, poisson(true)); }},
         {"poisson free",
-         [](HeightOptions& o) { o.method = HeightMethod::Poisson; o.boundary = Boundary::Free; },
+         [](HeightOptions& o) {
+             o.method = HeightMethod::Poisson;
+             o.boundary = Boundary::Free;
+         },
          [&](const auto& s) { return host_poisson(s, w, h, poisson(false)); }},
-        {"auto method is poisson",
-         [](HeightOptions& o) { o.boundary = Boundary::Free; },
+        {"auto method is poisson", [](HeightOptions& o) { o.boundary = Boundary::Free; },
          [&](const auto& s) { return host_poisson(s, w, h, poisson(false)); }},
         {"poisson periodic highpass 12",
-         [](HeightOptions& o) { o.method = HeightMethod::Poisson; o.boundary = Boundary::Periodic; o.highpass = 12; },
+         [](HeightOptions& o) {
+             o.method = HeightMethod::Poisson;
+             o.boundary = Boundary::Periodic;
+             o.highpass = 12;
+         },
          [&](const auto& s) { return host_poisson(s, w, h, poisson(true, 12)); }},
         {"poisson free highpass 9",
-         [](HeightOptions& o) { o.boundary = Boundary::Free; o.highpass = 9; },
+         [](HeightOptions& o) {
+             o.boundary = Boundary::Free;
+             o.highpass = 9;
+         },
          [&](const auto& s) { return host_poisson(s, w, h, poisson(false, 9)); }},
         {"rays fast periodic (defaults)",
-         [](HeightOptions& o) { o.method = HeightMethod::Rays; o.boundary = Boundary::Periodic; },
+         [](HeightOptions& o) {
+             o.method = HeightMethod::Rays;
+             o.boundary = Boundary::Periodic;
+         },
          [&](const auto& s) { return host_rays(s, w, h, rays(32, 64, 0.5, true), true); }},
         {"rays fast periodic rays 8 radius 10",
-         [](HeightOptions& o) { o.method = HeightMethod::Rays; o.boundary = Boundary::Periodic; o.rays = 8; o.radius = 10; },
+         [](HeightOptions& o) {
+             o.method = HeightMethod::Rays;
+             o.boundary = Boundary::Periodic;
+             o.rays = 8;
+             o.radius = 10;
+         },
          [&](const auto& s) { return host_rays(s, w, h, rays(8, 10, 0.5, true), true); }},
         {"rays fast clip rays 12 radius 7 phase 0.25",
          [](HeightOptions& o) {
-             o.method = HeightMethod::Rays; o.boundary = Boundary::Free; o.rays = 12; o.radius = 7; o.phase = 0.25f;
+             o.method = HeightMethod::Rays;
+             o.boundary = Boundary::Free;
+             o.rays = 12;
+             o.radius = 7;
+             o.phase = 0.25f;
          },
          [&](const auto& s) { return host_rays(s, w, h, rays(12, 7, 0.25, false), true); }},
         {"rays fast clip skip off",
          [](HeightOptions& o) {
-             o.method = HeightMethod::Rays; o.boundary = Boundary::Free; o.rays = 12; o.radius = 7; o.phase = 0.25f;
+             o.method = HeightMethod::Rays;
+             o.boundary = Boundary::Free;
+             o.rays = 12;
+             o.radius = 7;
+             o.phase = 0.25f;
              o.skip_flat = false;
          },
          [&](const auto& s) {
@@ -172,19 +201,31 @@ TEST_CASE("options: every height option reaches its integrator", "[options][heig
          }},
         {"rays reference periodic exact directions phase 0.125",
          [](HeightOptions& o) {
-             o.method = HeightMethod::Rays; o.boundary = Boundary::Periodic; o.impl = RayImpl::Reference;
-             o.directions = RayDirections::Exact; o.rays = 6; o.radius = 9; o.phase = 0.125f;
+             o.method = HeightMethod::Rays;
+             o.boundary = Boundary::Periodic;
+             o.impl = RayImpl::Reference;
+             o.directions = RayDirections::Exact;
+             o.rays = 6;
+             o.radius = 9;
+             o.phase = 0.125f;
          },
          [&](const auto& s) { return host_rays(s, w, h, rays(6, 9, 0.125, true, DS::Exact), false); }},
         {"rays reference periodic rational phase 0.125",
          [](HeightOptions& o) {
-             o.method = HeightMethod::Rays; o.boundary = Boundary::Periodic; o.impl = RayImpl::Reference;
-             o.rays = 6; o.radius = 9; o.phase = 0.125f;
+             o.method = HeightMethod::Rays;
+             o.boundary = Boundary::Periodic;
+             o.impl = RayImpl::Reference;
+             o.rays = 6;
+             o.radius = 9;
+             o.phase = 0.125f;
          },
          [&](const auto& s) { return host_rays(s, w, h, rays(6, 9, 0.125, true, DS::Rational), false); }},
         {"rays reference clip rational",
          [](HeightOptions& o) {
-             o.method = HeightMethod::Rays; o.boundary = Boundary::Free; o.impl = RayImpl::Reference; o.rays = 10;
+             o.method = HeightMethod::Rays;
+             o.boundary = Boundary::Free;
+             o.impl = RayImpl::Reference;
+             o.rays = 10;
              o.radius = 8;
          },
          [&](const auto& s) { return host_rays(s, w, h, rays(10, 8, 0.5, false, DS::Rational), false); }},
@@ -279,7 +320,8 @@ TEST_CASE("options: an all-ones mask changes nothing, one texel less does", "[op
     }
 }
 
-TEST_CASE("options: boundary=auto integrates a tiling map periodically and a crop freely", "[options][tiling]")
+TEST_CASE("options: boundary=auto integrates a tiling map periodically and a crop freely",
+          "[options][tiling]")
 {
     // A tiling field, and the top-left 60 x 50 of a larger tiling field (its
     // wrap seams join unrelated texels).
@@ -307,7 +349,8 @@ TEST_CASE("options: boundary=auto integrates a tiling map periodically and a cro
             o.rays = 8;
             o.radius = 10;
         }
-        for (const auto& [img, tiles] : {std::pair{&tile, true}, std::pair{&part, false}, std::pair{&column, false}}) {
+        for (const auto& [img, tiles] :
+             {std::pair{&tile, true}, std::pair{&part, false}, std::pair{&column, false}}) {
             std::string said;
             const auto got = api_height(*img, o, &said);
             HeightOptions explicit_b = o;
@@ -315,15 +358,19 @@ TEST_CASE("options: boundary=auto integrates a tiling map periodically and a cro
             const auto want = api_height(*img, explicit_b);
             INFO(said);
             CHECK(max_abs_diff(got, want) == 0.0);
-            const std::string expect = tiles ? "boundary: periodic" : (ray_method ? "boundary: clip" : "boundary: free");
+            const std::string expect =
+                tiles ? "boundary: periodic" : (ray_method ? "boundary: clip" : "boundary: free");
             CHECK(said.find(expect) != std::string::npos);
             // relief:parameters records what was chosen, not "auto".
             HeightOptions again = o;
             again.normals.convention = NormalConvention::OpenGL;
-            const std::string par = relief::height(*img, again).spec().get_string_attribute("relief:parameters");
+            const std::string par =
+                relief::height(*img, again).spec().get_string_attribute("relief:parameters");
             const std::string chosen = tiles ? "periodic" : (ray_method ? "clip" : "free");
             if (ray_method)
-                CHECK(par == "method=rays impl=fast rays=8 radius=10 phase=0.5 directions=rational boundary=" + chosen);
+                CHECK(par ==
+                      "method=rays impl=fast rays=8 radius=10 phase=0.5 directions=rational boundary=" +
+                          chosen);
             else
                 CHECK(par == "method=poisson boundary=" + chosen + " highpass=0");
             HeightOptions other = o;
@@ -368,9 +415,10 @@ ApiCorrection api_correct(const ImageBuf& height, CorrectOptions o)
     return r;
 }
 
-} // namespace
+}  // namespace
 
-TEST_CASE("options: every correction option reaches the solver, the report is the solver's", "[options][correct]")
+TEST_CASE("options: every correction option reaches the solver, the report is the solver's",
+          "[options][correct]")
 {
     const int w = 40, h = 36;
     const auto hts = waves(w, h, 1.0, 4);
@@ -396,15 +444,25 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
     const Case cases[] = {
         {"base", [](CorrectOptions&) {}, [](host::CorrectParams&) {}},
         {"theta 2", [](CorrectOptions& o) { o.theta = 2; }, [](host::CorrectParams& p) { p.theta = 2; }},
-        {"theta 7.5", [](CorrectOptions& o) { o.theta = 7.5f; }, [](host::CorrectParams& p) { p.theta = 7.5; }},
+        {"theta 7.5", [](CorrectOptions& o) { o.theta = 7.5f; },
+         [](host::CorrectParams& p) { p.theta = 7.5; }},
         {"corner nodes", [](CorrectOptions& o) { o.nodes = CorrectNodes::Corner; },
          [](host::CorrectParams& p) { p.corner_nodes = true; }},
         {"fixed boundary", [](CorrectOptions& o) { o.boundary = CorrectBoundary::Fixed; },
          [](host::CorrectParams& p) { p.periodic = false; }},
-        {"corner nodes, fixed", [](CorrectOptions& o) { o.nodes = CorrectNodes::Corner; o.boundary = CorrectBoundary::Fixed; },
-         [](host::CorrectParams& p) { p.corner_nodes = true; p.periodic = false; }},
-        {"scale 0.5", [](CorrectOptions& o) { o.scale = 0.5f; }, [](host::CorrectParams& p) { p.scale = 0.5f; }},
-        {"3 iterations", [](CorrectOptions& o) { o.iterations = 3; }, [](host::CorrectParams& p) { p.iterations = 3; }},
+        {"corner nodes, fixed",
+         [](CorrectOptions& o) {
+             o.nodes = CorrectNodes::Corner;
+             o.boundary = CorrectBoundary::Fixed;
+         },
+         [](host::CorrectParams& p) {
+             p.corner_nodes = true;
+             p.periodic = false;
+         }},
+        {"scale 0.5", [](CorrectOptions& o) { o.scale = 0.5f; },
+         [](host::CorrectParams& p) { p.scale = 0.5f; }},
+        {"3 iterations", [](CorrectOptions& o) { o.iterations = 3; },
+         [](host::CorrectParams& p) { p.iterations = 3; }},
         {"tolerance 1e-2", [](CorrectOptions& o) { o.tolerance = 1e-2f; },
          [](host::CorrectParams& p) { p.tolerance = 1e-2f; }},
         {"1 level", [](CorrectOptions& o) { o.levels = 1; }, [](host::CorrectParams& p) { p.levels = 1; }},
@@ -412,14 +470,20 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
          [](host::CorrectParams& p) { p.threshold = 3; }},
         {"fixation mask", [&](CorrectOptions& o) { o.fix_mask = &fix_image; },
          [&](host::CorrectParams& p) { p.fix_weights = fix.data(); }},
-        {"fixation tent", [](CorrectOptions& o) { o.fix_height = 0.2f; o.fix_width = 0.5f; },
+        {"fixation tent",
+         [](CorrectOptions& o) {
+             o.fix_height = 0.2f;
+             o.fix_width = 0.5f;
+         },
          [&](host::CorrectParams& p) { p.fix_weights = tent.data(); }},
         {"ternary search", [](CorrectOptions& o) { o.search = CorrectSearch::Ternary; },
          [](host::CorrectParams& p) { p.search = host::CorrectParams::Search::Ternary; }},
         {"golden search", [](CorrectOptions& o) { o.search = CorrectSearch::Golden; },
          [](host::CorrectParams& p) { p.search = host::CorrectParams::Search::Golden; }},
-        {"relax 1.2", [](CorrectOptions& o) { o.relax = 1.2f; }, [](host::CorrectParams& p) { p.relax = 1.2f; }},
-        {"skip off", [](CorrectOptions& o) { o.skip_tiles = false; }, [](host::CorrectParams& p) { p.skip_tiles = false; }},
+        {"relax 1.2", [](CorrectOptions& o) { o.relax = 1.2f; },
+         [](host::CorrectParams& p) { p.relax = 1.2f; }},
+        {"skip off", [](CorrectOptions& o) { o.skip_tiles = false; },
+         [](host::CorrectParams& p) { p.skip_tiles = false; }},
     };
     std::vector<std::vector<float>> results;
     for (const Case& c : cases) {
@@ -453,10 +517,10 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
             CHECK(r.levels[l].converged == hl.converged);
             CHECK(r.levels[l].tiles_run == Approx(double(hl.tile_phases_run) / double(hl.tile_phases)));
         }
-        for (const auto& [got_s, want_s] :
-             {std::pair{r.anisotropy_before, want.report.anisotropy_before},
-              std::pair{r.anisotropy_after, want.report.anisotropy_after},
-              std::pair{r.area_before, want.report.area_before}, std::pair{r.area_after, want.report.area_after}}) {
+        for (const auto& [got_s, want_s] : {std::pair{r.anisotropy_before, want.report.anisotropy_before},
+                                            std::pair{r.anisotropy_after, want.report.anisotropy_after},
+                                            std::pair{r.area_before, want.report.area_before},
+                                            std::pair{r.area_after, want.report.area_after}}) {
             CHECK(got_s.mean == want_s.mean);
             CHECK(got_s.p95 == want_s.p95);
             CHECK(got_s.max == want_s.max);
@@ -476,9 +540,10 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
         CHECK(par.find("theta=" + test::format_number(p.theta)) != std::string::npos);
         CHECK(par.find("nodes=" + r.nodes) != std::string::npos);
         CHECK(par.find("boundary=" + r.boundary) != std::string::npos);
-        CHECK(par.find(" levels=" + (p.levels ? std::to_string(p.levels) : std::string("auto"))) != std::string::npos);
-        CHECK(par.find(" iterations=" + (p.iterations ? std::to_string(p.iterations) : std::string("auto"))) !=
+        CHECK(par.find(" levels=" + (p.levels ? std::to_string(p.levels) : std::string("auto"))) !=
               std::string::npos);
+        CHECK(par.find(" iterations=" + (p.iterations ? std::to_string(p.iterations)
+                                                      : std::string("auto"))) != std::string::npos);
         if (!r.skipped) {
             CHECK(r.energy_after < r.energy_before * 0.999);
             CHECK(r.anisotropy_after.mean < r.anisotropy_before.mean);
@@ -675,17 +740,46 @@ TEST_CASE("options: inconsistent or out-of-range options are refused by the API"
     const HCase hcases[] = {
         {"mask one row short", [&](HeightOptions& o) { o.mask = &short_mask; }, "the mask is 48x39"},
         {"mask one column short", [&](HeightOptions& o) { o.mask = &narrow_mask; }, "the mask is 47x40"},
-        {"mask value above 1", [&](HeightOptions& o) { o.mask = &over_mask; }, "mask values must be in [0, 1]"},
-        {"mask and rays", [&](HeightOptions& o) { o.mask = &half_mask; o.method = HeightMethod::Rays; }, "mask applies to method=poisson"},
-        {"mask and highpass", [&](HeightOptions& o) { o.mask = &half_mask; o.highpass = 8; }, "highpass cannot be combined with a mask"},
-        {"alpha mask and highpass", [&](HeightOptions& o) { o.mask_alpha = true; o.highpass = 8; }, "highpass cannot be combined with a mask"},
-        {"highpass and rays", [&](HeightOptions& o) { o.highpass = 8; o.method = HeightMethod::Rays; }, "highpass applies to method=poisson"},
-        {"phase 1", [](HeightOptions& o) { o.phase = 1.0f; }, "phase=1 is out of range; it must be in [0, 1)"},
-        {"phase negative", [](HeightOptions& o) { o.phase = -0.25f; }, "phase=-0.25 is out of range; it must be in [0, 1)"},
+        {"mask value above 1", [&](HeightOptions& o) { o.mask = &over_mask; },
+         "mask values must be in [0, 1]"},
+        {"mask and rays",
+         [&](HeightOptions& o) {
+             o.mask = &half_mask;
+             o.method = HeightMethod::Rays;
+         },
+         "mask applies to method=poisson"},
+        {"mask and highpass",
+         [&](HeightOptions& o) {
+             o.mask = &half_mask;
+             o.highpass = 8;
+         },
+         "highpass cannot be combined with a mask"},
+        {"alpha mask and highpass",
+         [&](HeightOptions& o) {
+             o.mask_alpha = true;
+             o.highpass = 8;
+         },
+         "highpass cannot be combined with a mask"},
+        {"highpass and rays",
+         [&](HeightOptions& o) {
+             o.highpass = 8;
+             o.method = HeightMethod::Rays;
+         },
+         "highpass applies to method=poisson"},
+        {"phase 1", [](HeightOptions& o) { o.phase = 1.0f; },
+         "phase=1 is out of range; it must be in [0, 1)"},
+        {"phase negative", [](HeightOptions& o) { o.phase = -0.25f; },
+         "phase=-0.25 is out of range; it must be in [0, 1)"},
         {"radius too large", [](HeightOptions& o) { o.radius = 70000.0f; }, "radius"},
-        {"max_angle 90", [](HeightOptions& o) { o.normals.max_angle = 90.0f; }, "max_angle=90 is out of range; it must be in (0, 90) degrees"},
+        {"max_angle 90", [](HeightOptions& o) { o.normals.max_angle = 90.0f; },
+         "max_angle=90 is out of range; it must be in (0, 90) degrees"},
         {"max_angle 0", [](HeightOptions& o) { o.normals.max_angle = 0.0f; }, "max_angle=0 is out of range"},
-        {"fast with exact directions", [](HeightOptions& o) { o.method = HeightMethod::Rays; o.directions = RayDirections::Exact; }, "impl=fast needs directions=rational"},
+        {"fast with exact directions",
+         [](HeightOptions& o) {
+             o.method = HeightMethod::Rays;
+             o.directions = RayDirections::Exact;
+         },
+         "impl=fast needs directions=rational"},
     };
     for (const HCase& c : hcases) {
         INFO(c.what);
@@ -700,7 +794,8 @@ TEST_CASE("options: inconsistent or out-of-range options are refused by the API"
 
     const int cw = 40, ch = 36;
     const ImageBuf height = test::image(cw, ch, 1, waves(cw, ch, 1.0, 4));
-    const ImageBuf tall_fix = test::image(cw, ch + 1, 1, std::vector<float>(std::size_t(cw) * (ch + 1), 1.0f));
+    const ImageBuf tall_fix =
+        test::image(cw, ch + 1, 1, std::vector<float>(std::size_t(cw) * (ch + 1), 1.0f));
     const ImageBuf wide_fix = test::image(cw + 1, ch, 1, std::vector<float>(std::size_t(cw + 1) * ch, 1.0f));
     std::vector<float> negative(std::size_t(cw) * ch, 1.0f);
     negative[5] = -1.0f;
@@ -711,14 +806,26 @@ TEST_CASE("options: inconsistent or out-of-range options are refused by the API"
         const char* message;
     };
     const CCase ccases[] = {
-        {"fixation mask one row long", [&](CorrectOptions& o) { o.fix_mask = &tall_fix; }, "the fixation mask is 40x37, the height map 40x36"},
-        {"fixation mask one column wide", [&](CorrectOptions& o) { o.fix_mask = &wide_fix; }, "the fixation mask is 41x36"},
-        {"negative fixation weight", [&](CorrectOptions& o) { o.fix_mask = &negative_fix; }, "fixation weights must be finite and >= 0"},
-        {"mask and tent", [&](CorrectOptions& o) { o.fix_mask = &wide_fix; o.fix_width = 1; }, "not both"},
-        {"theta above 20", [](CorrectOptions& o) { o.theta = 20.5f; }, "theta=20.5 is out of range; it must be in [0, 20]"},
-        {"tolerance 0", [](CorrectOptions& o) { o.tolerance = 0.0f; }, "tolerance=0 is out of range; it must be in (0, 1)"},
-        {"negative threshold", [](CorrectOptions& o) { o.threshold = -1.0f; }, "threshold=-1 is out of range; it must be in [0, 1e+09]"},
-        {"negative levels", [](CorrectOptions& o) { o.levels = -1; }, "levels=-1 must be an integer in [1, 30] or auto"},
+        {"fixation mask one row long", [&](CorrectOptions& o) { o.fix_mask = &tall_fix; },
+         "the fixation mask is 40x37, the height map 40x36"},
+        {"fixation mask one column wide", [&](CorrectOptions& o) { o.fix_mask = &wide_fix; },
+         "the fixation mask is 41x36"},
+        {"negative fixation weight", [&](CorrectOptions& o) { o.fix_mask = &negative_fix; },
+         "fixation weights must be finite and >= 0"},
+        {"mask and tent",
+         [&](CorrectOptions& o) {
+             o.fix_mask = &wide_fix;
+             o.fix_width = 1;
+         },
+         "not both"},
+        {"theta above 20", [](CorrectOptions& o) { o.theta = 20.5f; },
+         "theta=20.5 is out of range; it must be in [0, 20]"},
+        {"tolerance 0", [](CorrectOptions& o) { o.tolerance = 0.0f; },
+         "tolerance=0 is out of range; it must be in (0, 1)"},
+        {"negative threshold", [](CorrectOptions& o) { o.threshold = -1.0f; },
+         "threshold=-1 is out of range; it must be in [0, 1e+09]"},
+        {"negative levels", [](CorrectOptions& o) { o.levels = -1; },
+         "levels=-1 must be an integer in [1, 30] or auto"},
         {"NaN scale", [](CorrectOptions& o) { o.scale = std::nanf(""); }, "scale=nan is not a number"},
     };
     for (const CCase& c : ccases) {
@@ -748,7 +855,8 @@ TEST_CASE("options: a failed call's returned image carries the error", "[options
     co.scale = -1.0f;
     const ImageBuf c = relief::correct(gray, co);
     CHECK(c.has_error());
-    CHECK(c.geterror().find("correct: scale=-1 is out of range; it must be in (0, 1e+09] or auto") != std::string::npos);
+    CHECK(c.geterror().find("correct: scale=-1 is out of range; it must be in (0, 1e+09] or auto") !=
+          std::string::npos);
     const ImageBuf b = relief::bake(gray, gray);
     CHECK(b.has_error());
     CHECK(b.geterror().find("bake: the offset map has 1 channel(s)") != std::string::npos);

@@ -132,10 +132,11 @@ bool temporary_appears(const fs::path& dir, pid_t pid)
     return false;
 }
 
-} // namespace
+}  // namespace
 
-TEST_CASE("output files: hidden exclusive temporary names, stale ones of gone processes removed, others' kept",
-          "[io][files]")
+TEST_CASE(
+    "output files: hidden exclusive temporary names, stale ones of gone processes removed, others' kept",
+    "[io][files]")
 {
     const fs::path d = relief::test::scratch("output_files/stale");
     const std::string host = this_host(), ns = this_pid_namespace();
@@ -174,9 +175,10 @@ TEST_CASE("output files: hidden exclusive temporary names, stale ones of gone pr
     CHECK(temporaries(d).size() == kept.size() - 1);
 }
 
-TEST_CASE("output files: SIGTERM and SIGINT remove the temporary file and exit 128+signal, after SIGKILL the next "
-          "run removes it",
-          "[io][files][cli]")
+TEST_CASE(
+    "output files: SIGTERM and SIGINT remove the temporary file and exit 128+signal, after SIGKILL the next "
+    "run removes it",
+    "[io][files][cli]")
 {
     const fs::path d = relief::test::scratch("output_files/signals");
     const fs::path in = big_input(d);
@@ -204,7 +206,8 @@ TEST_CASE("output files: SIGTERM and SIGINT remove the temporary file and exit 1
     }
 }
 
-TEST_CASE("output files: batches sharing one --log append whole lines, none lost or torn", "[batch][files][cli]")
+TEST_CASE("output files: batches sharing one --log append whole lines, none lost or torn",
+          "[batch][files][cli]")
 {
     const fs::path d = relief::test::scratch("output_files/shared_log");
     // Jobs that fail at once (a missing input): no device, many records.
@@ -256,14 +259,16 @@ TEST_CASE("output files: a name the file system cannot take is refused before th
     CHECK(fs::exists(d / longest));
     r = run_cli("-v '" + in + "' --slopes -o '" + (d / too_long).string() + "'");
     CHECK(r.rc != 0);
-    CHECK(r.err.find("the file name is 256 bytes, longer than its file system allows (255)") != std::string::npos);
+    CHECK(r.err.find("the file name is 256 bytes, longer than its file system allows (255)") !=
+          std::string::npos);
     CHECK(r.err.find("slopes:") == std::string::npos);  // no step ran
     CHECK(temporaries(d).empty());
 }
 
-TEST_CASE("output files: a write that would clobber an input, the manifest or another output is refused before "
-          "any work",
-          "[files][cli][parse]")
+TEST_CASE(
+    "output files: a write that would clobber an input, the manifest or another output is refused before "
+    "any work",
+    "[files][cli][parse]")
 {
     const fs::path d = relief::test::scratch("output_files/clobber");
     const std::string in = (d / "in.png").string();
@@ -286,7 +291,8 @@ TEST_CASE("output files: a write that would clobber an input, the manifest or an
         {"in.png --height -o h.exr --report sub/../h.exr", "it is both an -o output and the --report file"},
         {"in.png --height -o h.exr --log ./h.exr", "it is both the --log file and an -o output"},
         {"in.png --height -o h.exr -o h.exr", "it is both an -o output and an -o output"},
-        {"in.png --height --mesh:out=m.ply --report m.ply", "it is both an operation's output file (out=) and the --report file"},
+        {"in.png --height --mesh:out=m.ply --report m.ply",
+         "it is both an operation's output file (out=) and the --report file"},
         {"--update in.png --slopes -o in.png", "an -o output is also its input: under --update"},
     };
     for (const Case& c : refused) {
@@ -305,7 +311,8 @@ TEST_CASE("output files: a write that would clobber an input, the manifest or an
     fs::create_hard_link(d / "in.png", d / "link.png");
     auto r = run_cli("link.png --height --report in.png", "cd '" + d.string() + "' &&");
     CHECK(r.rc == 2);
-    CHECK(r.err.find("'link.png' and 'in.png' are one file: the --report file would replace an input") != std::string::npos);
+    CHECK(r.err.find("'link.png' and 'in.png' are one file: the --report file would replace an input") !=
+          std::string::npos);
     // Two jobs of a manifest writing one file: refused, both lines named,
     // whatever the shard (the shards run at once).
     {
@@ -314,7 +321,8 @@ TEST_CASE("output files: a write that would clobber an input, the manifest or an
     }
     r = run_cli("--batch two.txt --shard 1/2", "cd '" + d.string() + "' &&");
     CHECK(r.rc == 2);
-    CHECK(r.err.find("it is both an -o output of job 0 (line 1) and an -o output of job 1 (line 3)") != std::string::npos);
+    CHECK(r.err.find("it is both an -o output of job 0 (line 1) and an -o output of job 1 (line 3)") !=
+          std::string::npos);
     CHECK_FALSE(fs::exists(d / "s.exr"));
     // Allowed: an image written over its own input (oiiotool's in-place
     // edit), and one job's output read by another job.
@@ -325,7 +333,8 @@ TEST_CASE("output files: a write that would clobber an input, the manifest or an
     CHECK(slurp(d / "copy.png") != original);
 }
 
-TEST_CASE("output files: --update recomputes an output cut short, whatever keeps its header", "[batch][files][cli]")
+TEST_CASE("output files: --update recomputes an output cut short, whatever keeps its header",
+          "[batch][files][cli]")
 {
     const fs::path d = relief::test::scratch("output_files/truncated");
     const std::string in = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
@@ -349,9 +358,10 @@ TEST_CASE("output files: --update recomputes an output cut short, whatever keeps
     }
 }
 
-TEST_CASE("output files: a --batch --update killed at random moments and rerun ends whole, as a clean run, with "
-          "no litter",
-          "[batch][files][cli]")
+TEST_CASE(
+    "output files: a --batch --update killed at random moments and rerun ends whole, as a clean run, with "
+    "no litter",
+    "[batch][files][cli]")
 {
     const fs::path d = relief::test::scratch("output_files/kills");
     const std::string in = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
@@ -425,15 +435,19 @@ TEST_CASE("output files: two writers of one output in separate PID namespaces le
     const fs::path b = d / "big_b.exr";
     REQUIRE(relief::write_image(relief::test::image(2048, 2048, 3, px), b.string()));
     for (const fs::path& input : {a, b})
-        REQUIRE(run_cli("'" + input.string() + "' --slopes -o '" + (d / (input.stem().string() + ".ref.exr")).string() + "'").rc == 0);
-    const auto ref_a = relief::test::file_pixels(d / "big.ref.exr"), ref_b = relief::test::file_pixels(d / "big_b.ref.exr");
+        REQUIRE(run_cli("'" + input.string() + "' --slopes -o '" +
+                        (d / (input.stem().string() + ".ref.exr")).string() + "'")
+                    .rc == 0);
+    const auto ref_a = relief::test::file_pixels(d / "big.ref.exr"),
+               ref_b = relief::test::file_pixels(d / "big_b.ref.exr");
     REQUIRE(ref_a != ref_b);
     for (int round = 0; round < 3; ++round) {
         INFO("round " << round);
         fs::remove(d / "out.exr");
         const std::string one = "unshare -p -f '" + std::string(RELIEF_CLI) + "' '";
-        const std::string cmd = "cd '" + d.string() + "' && (" + one + a.string() + "' --slopes -o out.exr & p=$!; " +
-                                one + b.string() + "' --slopes -o out.exr & q=$!; wait $p && wait $q) 2>err.txt";
+        const std::string cmd = "cd '" + d.string() + "' && (" + one + a.string() +
+                                "' --slopes -o out.exr & p=$!; " + one + b.string() +
+                                "' --slopes -o out.exr & q=$!; wait $p && wait $q) 2>err.txt";
         CHECK(std::system(cmd.c_str()) == 0);
         INFO(slurp(d / "err.txt"));
         const auto got = relief::test::file_pixels(d / "out.exr");
@@ -442,18 +456,19 @@ TEST_CASE("output files: two writers of one output in separate PID namespaces le
     }
 }
 
-TEST_CASE("output files: a job reading an earlier job's output runs in its shard, after it, and a later writer is "
-          "refused",
-          "[batch][files][cli]")
+TEST_CASE(
+    "output files: a job reading an earlier job's output runs in its shard, after it, and a later writer is "
+    "refused",
+    "[batch][files][cli]")
 {
     const fs::path d = relief::test::scratch("output_files/chains");
     const std::string in = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
     {
         std::ofstream m(d / "jobs.txt");
-        m << "'" << in << "' --height -o h.exr\n";                    // job 0
-        m << "'" << in << "' --slopes -o s.exr\n";                    // job 1
-        m << "'" << in << "' h.exr --preview -o p.png\n";             // job 2 reads job 0's output
-        m << "'" << in << "' --slopes -o s3.exr\n";                   // job 3
+        m << "'" << in << "' --height -o h.exr\n";         // job 0
+        m << "'" << in << "' --slopes -o s.exr\n";         // job 1
+        m << "'" << in << "' h.exr --preview -o p.png\n";  // job 2 reads job 0's output
+        m << "'" << in << "' --slopes -o s3.exr\n";        // job 3
     }
     const auto jobs_of = [&](const std::string& shard) {
         auto r = run_cli("--batch jobs.txt --dry-run --shard " + shard, "cd '" + d.string() + "' &&");
@@ -470,7 +485,8 @@ TEST_CASE("output files: a job reading an earlier job's output runs in its shard
     // Run for real, shard by shard, the reader's shard first: the chain
     // still runs in order, in one process.
     for (const char* shard : {"2/3", "1/3", "0/3"})
-        CHECK(run_cli("--batch jobs.txt --shard " + std::string(shard), "cd '" + d.string() + "' &&").rc == 0);
+        CHECK(run_cli("--batch jobs.txt --shard " + std::string(shard), "cd '" + d.string() + "' &&").rc ==
+              0);
     CHECK(fs::exists(d / "p.png"));
     // The reader before its writer would read a stale file: refused.
     {
@@ -480,12 +496,14 @@ TEST_CASE("output files: a job reading an earlier job's output runs in its shard
     }
     auto r = run_cli("--batch reversed.txt", "cd '" + d.string() + "' &&");
     CHECK(r.rc == 2);
-    CHECK(r.err.find("is the output of a later job, an -o output of job 1 (line 2): the reader would read a stale "
-                     "file; put the writer first") != std::string::npos);
+    CHECK(r.err.find(
+              "is the output of a later job, an -o output of job 1 (line 2): the reader would read a stale "
+              "file; put the writer first") != std::string::npos);
 }
 
-TEST_CASE("output files: --mesh estimates its memory and is refused under RELIEF_MEMORY_LIMIT before building",
-          "[files][cli][mesh]")
+TEST_CASE(
+    "output files: --mesh estimates its memory and is refused under RELIEF_MEMORY_LIMIT before building",
+    "[files][cli][mesh]")
 {
     const fs::path d = relief::test::scratch("output_files/mesh_memory");
     const std::string h = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";

@@ -17,8 +17,7 @@ using namespace relief;
 
 namespace {
 
-std::vector<float> solve(const std::vector<double>& g, int w, int h, bool periodic,
-                         double highpass = 0.0)
+std::vector<float> solve(const std::vector<double>& g, int w, int h, bool periodic, double highpass = 0.0)
 {
     auto ctx = host::ComputeContext::acquire("auto");
     std::vector<float> gf(g.begin(), g.end());
@@ -71,7 +70,7 @@ double max_diff(const A& a, const B& b)
     return m;
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("Poisson solver equals the double-precision golden model", "[poisson]")
 {
@@ -82,8 +81,7 @@ TEST_CASE("Poisson solver equals the double-precision golden model", "[poisson]"
     for (const Case& c : cases)
         for (bool periodic : {true, false})
             for (double highpass : {0.0, 8.0}) {
-                INFO(c.w << "x" << c.h << (periodic ? " periodic" : " free") << " highpass "
-                          << highpass);
+                INFO(c.w << "x" << c.h << (periodic ? " periodic" : " free") << " highpass " << highpass);
                 auto g = noisy_slopes(c.w, c.h, 3u + c.w);
                 reference::PoissonSettings s;
                 s.periodic = periodic;
@@ -103,8 +101,8 @@ TEST_CASE("a 1x1 texture integrates to zero", "[poisson]")
 
 TEST_CASE("periodic: band-limited fields are recovered exactly", "[poisson]")
 {
-    const test::PeriodicField f{256, 192, {{1, 0, 4.0, 0.2}, {3, 2, 2.0, 1.0}, {-7, 5, 0.5, 2.5},
-                                           {20, -11, 0.1, 0.3}}};
+    const test::PeriodicField f{
+        256, 192, {{1, 0, 4.0, 0.2}, {3, 2, 2.0, 1.0}, {-7, 5, 0.5, 2.5}, {20, -11, 0.1, 0.3}}};
     auto got = solve(f.slopes(), f.width, f.height, true);
     std::vector<double> truth(got.size());
     double mean = 0;
@@ -192,8 +190,8 @@ TEST_CASE("tiling evidence: a periodic field tiles, a crop of one does not", "[p
 
 namespace {
 
-std::vector<float> solve_weighted(const std::vector<double>& g, const std::vector<float>& weights,
-                                  int w, int h, bool periodic, host::PoissonReport* report = nullptr)
+std::vector<float> solve_weighted(const std::vector<double>& g, const std::vector<float>& weights, int w,
+                                  int h, bool periodic, host::PoissonReport* report = nullptr)
 {
     auto ctx = host::ComputeContext::acquire("auto");
     std::vector<float> gf(g.begin(), g.end());
@@ -207,7 +205,7 @@ std::vector<float> solve_weighted(const std::vector<double>& g, const std::vecto
     return out;
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("weighted Poisson equals the double-precision golden model", "[poisson][mask]")
 {
@@ -227,8 +225,8 @@ TEST_CASE("weighted Poisson equals the double-precision golden model", "[poisson
             auto ref = reference::poisson_weighted(g, c.w, c.h, wd, periodic, 1e-3);
             host::PoissonReport report;
             auto got = solve_weighted(g, wf, c.w, c.h, periodic, &report);
-            INFO("iterations " << report.iterations << ", residual " << report.residual
-                               << ", max diff " << max_diff(got, ref) << ", spread " << spread(ref));
+            INFO("iterations " << report.iterations << ", residual " << report.residual << ", max diff "
+                               << max_diff(got, ref) << ", spread " << spread(ref));
             CHECK(report.residual <= 1e-6);
             CHECK(max_diff(got, ref) <= 1e-3 * spread(ref) + 1e-6);
         }

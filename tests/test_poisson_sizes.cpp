@@ -67,8 +67,7 @@ struct Field {
 };
 
 std::vector<float> solve(const std::vector<float>& slopes, int w, int h, bool periodic,
-                         const std::vector<float>* weights = nullptr,
-                         host::PoissonReport* report = nullptr)
+                         const std::vector<float>* weights = nullptr, host::PoissonReport* report = nullptr)
 {
     auto ctx = host::ComputeContext::acquire("auto");
     auto s = host::upload_slopes(*ctx, slopes.data(), w, h);
@@ -104,7 +103,7 @@ double relative_rmse(const std::vector<float>& a, const std::vector<float>& b)
     return std::sqrt(s / double(a.size())) / std_dev(b);
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("Poisson at every kind of FFT size equals the analytic field", "[poisson][stress]")
 {
@@ -221,8 +220,7 @@ TEST_CASE("masked Poisson keeps the lowest mode of a 16384-long map", "[poisson]
         }
 }
 
-TEST_CASE("a mask of all ones but one texel at 0.999 barely changes the answer",
-          "[poisson][mask]")
+TEST_CASE("a mask of all ones but one texel at 0.999 barely changes the answer", "[poisson][mask]")
 {
     // The masked and unmasked solves are one problem: all-ones weights give
     // the unmasked answer, and the answer moves continuously with them.

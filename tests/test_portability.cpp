@@ -39,7 +39,8 @@ struct Simulator {
 };
 
 const Simulator kRaces{"races", "--data-races --check-api --local-mem-size 32768 --max-wgsize 256"};
-const Simulator kSmallDevice{"small device", "--data-races --check-api --local-mem-size 16384 --max-wgsize 64"};
+const Simulator kSmallDevice{"small device",
+                             "--data-races --check-api --local-mem-size 16384 --max-wgsize 64"};
 const Simulator kUninitialized{"uninitialized", "--uninitialized --build-options -cl-opt-disable"};
 
 bool have_oclgrind()
@@ -101,7 +102,8 @@ const Inputs& inputs()
                 for (int c = 0; c < w; ++c)
                     for (int k = 0; k < channels; ++k)
                         part[(std::size_t(r) * w + c) * channels + k] =
-                            all[(std::size_t(r + y) * spec.width + c + x) * spec.nchannels + std::min(k, spec.nchannels - 1)];
+                            all[(std::size_t(r + y) * spec.width + c + x) * spec.nchannels +
+                                std::min(k, spec.nchannels - 1)];
             OIIO::ImageBuf b = relief::test::image(w, h, channels, part, OIIO::TypeDesc::UINT8);
             REQUIRE(b.write(to.string()));
         };
@@ -138,7 +140,8 @@ const Inputs& inputs()
         const fs::path n32 = i.dir / "n32.png";
         cut(sample, 32, 32, 300, 300, n32, 3);
         REQUIRE(run_cli("'" + n32.string() + "' --height -o '" + i.h32.string() + "'").rc == 0);
-        REQUIRE(run_cli("'" + i.n64.string() + "' --height:boundary=free -o '" + i.h64.string() + "'").rc == 0);
+        REQUIRE(run_cli("'" + i.n64.string() + "' --height:boundary=free -o '" + i.h64.string() + "'").rc ==
+                0);
         return i;
     }();
     return in;
@@ -167,16 +170,15 @@ void check_stage(const std::string& name, const std::string& args, const Simulat
     const auto s = run_cli(with_output(got), "RELIEF_DEVICE= RELIEF_CACHE_DIR='" + cache.string() +
                                                  "' oclgrind " + sim.options);
     const std::vector<std::string> reports = foreign_lines(s.err);
-    INFO(name << " under oclgrind " << sim.options << " (exit " << s.rc << "):\n"
-              << s.err.substr(0, 4000));
+    INFO(name << " under oclgrind " << sim.options << " (exit " << s.rc << "):\n" << s.err.substr(0, 4000));
     REQUIRE(s.rc == 0);
     CHECK(reports.empty());
     const std::vector<float> a = file_pixels(ref), b = file_pixels(got);
     REQUIRE(!a.empty());
     REQUIRE(a.size() == b.size());
     const double diff = relief::test::max_abs_diff(a, b);
-    const double bound = std::max(tolerance_of_std * standard_deviation(a),
-                                  tolerance_of_max * relief::test::max_abs(a));
+    const double bound =
+        std::max(tolerance_of_std * standard_deviation(a), tolerance_of_max * relief::test::max_abs(a));
     INFO("max |oclgrind - device| " << diff << ", allowed " << bound);
     CHECK(diff <= bound);
 }
@@ -204,9 +206,12 @@ void every_stage(const std::vector<Simulator>& sims, const std::string& only = "
         {"poisson free", n6448 + " --height:boundary=free -o OUT", 1e-3, 0},
         {"poisson masked", n64 + " --height:mask='" + in.mask.string() + "' -o OUT", 1e-3, 0},
         {"poisson highpass", n64 + " --height:boundary=periodic:highpass=16 -o OUT", 1e-3, 0},
-        {"poisson 8192 free", "'" + in.x8192.string() + "' --height:boundary=free:normal=opengl -o OUT", 1e-3, 0, true},
-        {"poisson 16384 periodic", "'" + in.y16384.string() + "' --height:boundary=periodic:normal=opengl -o OUT", 1e-3, 0, true},
-        {"poisson 4099 periodic", "'" + in.x4099.string() + "' --height:boundary=periodic:normal=opengl -o OUT", 1e-3, 0, true},
+        {"poisson 8192 free", "'" + in.x8192.string() + "' --height:boundary=free:normal=opengl -o OUT", 1e-3,
+         0, true},
+        {"poisson 16384 periodic",
+         "'" + in.y16384.string() + "' --height:boundary=periodic:normal=opengl -o OUT", 1e-3, 0, true},
+        {"poisson 4099 periodic",
+         "'" + in.x4099.string() + "' --height:boundary=periodic:normal=opengl -o OUT", 1e-3, 0, true},
         {"rays reference", n64 + " --height:method=rays:impl=reference:rays=8:radius=8 -o OUT", 1e-3, 0},
         {"rays periodic", n64 + " --height:method=rays:rays=8:radius=8:boundary=periodic -o OUT", 1e-3, 0},
         // clip: the FFT inside, chains in the band; radius 40 leaves no inside
@@ -215,11 +220,14 @@ void every_stage(const std::vector<Simulator>& sims, const std::string& only = "
         {"correct brent", h32 + " --correct:iterations=4:levels=1 -o OUT", 0, 0.02},
         {"correct golden", h32 + " --correct:iterations=4:levels=1:search=golden -o OUT", 0, 0.02},
         {"correct ternary", h32 + " --correct:iterations=4:levels=1:search=ternary -o OUT", 0, 0.02},
-        {"bake", "'" + in.colour32.string() + "' " + h32 + " --correct:iterations=4:levels=1 --bake -d float -o OUT", 0, 0.02},
+        {"bake",
+         "'" + in.colour32.string() + "' " + h32 + " --correct:iterations=4:levels=1 --bake -d float -o OUT",
+         0, 0.02},
         {"normals", h64 + " --normals -o OUT", 1e-3, 0},
         {"preview", n64 + " " + h64 + " --preview -d float -o OUT", 0, 0.02},
         {"tessellation", h64 + " --tessellation:patch=16:error=0.5 -o OUT", 1e-3, 0},
-        {"mesh", h64 + " --mesh:patch=16:error=0.5:out='" + (in.dir / "mesh.obj").string() + "' -o OUT", 1e-3, 0},
+        {"mesh", h64 + " --mesh:patch=16:error=0.5:out='" + (in.dir / "mesh.obj").string() + "' -o OUT", 1e-3,
+         0},
     };
     for (const Simulator& sim : sims)
         for (const Stage& st : stages) {
@@ -234,14 +242,16 @@ void every_stage(const std::vector<Simulator>& sims, const std::string& only = "
         }
 }
 
-} // namespace
+}  // namespace
 
-TEST_CASE("portability: every stage on Oclgrind, races and API checks, as a driver builds it", "[portability]")
+TEST_CASE("portability: every stage on Oclgrind, races and API checks, as a driver builds it",
+          "[portability]")
 {
     every_stage({kRaces});
 }
 
-TEST_CASE("portability: every stage on Oclgrind with 64-item groups and 16 KiB of local memory", "[portability]")
+TEST_CASE("portability: every stage on Oclgrind with 64-item groups and 16 KiB of local memory",
+          "[portability]")
 {
     every_stage({kSmallDevice});
 }

@@ -54,7 +54,7 @@ double max_abs(const std::vector<double>& v)
     return m;
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("reference kernel equals the C++ golden model", "[rays]")
 {
@@ -74,7 +74,7 @@ TEST_CASE("reference kernel equals the C++ golden model", "[rays]")
     };
     for (const Case& c : cases) {
         INFO(c.w << "x" << c.h << " rays=" << c.rays << " radius=" << c.radius << " phase=" << c.phase
-                  << (c.periodic ? " periodic" : " clip"));
+                 << (c.periodic ? " periodic" : " clip"));
         auto g = rough_slopes(c.w, c.h, 7u + c.rays);
         auto ref = reference::rays(g, c.w, c.h, {c.rays, c.radius, c.phase, c.periodic});
         auto got = kernel_rays(g, c.w, c.h, c.rays, c.radius, c.phase, c.periodic);
@@ -142,8 +142,15 @@ TEST_CASE("clip mode at edges and corners: a tilted plane against the clipped-di
         v -= mean;
     const double spread = test::rms(expect);
     auto at = [&](int x, int y) { return std::size_t(y) * w + x; };
-    for (auto [x, y] : {std::pair{0, 0}, {w - 1, 0}, {0, h - 1}, {w - 1, h - 1}, {0, h / 2}, {w / 2, 0},
-                        {w - 1, h / 2}, {w / 2, h - 1}, {w / 2, h / 2}}) {
+    for (auto [x, y] : {std::pair{0, 0},
+                        {w - 1, 0},
+                        {0, h - 1},
+                        {w - 1, h - 1},
+                        {0, h / 2},
+                        {w / 2, 0},
+                        {w - 1, h / 2},
+                        {w / 2, h - 1},
+                        {w / 2, h / 2}}) {
         INFO("texel " << x << "," << y);
         CHECK(std::abs(got[at(x, y)] - expect[at(x, y)]) < 0.01 * spread);
     }
@@ -158,7 +165,9 @@ TEST_CASE("a bump comes out positive (not upside down) through the public API", 
 {
     const int n = 64;
     std::vector<double> g(2 * n * n);
-    auto hgt = [&](double x, double y) { return 5.0 * std::exp(-((x - 32) * (x - 32) + (y - 32) * (y - 32)) / 50.0); };
+    auto hgt = [&](double x, double y) {
+        return 5.0 * std::exp(-((x - 32) * (x - 32) + (y - 32) * (y - 32)) / 50.0);
+    };
     for (int y = 0; y < n; ++y)
         for (int x = 0; x < n; ++x) {
             g[2 * (y * n + x)] = (hgt(x + 1e-4, y) - hgt(x - 1e-4, y)) / 2e-4;

@@ -96,7 +96,7 @@ bool all_finite(const std::vector<float>& v)
     return true;
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("rational directions are primitive steps near the uniform angles", "[rays][fast]")
 {
@@ -141,15 +141,13 @@ TEST_CASE("rational directions by continued fractions equal the exhaustive searc
     // 4096 rays: milliseconds, not minutes.
     const auto t0 = std::chrono::steady_clock::now();
     const auto many = host::rational_directions(4096, 0.5);
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     CHECK(many.size() == 4096);
     CHECK(seconds < 0.5);
     const int limit = host::rational_step_limit(4096);
     for (std::size_t j = 0; j < many.size(); ++j) {
         CHECK(std::gcd(many[j].a, many[j].b) == 1);
-        const double err =
-            std::abs(std::remainder(many[j].angle() - 2 * M_PI * (j + 0.5) / 4096, 2 * M_PI));
+        const double err = std::abs(std::remainder(many[j].angle() - 2 * M_PI * (j + 0.5) / 4096, 2 * M_PI));
         CHECK(err <= 1.0 / limit + 1e-9);
     }
 }
@@ -162,15 +160,13 @@ TEST_CASE("reference kernel with rational directions equals the golden model", "
         bool periodic;
     };
     const Case cases[] = {
-        {37, 29, 8, 5.0, 0.5, true},
-        {37, 29, 16, 23.7, 0.5, true},  // longer than the texture: wraps
-        {37, 29, 12, 9.5, 0.25, false},
-        {24, 24, 8, 11.0, 0.0, true},   // (1, 1): through corners
+        {37, 29, 8, 5.0, 0.5, true},    {37, 29, 16, 23.7, 0.5, true},  // longer than the texture: wraps
+        {37, 29, 12, 9.5, 0.25, false}, {24, 24, 8, 11.0, 0.0, true},   // (1, 1): through corners
         {17, 1, 6, 8.0, 0.5, false},
     };
     for (const Case& c : cases) {
         INFO(c.w << "x" << c.h << " rays=" << c.rays << " radius=" << c.radius
-                  << (c.periodic ? " periodic" : " clip"));
+                 << (c.periodic ? " periodic" : " clip"));
         auto gf = rough_slopes(c.w, c.h, 11u + c.rays);
         std::vector<double> g(gf.begin(), gf.end());
         reference::RaySettings s{c.rays, c.radius, c.phase, c.periodic};
@@ -203,8 +199,8 @@ TEST_CASE("fast kernel equals the reference kernel for the same directions", "[r
         {37, 29, 12, 9.5, 0.25, false},  // clip: exits inside a period
         {37, 29, 16, 60.0, 0.5, false},  // clip, rays longer than the texture
         {24, 24, 8, 11.0, 0.0, true},
-        {23, 31, 7, 0.4, 0.0, true},     // shorter than half a texel: partial origin
-        {23, 31, 7, 1.0, 0.0, false},    // exactly one period on the axes
+        {23, 31, 7, 0.4, 0.0, true},   // shorter than half a texel: partial origin
+        {23, 31, 7, 1.0, 0.0, false},  // exactly one period on the axes
         {1, 17, 6, 8.0, 0.5, true},
         {17, 1, 6, 8.0, 0.5, false},
         {1, 1, 8, 4.0, 0.5, true},
@@ -227,8 +223,8 @@ TEST_CASE("fast kernel equals the reference kernel for the same directions", "[r
             if (variant == 3 && c.periodic)
                 continue;
             INFO(c.w << "x" << c.h << " rays=" << c.rays << " radius=" << c.radius
-                      << (c.periodic ? " periodic" : " clip")
-                      << (by_fft ? " fft" : "") << (force_float ? " float" : " fp64"));
+                     << (c.periodic ? " periodic" : " clip") << (by_fft ? " fft" : "")
+                     << (force_float ? " float" : " fp64"));
             auto g = rough_slopes(c.w, c.h, 5u + c.rays);
             Run r;
             r.rays = c.rays;

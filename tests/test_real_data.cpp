@@ -89,7 +89,7 @@ std::string convention_of(const OIIO::ImageBuf& normals)
     return s.spec().get_string_attribute("relief:normal_convention");
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("real samples: auto finds the green convention", "[real]")
 {
@@ -114,7 +114,7 @@ TEST_CASE("real sample: ray heights match the author's height map, right way up"
     double a = 0;
     double e = nrmse_affine(channel0(est), truth, a);
     INFO("NRMSE after affine fit: " << e << ", scale " << a);
-    CHECK(a > 0);  // not upside down
+    CHECK(a > 0);     // not upside down
     CHECK(e < 0.02);  // measured 0.0063
 }
 

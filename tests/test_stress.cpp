@@ -58,8 +58,7 @@ std::vector<Method> methods()
 // stay within max|g| * (W + H).
 double bound(const HeightOptions& o, double max_slope, int w, int h)
 {
-    return o.method == HeightMethod::Rays ? 2.0 * max_slope * o.radius
-                                          : max_slope * (w + h);
+    return o.method == HeightMethod::Rays ? 2.0 * max_slope * o.radius : max_slope * (w + h);
 }
 
 void check_output(const OIIO::ImageBuf& out, const HeightOptions& o, double max_slope, int w, int h)
@@ -85,7 +84,7 @@ double peak_rss_bytes()
     return double(u.ru_maxrss) * 1024.0;  // Linux reports KiB
 }
 
-} // namespace
+}  // namespace
 
 TEST_CASE("stress: awkward sizes and fields equal the golden models, finite and bounded", "[stress]")
 {
@@ -212,8 +211,9 @@ TEST_CASE("stress: 16K-long chains, fast kernel against the golden model in doub
                 worst = std::max(worst, std::abs(got[i] - ref[i]));
             }
             CHECK(bad == 0);
-            INFO((periodic ? "periodic" : "clip")
-                 << (variant == 2 ? ", fft" : force_float ? ", float re-anchored" : ", fp64")
+            INFO((periodic ? "periodic" : "clip") << (variant == 2  ? ", fft"
+                                                      : force_float ? ", float re-anchored"
+                                                                    : ", fp64")
                                                   << ": max diff " << worst << ", std " << sd);
             CHECK(worst <= 1e-4 * sd);
         }
@@ -285,15 +285,19 @@ TEST_CASE("stress: results are identical whatever POCL_MAX_PTHREAD_COUNT is", "[
     const std::string mask = (dir / "mask.exr").string();
     REQUIRE(test::image(n, n, 1, m).write(mask));
     for (const std::string& args :
-         {normal + "--height:method=poisson:boundary=free", normal + "--height:method=poisson:boundary=periodic",
-          normal + "--height:rays=16:radius=24:boundary=clip", normal + "--height:rays=16:radius=24:boundary=periodic",
+         {normal + "--height:method=poisson:boundary=free",
+          normal + "--height:method=poisson:boundary=periodic",
+          normal + "--height:rays=16:radius=24:boundary=clip",
+          normal + "--height:rays=16:radius=24:boundary=periodic",
           normal + "--height:boundary=free:mask=" + mask, normal + "--height:boundary=periodic:mask=" + mask,
-          height + "--correct:scale=0.05:iterations=4", height + "--correct:scale=0.05:nodes=center:boundary=fixed:levels=1:iterations=6",
+          height + "--correct:scale=0.05:iterations=4",
+          height + "--correct:scale=0.05:nodes=center:boundary=fixed:levels=1:iterations=6",
           normal + height + "--correct:scale=0.05:iterations=3 --bake:kind=color:filter=bicubic"}) {
         std::string bits[2];
         for (int t : {1, 3}) {
             const fs::path out = dir / ("h" + std::to_string(t) + ".exr");
-            auto r = test::run_cli(args + " -o '" + out.string() + "'", "POCL_MAX_PTHREAD_COUNT=" + std::to_string(t));
+            auto r = test::run_cli(args + " -o '" + out.string() + "'",
+                                   "POCL_MAX_PTHREAD_COUNT=" + std::to_string(t));
             INFO(args << ": " << r.err);
             REQUIRE(r.rc == 0);
             const auto v = test::file_pixels(out);
@@ -305,8 +309,7 @@ TEST_CASE("stress: results are identical whatever POCL_MAX_PTHREAD_COUNT is", "[
     }
 }
 
-TEST_CASE("stress: 65536-texel rays, reference kernel against the golden model in double",
-          "[stress][rays]")
+TEST_CASE("stress: 65536-texel rays, reference kernel against the golden model in double", "[stress][rays]")
 {
     // Plain float sums along a ray this long were off by 2e-3 of max|h|.
     const int w = 8, h = 6;
@@ -335,8 +338,8 @@ TEST_CASE("stress: 65536-texel rays, reference kernel against the golden model i
         double worst = 0;
         for (std::size_t i = 0; i < got.size(); ++i)
             worst = std::isfinite(got[i]) ? std::max(worst, std::abs(got[i] - ref[i])) : INFINITY;
-        INFO((force_float ? "float, compensated" : "fp64") << ": max diff " << worst
-                                                             << ", max |h| " << largest);
+        INFO((force_float ? "float, compensated" : "fp64")
+             << ": max diff " << worst << ", max |h| " << largest);
         CHECK(worst <= 1e-5 * largest);
     }
 }

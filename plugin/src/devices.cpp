@@ -45,4 +45,4 @@ void prepare(const std::string& device, int width, int height)
     }
 }
 
-} // namespace relief
+}  // namespace relief

@@ -9,7 +9,10 @@ namespace {
 thread_local std::string last_error;
 }
 
-void detail::set_error(const std::string& message) { last_error = message; }
+void detail::set_error(const std::string& message)
+{
+    last_error = message;
+}
 
 std::string geterror(bool clear)
 {
@@ -19,4 +22,4 @@ std::string geterror(bool clear)
     return e;
 }
 
-} // namespace relief
+}  // namespace relief

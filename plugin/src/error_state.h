@@ -7,4 +7,4 @@ namespace relief::detail {
 
 void set_error(const std::string& message);
 
-} // namespace relief::detail
+}  // namespace relief::detail

@@ -27,11 +27,11 @@ std::string scratch(int format)
     static const char* ext[] = {".png", ".exr", ".tif", ".tga"};
     static unsigned long count = 0;
     const char* dir = std::getenv("TMPDIR");
-    return std::string(dir && *dir ? dir : "/tmp") + "/relief-fuzz-decode-" + std::to_string(::getpid()) + "-" +
-           std::to_string(count++) + ext[format];
+    return std::string(dir && *dir ? dir : "/tmp") + "/relief-fuzz-decode-" + std::to_string(::getpid()) +
+           "-" + std::to_string(count++) + ext[format];
 }
 
-} // namespace
+}  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
 {

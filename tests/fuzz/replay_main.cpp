@@ -31,7 +31,8 @@ int main(int argc, char** argv)
         std::sort(entries.begin(), entries.end());
         for (const fs::path& p : entries) {
             std::ifstream in(p, std::ios::binary);
-            const std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+            const std::vector<char> bytes((std::istreambuf_iterator<char>(in)),
+                                          std::istreambuf_iterator<char>());
             std::printf("%s\n", p.c_str());
             std::fflush(stdout);
             LLVMFuzzerTestOneInput(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size());

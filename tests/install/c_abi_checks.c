@@ -13,16 +13,16 @@
 #endif
 
 static int failures = 0;
-#define CHECK(cond, what)                                                   \
-    do {                                                                    \
-        if (!(cond)) {                                                      \
-            fprintf(stderr, "c_abi_checks: FAILED: %s (%s)\n", what, #cond); \
-            ++failures;                                                     \
-        }                                                                   \
+#define CHECK(cond, what)                                                                                    \
+    do {                                                                                                     \
+        if (!(cond)) {                                                                                       \
+            fprintf(stderr, "c_abi_checks: FAILED: %s (%s)\n", what, #cond);                                 \
+            ++failures;                                                                                      \
+        }                                                                                                    \
     } while (0)
 
-static void refused(const relief_plugin* r, const char* op, const char* mods, const relief_image* in,
-                    int n, const char* needle)
+static void refused(const relief_plugin* r, const char* op, const char* mods, const relief_image* in, int n,
+                    const char* needle)
 {
     relief_image out;
     memset(&out, 0x5a, sizeof out);
@@ -45,7 +45,8 @@ int main(int argc, char** argv)
         fprintf(stderr, "c_abi_checks: %s\n", dlerror());
         return 2;
     }
-    const relief_plugin* (*entry)(void) = (const relief_plugin* (*)(void))dlsym(module, "relief_plugin_entry");
+    const relief_plugin* (*entry)(void) =
+        (const relief_plugin* (*)(void))dlsym(module, "relief_plugin_entry");
     CHECK(entry != NULL, "relief_plugin_entry is exported");
     if (!entry)
         return 1;
@@ -58,7 +59,8 @@ int main(int argc, char** argv)
 #endif
     CHECK(r->abi_version() == 1, "ABI version 1");
     const char* json = r->operations_json();
-    CHECK(strstr(json, "\"name\": \"height\"") && strstr(json, "\"name\": \"correct\""), "the table lists height and correct");
+    CHECK(strstr(json, "\"name\": \"height\"") && strstr(json, "\"name\": \"correct\""),
+          "the table lists height and correct");
     CHECK(strstr(json, "\"name\": \"rays\", \"type\": \"integer\""), "the table types rays");
 
     /* a 16x16 8-bit normal map with a bump */
@@ -90,7 +92,8 @@ int main(int argc, char** argv)
     relief_image h;
     CHECK(r->run("height", "normal=opengl:boundary=periodic", &normals, 1, &h) == RELIEF_OK, "height runs");
     CHECK(strcmp(r->last_error(), "") == 0, "success leaves no error");
-    CHECK(h.width == W && h.height == H && h.channels == 1 && h.type == RELIEF_FLOAT, "height is 1 float channel");
+    CHECK(h.width == W && h.height == H && h.channels == 1 && h.type == RELIEF_FLOAT,
+          "height is 1 float channel");
     CHECK(h.metadata && strstr(h.metadata, "relief:method=poisson\n"), "the result's metadata");
     float lo = 1e30f, hi = -1e30f;
     for (int i = 0; i < W * H; ++i) {
@@ -102,9 +105,11 @@ int main(int argc, char** argv)
 
     /* height -> correct (scale=auto reads the height's metadata) -> bake */
     relief_image off;
-    CHECK(r->run("correct", "levels=1:iterations=2", &h, 1, &off) == RELIEF_OK, "correct runs on relief's height");
+    CHECK(r->run("correct", "levels=1:iterations=2", &h, 1, &off) == RELIEF_OK,
+          "correct runs on relief's height");
     if (off.pixels) {
-        CHECK(off.channels == 2 && strstr(off.metadata, "relief:boundary=periodic\n"), "offsets say their boundary");
+        CHECK(off.channels == 2 && strstr(off.metadata, "relief:boundary=periodic\n"),
+              "offsets say their boundary");
         relief_image both[2] = {normals, off};
         relief_image baked;
         CHECK(r->run("bake", NULL, both, 2, &baked) == RELIEF_OK, "bake runs");
@@ -125,7 +130,8 @@ int main(int argc, char** argv)
     memcpy(same.pixels, px, sizeof px);
     void* input_pixels = same.pixels;
     CHECK(r->run("height", "normal=opengl", &same, 1, &same) == RELIEF_OK, "output over its own input");
-    CHECK(same.channels == 1 && same.type == RELIEF_FLOAT && same.pixels != input_pixels, "the result replaced it");
+    CHECK(same.channels == 1 && same.type == RELIEF_FLOAT && same.pixels != input_pixels,
+          "the result replaced it");
     free(input_pixels);
     r->image_free(&same);
     r->image_free(NULL);
@@ -133,7 +139,8 @@ int main(int argc, char** argv)
 #ifndef RELIEF_DLOPEN
     /* the device, chosen: one that does not exist fails naming it; the CPU runs */
     relief_image on;
-    CHECK(relief_run_on("9:9", "height", "normal=opengl", &normals, 1, &on) == RELIEF_FAILED, "no device 9:9");
+    CHECK(relief_run_on("9:9", "height", "normal=opengl", &normals, 1, &on) == RELIEF_FAILED,
+          "no device 9:9");
     CHECK(strstr(relief_last_error(), "9:9") != NULL, "the message names the device");
     CHECK(on.pixels == NULL, "a failed run leaves no image");
     CHECK(relief_run_on(NULL, "height", "", &normals, 1, &on) == RELIEF_INVALID, "a NULL device is refused");

@@ -53,7 +53,7 @@ void build(cl_context context, cl_device_id device, int variant)
     clReleaseProgram(program);
 }
 
-} // namespace
+}  // namespace
 
 int main(int argc, char** argv)
 {

@@ -16,14 +16,18 @@
 #include <CL/cl.h>
 #include <cstdio>
 #include <cstring>
-int main(int argc, char** argv) {
+int main(int argc, char** argv)
+{
     const bool fill = argc < 2 || std::strcmp(argv[1], "write") != 0;
-    cl_platform_id p; cl_device_id d; cl_int err;
+    cl_platform_id p;
+    cl_device_id d;
+    cl_int err;
     clGetPlatformIDs(1, &p, nullptr);
     clGetDeviceIDs(p, CL_DEVICE_TYPE_ALL, 1, &d, nullptr);
     cl_context ctx = clCreateContext(nullptr, 1, &d, nullptr, nullptr, &err);
     cl_command_queue q = clCreateCommandQueue(ctx, d, 0, &err);
-    const char* src = "__kernel void twice(__global const float* in, __global float* out) { size_t i = get_global_id(0); out[i] = 2.0f * in[i]; }";
+    const char* src = "__kernel void twice(__global const float* in, __global float* out) { size_t i = "
+                      "get_global_id(0); out[i] = 2.0f * in[i]; }";
     cl_program prog = clCreateProgramWithSource(ctx, 1, &src, nullptr, &err);
     clBuildProgram(prog, 1, &d, "", nullptr, nullptr);
     cl_kernel k = clCreateKernel(prog, "twice", &err);
@@ -32,7 +36,8 @@ int main(int argc, char** argv) {
     cl_mem out = clCreateBuffer(ctx, CL_MEM_READ_WRITE, n * sizeof(float), nullptr, &err);
     const float one = 1.0f;
     float ones[n];
-    for (size_t i = 0; i < n; ++i) ones[i] = 1.0f;
+    for (size_t i = 0; i < n; ++i)
+        ones[i] = 1.0f;
     if (fill)
         clEnqueueFillBuffer(q, in, &one, sizeof one, 0, n * sizeof(float), 0, nullptr, nullptr);
     else

@@ -32,10 +32,9 @@ int main(int argc, char** argv)
     clGetDeviceIDs(p, CL_DEVICE_TYPE_ALL, 1, &d, nullptr);
     cl_context ctx = clCreateContext(nullptr, 1, &d, nullptr, nullptr, &err);
     cl_command_queue q = clCreateCommandQueue(ctx, d, 0, &err);
-    const char* src =
-        "__kernel void ones(__global float* b) { b[get_global_id(0)] = 1.0f; }\n"
-        "__kernel void twice(__global const float* in, __global float* out)"
-        " { size_t i = get_global_id(0); out[i] = 2.0f * in[i]; }\n";
+    const char* src = "__kernel void ones(__global float* b) { b[get_global_id(0)] = 1.0f; }\n"
+                      "__kernel void twice(__global const float* in, __global float* out)"
+                      " { size_t i = get_global_id(0); out[i] = 2.0f * in[i]; }\n";
     cl_program prog = clCreateProgramWithSource(ctx, 1, &src, nullptr, &err);
     clBuildProgram(prog, 1, &d, "", nullptr, nullptr);
     cl_kernel ones = clCreateKernel(prog, "ones", &err), twice = clCreateKernel(prog, "twice", &err);

@@ -33,9 +33,9 @@ std::vector<double> bake_gather(const std::vector<double>& src, int w, int h, in
                 const int r = bicubic ? 2 : 1;
                 for (int b = y0 - r + 1; b <= y0 + r; ++b)
                     for (int a = x0 - r + 1; a <= x0 + r; ++a) {
-                        const double wgt = bicubic ? cubic(x - a) * cubic(y - b)
-                                                   : std::max(0.0, 1 - std::abs(x - a)) *
-                                                         std::max(0.0, 1 - std::abs(y - b));
+                        const double wgt =
+                            bicubic ? cubic(x - a) * cubic(y - b)
+                                    : std::max(0.0, 1 - std::abs(x - a)) * std::max(0.0, 1 - std::abs(y - b));
                         v += wgt * src[(std::size_t(idx(b, h)) * w + idx(a, w)) * nch + ch];
                     }
                 out[p * nch + ch] = v;
@@ -44,4 +44,4 @@ std::vector<double> bake_gather(const std::vector<double>& src, int w, int h, in
     return out;
 }
 
-} // namespace relief::reference
+}  // namespace relief::reference

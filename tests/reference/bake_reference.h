@@ -9,4 +9,4 @@ namespace relief::reference {
 std::vector<double> bake_gather(const std::vector<double>& src, int w, int h, int nch,
                                 const std::vector<double>& offsets, bool periodic, bool bicubic);
 
-} // namespace relief::reference
+}  // namespace relief::reference

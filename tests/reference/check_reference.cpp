@@ -30,10 +30,10 @@ void gradient(const std::vector<double>& h, int w, int ht, int i, int j, bool pe
     gy = difference([&](int k) { return h[std::size_t(k) * w + i]; }, j, ht, periodic);
 }
 
-} // namespace
+}  // namespace
 
-std::vector<double> height_normals(const std::vector<double>& h, int w, int ht, bool periodic,
-                                   double scale, bool directx)
+std::vector<double> height_normals(const std::vector<double>& h, int w, int ht, bool periodic, double scale,
+                                   bool directx)
 {
     std::vector<double> n(3 * h.size());
     for (int j = 0; j < ht; ++j)
@@ -51,8 +51,7 @@ std::vector<double> height_normals(const std::vector<double>& h, int w, int ht, 
     return n;
 }
 
-RoundTrip round_trip(const std::vector<double>& g, const std::vector<double>& h, int w, int ht,
-                     bool periodic)
+RoundTrip round_trip(const std::vector<double>& g, const std::vector<double>& h, int w, int ht, bool periodic)
 {
     std::vector<double> angle;
     double misfit = 0.0, energy = 0.0;
@@ -91,8 +90,7 @@ double bilinear(const std::vector<double>& h, int w, int ht, double x, double y)
            fy * ((1 - fx) * at(i0, j0 + 1) + fx * at(i0 + 1, j0 + 1));
 }
 
-std::vector<double> tessellation_errors(const std::vector<double>& h, int w, int ht, int patch,
-                                        double scale)
+std::vector<double> tessellation_errors(const std::vector<double>& h, int w, int ht, int patch, double scale)
 {
     const int px = (w + patch - 1) / patch, py = (ht + patch - 1) / patch;
     std::vector<double> err(std::size_t(px) * py * 64, 0.0);
@@ -129,4 +127,4 @@ std::vector<double> tessellation_errors(const std::vector<double>& h, int w, int
     return err;
 }
 
-} // namespace relief::reference
+}  // namespace relief::reference

@@ -9,8 +9,8 @@ namespace relief::reference {
 // 3 values per texel: normalize(-s gx, -s gy, 1) with gx, gy by central
 // differences (one-sided at the edges of a free map, wrapping when
 // periodic), the row component as stored (-n_y for OpenGL, +n_y DirectX).
-std::vector<double> height_normals(const std::vector<double>& h, int w, int ht, bool periodic,
-                                   double scale, bool directx);
+std::vector<double> height_normals(const std::vector<double>& h, int w, int ht, bool periodic, double scale,
+                                   bool directx);
 
 struct RoundTrip {
     double mean = 0.0, p95 = 0.0, max = 0.0;  // degrees
@@ -25,10 +25,9 @@ RoundTrip round_trip(const std::vector<double>& g, const std::vector<double>& h,
 // the patch's texel centres, the surface being the patch split into L x L
 // quads (diagonal away from the patch centre), vertices bilinear in s h;
 // 0 at level 1 for a flat patch (all its texels equal).
-std::vector<double> tessellation_errors(const std::vector<double>& h, int w, int ht, int patch,
-                                        double scale);
+std::vector<double> tessellation_errors(const std::vector<double>& h, int w, int ht, int patch, double scale);
 
 // The height of the bilinear surface at (x, y) (texel (i, j) at (i + .5, j + .5), clamped).
 double bilinear(const std::vector<double>& h, int w, int ht, double x, double y);
 
-} // namespace relief::reference
+}  // namespace relief::reference

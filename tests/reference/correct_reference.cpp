@@ -22,7 +22,10 @@ Vec3 cross(const Vec3& a, const Vec3& b)
     return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
 
-double dot3(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+double dot3(const Vec3& a, const Vec3& b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 
 // The six neighbours and the fan triangles [p, N_a, N_b] (orientation of
 // the owned triangles).
@@ -41,8 +44,7 @@ struct Edges {
 };
 
 // Edge from node (i, j) to its neighbour k, with p's offset moved to cp.
-Edges edge(const CorrectionGrid& g, const std::vector<double>& c, int i, int j, int k, double cpx,
-           double cpy)
+Edges edge(const CorrectionGrid& g, const std::vector<double>& c, int i, int j, int k, double cpx, double cpy)
 {
     const int dx = kNeighbour[k][0], dy = kNeighbour[k][1];
     const int q = wrap(j + dy, g.ny) * g.nx + wrap(i + dx, g.nx);
@@ -50,8 +52,8 @@ Edges edge(const CorrectionGrid& g, const std::vector<double>& c, int i, int j, 
     return {{dx + c[2 * q] - cpx, dy + c[2 * q + 1] - cpy}, {double(dx), double(dy), g.z[q] - g.z[p]}};
 }
 
-double fan_energy_at(const CorrectionGrid& g, const std::vector<double>& c, int i, int j,
-                     double cpx, double cpy)
+double fan_energy_at(const CorrectionGrid& g, const std::vector<double>& c, int i, int j, double cpx,
+                     double cpy)
 {
     double e = 0.0;
     for (const auto& t : kFan) {
@@ -194,7 +196,7 @@ void update_node(const CorrectionGrid& g, std::vector<double>& c, int i, int j)
     c[2 * p + 1] = cy + s * dy;
 }
 
-} // namespace
+}  // namespace
 
 double triangle_energy(const Vec2& e1, const Vec2& e2, const Vec3& f1, const Vec3& f2, double theta)
 {
@@ -206,14 +208,12 @@ double triangle_energy(const Vec2& e1, const Vec2& e2, const Vec3& f1, const Vec
     // |J|_F^2 = tr(M (E^T E)^-1), M the Gram matrix of f1, f2.
     const double a = e1[0] * e1[0] + e1[1] * e1[1], b = e1[0] * e2[0] + e1[1] * e2[1],
                  cc = e2[0] * e2[0] + e2[1] * e2[1];
-    const double frob = (dot3(f1, f1) * cc - 2.0 * dot3(f1, f2) * b + dot3(f2, f2) * a) /
-                        (4.0 * auv * auv);
+    const double frob = (dot3(f1, f1) * cc - 2.0 * dot3(f1, f2) * b + dot3(f2, f2) * a) / (4.0 * auv * auv);
     const double ratio = a3 / auv;  // s1 s2
     return frob * auv / a3 * std::pow(ratio + 1.0 / ratio, theta);
 }
 
-std::array<double, 2> triangle_singular_values(const Vec2& e1, const Vec2& e2, const Vec3& f1,
-                                               const Vec3& f2)
+std::array<double, 2> triangle_singular_values(const Vec2& e1, const Vec2& e2, const Vec3& f1, const Vec3& f2)
 {
     // E^-1 of the 2x2 [e1 e2]; J = [f1 f2] E^-1 (3x2).
     const double det = e1[0] * e2[1] - e2[0] * e1[1];
@@ -240,8 +240,10 @@ double total_energy(const CorrectionGrid& g, const std::vector<double>& c)
             if (g.periodic || (i + 1 < g.nx && j >= 1)) {
                 // Owned triangles = fan triangles 0 and 1 of p.
                 for (int t = 0; t < 2; ++t) {
-                    const Edges a = edge(g, c, i, j, kFan[t][0], c[2 * (j * g.nx + i)], c[2 * (j * g.nx + i) + 1]);
-                    const Edges b = edge(g, c, i, j, kFan[t][1], c[2 * (j * g.nx + i)], c[2 * (j * g.nx + i) + 1]);
+                    const Edges a =
+                        edge(g, c, i, j, kFan[t][0], c[2 * (j * g.nx + i)], c[2 * (j * g.nx + i) + 1]);
+                    const Edges b =
+                        edge(g, c, i, j, kFan[t][1], c[2 * (j * g.nx + i)], c[2 * (j * g.nx + i) + 1]);
                     e += triangle_energy(a.e, b.e, a.f, b.f, g.theta);
                 }
             }
@@ -276,7 +278,8 @@ Vec2 fan_gradient(const CorrectionGrid& g, const std::vector<double>& c, int i, 
         const double k = a3 / auv + auv / a3;
         const double G = std::pow(k, g.theta), F = q / (4.0 * a3 * auv);
         const double dEdQ = G / (4.0 * a3 * auv);
-        const double dEdA = -F * G / auv + F * g.theta * std::pow(k, g.theta - 1.0) * (1.0 / a3 - a3 / (auv * auv));
+        const double dEdA =
+            -F * G / auv + F * g.theta * std::pow(k, g.theta - 1.0) * (1.0 / a3 - a3 / (auv * auv));
         for (int d = 0; d < 2; ++d) {
             const double dQ = 2.0 * (m22 - m12) * e1[d] + 2.0 * (m11 - m12) * e2[d];
             const double dA = d == 0 ? 0.5 * (e1[1] - e2[1]) : 0.5 * (e2[0] - e1[0]);
@@ -307,4 +310,4 @@ void iterate(const CorrectionGrid& g, std::vector<double>& c)
                         update_node(g, c, i, j);
 }
 
-} // namespace relief::reference
+}  // namespace relief::reference

@@ -12,7 +12,7 @@ namespace relief::reference {
 
 struct CorrectionGrid {
     int nx = 0, ny = 0;
-    bool periodic = true;     // else the border nodes are fixed
+    bool periodic = true;  // else the border nodes are fixed
     double theta = 5.0;
     std::vector<double> z;    // height per node, texels
     std::vector<double> fix;  // fixation weight per node, or empty
@@ -52,4 +52,4 @@ Vec2 fan_gradient(const CorrectionGrid& g, const std::vector<double>& c, int i, 
 // step when its energy is below the start's as well.
 void iterate(const CorrectionGrid& g, std::vector<double>& c);
 
-} // namespace relief::reference
+}  // namespace relief::reference

@@ -5,8 +5,8 @@
 
 namespace relief::reference {
 
-DdmResult ddm(const std::vector<float>& values, int channels, double scale, double bias,
-              double green_to_row, double max_angle_deg, double zero_band)
+DdmResult ddm(const std::vector<float>& values, int channels, double scale, double bias, double green_to_row,
+              double max_angle_deg, double zero_band)
 {
     const std::size_t n = values.size() / channels;
     const double c = std::cos(max_angle_deg * M_PI / 180.0);
@@ -61,4 +61,4 @@ double curl_rms(const std::vector<double>& g, int w, int h)
     return w > 1 && h > 1 ? std::sqrt(sum / (double(w - 1) * (h - 1))) : 0.0;
 }
 
-} // namespace relief::reference
+}  // namespace relief::reference

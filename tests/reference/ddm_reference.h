@@ -15,10 +15,10 @@ struct DdmResult {
 // values: channels (2 or 3) per texel as stored; decoded = v * scale + bias,
 // and decoded x, y with |value| <= zero_band are 0. green_to_row: -1 OpenGL,
 // +1 DirectX.
-DdmResult ddm(const std::vector<float>& values, int channels, double scale, double bias,
-              double green_to_row, double max_angle_deg, double zero_band = 0.0);
+DdmResult ddm(const std::vector<float>& values, int channels, double scale, double bias, double green_to_row,
+              double max_angle_deg, double zero_band = 0.0);
 
 // RMS per cell of the curl of a slope field (cells between texel centres).
 double curl_rms(const std::vector<double>& slopes, int width, int height);
 
-} // namespace relief::reference
+}  // namespace relief::reference

@@ -37,8 +37,8 @@ double signed_omega(int k, int n)
     return 2.0 * M_PI * s / n;
 }
 
-std::vector<double> periodic_fc(const std::vector<double>& gx, const std::vector<double>& gy,
-                                int w, int h, double sigma)
+std::vector<double> periodic_fc(const std::vector<double>& gx, const std::vector<double>& gy, int w, int h,
+                                double sigma)
 {
     std::vector<cd> X(gx.begin(), gx.end()), Y(gy.begin(), gy.end());
     for (auto* a : {&X, &Y}) {
@@ -65,7 +65,7 @@ std::vector<double> periodic_fc(const std::vector<double>& gx, const std::vector
     return out;
 }
 
-} // namespace
+}  // namespace
 
 std::vector<double> poisson(const std::vector<double>& g, int w, int h, const PoissonSettings& s)
 {
@@ -112,9 +112,8 @@ namespace {
 // (wrapping when periodic), edge weight c_e = max(min(w_p, w_q), eps) (all 1
 // when `unit`), target mean(sg) over the edge plus delta(q) - delta(p);
 // plain CG in double to a relative residual of 1e-12. Zero mean.
-std::vector<double> discrete_ls(const std::vector<double>& sg, int w, int h,
-                                const std::vector<double>& wt, const std::vector<double>& delta,
-                                bool periodic, double eps, bool unit)
+std::vector<double> discrete_ls(const std::vector<double>& sg, int w, int h, const std::vector<double>& wt,
+                                const std::vector<double>& delta, bool periodic, double eps, bool unit)
 {
     struct Edge {
         std::size_t p, q;
@@ -136,8 +135,8 @@ std::vector<double> discrete_ls(const std::vector<double>& sg, int w, int h,
                     continue;  // a one-texel axis has no edges
                 const std::size_t q = std::size_t(ny) * w + nx;
                 const double c = unit ? 1.0 : std::max(std::min(wt[p], wt[q]), eps);
-                const double t = 0.5 * (sg[2 * p + axis] + sg[2 * q + axis]) +
-                                 (unit ? 0.0 : delta[q] - delta[p]);
+                const double t =
+                    0.5 * (sg[2 * p + axis] + sg[2 * q + axis]) + (unit ? 0.0 : delta[q] - delta[p]);
                 edges.push_back({p, q, c, t});
             }
         }
@@ -189,7 +188,7 @@ std::vector<double> discrete_ls(const std::vector<double>& sg, int w, int h,
     return x;
 }
 
-} // namespace
+}  // namespace
 
 std::vector<double> poisson_weighted(const std::vector<double>& g, int w, int h,
                                      const std::vector<double>& wt, bool periodic, double eps)
@@ -211,4 +210,4 @@ std::vector<double> poisson_weighted(const std::vector<double>& g, int w, int h,
     return discrete_ls(sg, w, h, wt, delta, periodic, eps, false);
 }
 
-} // namespace relief::reference
+}  // namespace relief::reference

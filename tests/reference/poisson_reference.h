@@ -26,7 +26,6 @@ std::vector<double> poisson(const std::vector<double>& slopes, int width, int he
 // solution of mean(s g); plain conjugate gradients in double to a relative
 // residual of 1e-12. Zero mean. Weights of all ones give poisson(g).
 std::vector<double> poisson_weighted(const std::vector<double>& slopes, int width, int height,
-                                     const std::vector<double>& weights, bool periodic,
-                                     double eps);
+                                     const std::vector<double>& weights, bool periodic, double eps);
 
-} // namespace relief::reference
+}  // namespace relief::reference

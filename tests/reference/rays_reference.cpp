@@ -22,7 +22,7 @@ std::vector<double> crossings(double d, double radius, std::vector<double> t)
     return t;
 }
 
-} // namespace
+}  // namespace
 
 void rational_step(int j, const RaySettings& s, int& best_a, int& best_b)
 {
@@ -141,4 +141,4 @@ std::vector<double> rays(const std::vector<double>& g, int w, int h, const RaySe
     return out;
 }
 
-} // namespace relief::reference
+}  // namespace relief::reference

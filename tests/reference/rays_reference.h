@@ -26,4 +26,4 @@ void rational_step(int j, const RaySettings& settings, int& a, int& b);
 std::vector<double> rays(const std::vector<double>& slopes, int width, int height,
                          const RaySettings& settings);
 
-} // namespace relief::reference
+}  // namespace relief::reference

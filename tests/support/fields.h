@@ -101,12 +101,10 @@ inline void encode_normal(double gx, double gy, Green green, double out[3])
 // types store (v + 1) / 2 (UNORM); float types store v, or (v + 1) / 2 when
 // unsigned_float. channels 2 drops z.
 inline OIIO::ImageBuf normal_image(const std::vector<double>& g, int w, int h, Green green,
-                                   OIIO::TypeDesc type, int channels = 3,
-                                   bool unsigned_float = false)
+                                   OIIO::TypeDesc type, int channels = 3, bool unsigned_float = false)
 {
     OIIO::ImageBuf img(OIIO::ImageSpec(w, h, channels, type));
-    const bool unorm = type.basetype == OIIO::TypeDesc::UINT8 ||
-                       type.basetype == OIIO::TypeDesc::UINT16;
+    const bool unorm = type.basetype == OIIO::TypeDesc::UINT8 || type.basetype == OIIO::TypeDesc::UINT16;
     std::vector<float> px(std::size_t(w) * h * channels);
     for (std::size_t i = 0; i < std::size_t(w) * h; ++i) {
         double n[4] = {0.0, 0.0, 0.0, 1.0};  // a fourth channel is an opaque alpha
@@ -145,4 +143,4 @@ inline double rms(const std::vector<double>& a)
     return std::sqrt(s / double(a.size()));
 }
 
-} // namespace relief::test
+}  // namespace relief::test

@@ -94,4 +94,4 @@ inline void mark_skipped(const std::string& why)
     std::cout << "relief-test-skipped: " << why << std::endl;
 }
 
-} // namespace relief::test
+}  // namespace relief::test

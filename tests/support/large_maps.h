@@ -100,4 +100,4 @@ inline int run_measured(const std::string& command, double& peak_bytes)
     return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
-} // namespace relief::test
+}  // namespace relief::test

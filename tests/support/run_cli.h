@@ -44,8 +44,8 @@ inline CliResult run_cli(const std::string& args, const std::string& env = "")
     // Per process: ctest runs test cases in parallel processes.
     const std::string tag = std::to_string(::getpid());
     fs::path out = dir / ("cli." + tag + ".stdout"), err = dir / ("cli." + tag + ".stderr");
-    std::string cmd = env + " '" + std::string(RELIEF_CLI) + "' " + args + " >'" + out.string() +
-                      "' 2>'" + err.string() + "' </dev/null";
+    std::string cmd = env + " '" + std::string(RELIEF_CLI) + "' " + args + " >'" + out.string() + "' 2>'" +
+                      err.string() + "' </dev/null";
     int status = std::system(cmd.c_str());
     int rc = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
     CliResult r{rc, slurp(err), slurp(out)};
@@ -54,4 +54,4 @@ inline CliResult run_cli(const std::string& args, const std::string& env = "")
     return r;
 }
 
-} // namespace relief::test
+}  // namespace relief::test

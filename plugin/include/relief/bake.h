@@ -42,8 +42,8 @@ struct BakeOptions {
 // pixel type as relief:native_format (front ends write it back in that
 // type unless told otherwise). roi/nthreads/errors as in relief::slopes().
 RELIEF_API OIIO::ImageBuf bake(const OIIO::ImageBuf& texture, const OIIO::ImageBuf& offsets,
-                    const BakeOptions& options = {}, OIIO::ROI roi = {}, int nthreads = 0);
+                               const BakeOptions& options = {}, OIIO::ROI roi = {}, int nthreads = 0);
 RELIEF_API bool bake(OIIO::ImageBuf& dst, const OIIO::ImageBuf& texture, const OIIO::ImageBuf& offsets,
-          const BakeOptions& options = {}, OIIO::ROI roi = {}, int nthreads = 0);
+                     const BakeOptions& options = {}, OIIO::ROI roi = {}, int nthreads = 0);
 
-} // namespace relief
+}  // namespace relief

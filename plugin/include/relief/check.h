@@ -32,13 +32,13 @@ struct NormalsOptions {
 // relief:normal_convention.
 RELIEF_API OIIO::ImageBuf normals(const OIIO::ImageBuf& height, const NormalsOptions& options = {},
                                   OIIO::ROI roi = {}, int nthreads = 0);
-RELIEF_API bool normals(OIIO::ImageBuf& dst, const OIIO::ImageBuf& height,
-                        const NormalsOptions& options = {}, OIIO::ROI roi = {}, int nthreads = 0);
+RELIEF_API bool normals(OIIO::ImageBuf& dst, const OIIO::ImageBuf& height, const NormalsOptions& options = {},
+                        OIIO::ROI roi = {}, int nthreads = 0);
 
 struct TessellationOptions {
-    int patch = 32;       // P: patches of P x P texels (the last row/column may be narrower)
-    float error = 0.5f;   // E: the largest allowed deviation, in the units of scale * height
-    float scale = 1.0f;   // S: the surface is S * height (texels)
+    int patch = 32;      // P: patches of P x P texels (the last row/column may be narrower)
+    float error = 0.5f;  // E: the largest allowed deviation, in the units of scale * height
+    float scale = 1.0f;  // S: the surface is S * height (texels)
     Execution exec;
 };
 
@@ -51,11 +51,9 @@ struct TessellationOptions {
 // and reported). Flat patches (all texels equal) are level 1. Integer files store the level
 // itself as the code. Metadata: relief:method "tessellation",
 // relief:patch, relief:error, relief:scale.
-RELIEF_API OIIO::ImageBuf tessellation(const OIIO::ImageBuf& height,
-                                       const TessellationOptions& options = {}, OIIO::ROI roi = {},
-                                       int nthreads = 0);
+RELIEF_API OIIO::ImageBuf tessellation(const OIIO::ImageBuf& height, const TessellationOptions& options = {},
+                                       OIIO::ROI roi = {}, int nthreads = 0);
 RELIEF_API bool tessellation(OIIO::ImageBuf& dst, const OIIO::ImageBuf& height,
-                             const TessellationOptions& options = {}, OIIO::ROI roi = {},
-                             int nthreads = 0);
+                             const TessellationOptions& options = {}, OIIO::ROI roi = {}, int nthreads = 0);
 
-} // namespace relief
+}  // namespace relief

@@ -38,7 +38,7 @@ struct CorrectLevelReport {
     int iterations = 0;
     double energy_start = 0.0, energy_end = 0.0;
     bool converged = false;
-    double tiles_run = 1.0;     // fraction of tile updates not skipped
+    double tiles_run = 1.0;  // fraction of tile updates not skipped
     double seconds = 0.0;
 };
 
@@ -49,8 +49,8 @@ struct CorrectReport {
     double scale = 0.0;          // the displacement scale used
     double energy_before = 0.0;  // at zero offsets
     double energy_after = 0.0;
-    int iterations = 0;          // over all levels
-    std::vector<CorrectLevelReport> levels;  // coarsest first
+    int iterations = 0;                                     // over all levels
+    std::vector<CorrectLevelReport> levels;                 // coarsest first
     DistortionSummary anisotropy_before, anisotropy_after;  // s1/s2
     DistortionSummary area_before, area_after;              // s1 s2 (3D area / texture area)
     double seconds = 0.0;
@@ -73,14 +73,14 @@ struct CorrectOptions {
     // |h - fix_height| / fix_width) when fix_width > 0.
     const OIIO::ImageBuf* fix_mask = nullptr;
     float fix_height = 0.0f, fix_width = 0.0f;
-    int iterations = 0;        // per pyramid level; 0 = auto (until the tolerance)
-    float tolerance = 1e-5f;   // auto stops when the relative energy change is below this
-    int max_iterations = 1000; // per level, for auto
-    int levels = 0;            // coarse-to-fine levels; 0 = auto (down to 16 texels), 1 = off
+    int iterations = 0;         // per pyramid level; 0 = auto (until the tolerance)
+    float tolerance = 1e-5f;    // auto stops when the relative energy change is below this
+    int max_iterations = 1000;  // per level, for auto
+    int levels = 0;             // coarse-to-fine levels; 0 = auto (down to 16 texels), 1 = off
     // Nothing is corrected when no triangle's anisotropy s1/s2 - 1 or area
     // change |s1 s2 - 1| exceeds this (zero offsets, no solve).
     float threshold = 1e-3f;
-    bool skip_tiles = true;    // skip tiles whose nodes cannot move (identical result)
+    bool skip_tiles = true;  // skip tiles whose nodes cannot move (identical result)
     CorrectSearch search = CorrectSearch::Brent;
     // Over-relaxation factor in [1, 2): a node moves `relax` times its
     // searched step when that also lowers the energy (1 = plain steps).
@@ -95,8 +95,8 @@ struct CorrectOptions {
 // Metadata: relief:method "correct", relief:boundary, relief:nodes,
 // relief:scale, relief:parameters. roi/nthreads/errors as in relief::slopes().
 RELIEF_API OIIO::ImageBuf correct(const OIIO::ImageBuf& height, const CorrectOptions& options = {},
-                       OIIO::ROI roi = {}, int nthreads = 0);
-RELIEF_API bool correct(OIIO::ImageBuf& dst, const OIIO::ImageBuf& height,
-             const CorrectOptions& options = {}, OIIO::ROI roi = {}, int nthreads = 0);
+                                  OIIO::ROI roi = {}, int nthreads = 0);
+RELIEF_API bool correct(OIIO::ImageBuf& dst, const OIIO::ImageBuf& height, const CorrectOptions& options = {},
+                        OIIO::ROI roi = {}, int nthreads = 0);
 
-} // namespace relief
+}  // namespace relief

@@ -9,7 +9,7 @@
 namespace relief {
 
 struct DeviceDescription {
-    std::string id;        // "<platform>:<device>", what Execution::device accepts
+    std::string id;  // "<platform>:<device>", what Execution::device accepts
     std::string platform;
     std::string name;
     bool is_gpu = false;
@@ -43,4 +43,4 @@ RELIEF_API SetupTimes setup_times();
 // them again and reports them. Safe to call concurrently with operations.
 RELIEF_API void prepare(const std::string& device, int width, int height);
 
-} // namespace relief
+}  // namespace relief

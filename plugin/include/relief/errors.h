@@ -10,4 +10,4 @@ namespace relief {
 // none); clears it unless clear is false. Like OIIO::geterror().
 RELIEF_API std::string geterror(bool clear = true);
 
-} // namespace relief
+}  // namespace relief

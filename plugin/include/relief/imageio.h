@@ -59,7 +59,7 @@ struct WriteOptions {
 // OpenEXR and PNG, as a "relief:digest=HEX" line of ImageDescription in
 // TIFF, JPEG and Targa.
 RELIEF_API bool write_image(const OIIO::ImageBuf& image, const std::string& path,
-                 const WriteOptions& options = {});
+                            const WriteOptions& options = {});
 
 // The relief:digest that the image file at `path` records, read from its
 // header; "" when it records none or cannot be read, or when its pixels
@@ -67,4 +67,4 @@ RELIEF_API bool write_image(const OIIO::ImageBuf& image, const std::string& path
 // read (a PNG's closing chunk checked), not the whole image.
 RELIEF_API std::string recorded_digest(const std::string& path);
 
-} // namespace relief
+}  // namespace relief

@@ -57,4 +57,4 @@ RELIEF_API bool mesh(OIIO::ImageBuf& dst, const OIIO::ImageBuf& height, const Me
 // its extension be .obj, .ply, .gltf or .glb.
 RELIEF_API std::string mesh_path_problem(const std::string& path);
 
-} // namespace relief
+}  // namespace relief

@@ -50,9 +50,9 @@ struct ImageSlot {
 };
 
 struct OperationInfo {
-    std::string name;     // "height": the command line's --height
-    std::string summary;  // one line
-    std::vector<ImageSlot> inputs;   // in the order they are pushed (the top last)
+    std::string name;               // "height": the command line's --height
+    std::string summary;            // one line
+    std::vector<ImageSlot> inputs;  // in the order they are pushed (the top last)
     std::vector<ImageSlot> outputs;
     std::vector<ModifierInfo> modifiers;
     std::string report;  // the key of the object it adds to --report ("" = none)
@@ -131,7 +131,6 @@ RELIEF_API bool parse_modifiers(OperationCall& call, const std::string& operatio
 // with `exec` (device, messages, progress). Reads mask_file/fix_file when
 // given. Returns false and sets geterror() on failure.
 RELIEF_API bool run_operation(OIIO::ImageBuf& dst, const OperationCall& call,
-                              const std::vector<const OIIO::ImageBuf*>& inputs,
-                              const Execution& exec = {});
+                              const std::vector<const OIIO::ImageBuf*>& inputs, const Execution& exec = {});
 
-} // namespace relief
+}  // namespace relief

@@ -41,4 +41,4 @@ struct Execution {
     std::function<void(double)> on_progress;
 };
 
-} // namespace relief
+}  // namespace relief

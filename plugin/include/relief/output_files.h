@@ -44,4 +44,4 @@ RELIEF_API int remove_stale_temporary_files(const std::string& folder);
 // after minutes of work.
 RELIEF_API std::string output_name_problem(const std::string& path);
 
-} // namespace relief
+}  // namespace relief

@@ -57,4 +57,4 @@ RELIEF_API SphericalHarmonics environment_harmonics(const OIIO::ImageBuf& latlon
 RELIEF_API SphericalHarmonics sky_harmonics();
 RELIEF_API void irradiance(const SphericalHarmonics& sh, const float n[3], float rgb[3]);
 
-} // namespace relief
+}  // namespace relief

@@ -27,7 +27,12 @@ extern "C" {
 /* Pixel types. Integers are UNORM (code / 255 or / 65535), decoded exactly
  * as the command line decodes a file of that type; RELIEF_HALF pixels are
  * IEEE binary16 bit patterns. */
-typedef enum relief_type { RELIEF_UINT8 = 1, RELIEF_UINT16 = 2, RELIEF_HALF = 3, RELIEF_FLOAT = 4 } relief_type;
+typedef enum relief_type {
+    RELIEF_UINT8 = 1,
+    RELIEF_UINT16 = 2,
+    RELIEF_HALF = 3,
+    RELIEF_FLOAT = 4
+} relief_type;
 
 /* An image: row-major, top row first, channels interleaved. `metadata` is
  * optional: NULL (zero-initialise the struct, as `relief_image in = {w, h, c,

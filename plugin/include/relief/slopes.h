@@ -26,8 +26,8 @@ struct SlopeOptions {
 // work runs on the OpenCL device, whose driver decides its parallelism.
 // On failure the returned image has_error() and geterror() says why.
 RELIEF_API OIIO::ImageBuf slopes(const OIIO::ImageBuf& normals, const SlopeOptions& options = {},
-                      OIIO::ROI roi = {}, int nthreads = 0);
+                                 OIIO::ROI roi = {}, int nthreads = 0);
 RELIEF_API bool slopes(OIIO::ImageBuf& dst, const OIIO::ImageBuf& normals, const SlopeOptions& options = {},
-            OIIO::ROI roi = {}, int nthreads = 0);
+                       OIIO::ROI roi = {}, int nthreads = 0);
 
-} // namespace relief
+}  // namespace relief

@@ -29,4 +29,4 @@ RELIEF_API std::string validate(const TessellationOptions& options);
 RELIEF_API std::string validate(const MeshOptions& options);
 RELIEF_API std::string validate(const PreviewOptions& options);
 
-} // namespace relief
+}  // namespace relief

@@ -116,11 +116,14 @@ void to_c_image(const ImageBuf& img, relief_image* out)
     }
 }
 
-} // namespace
+}  // namespace
 
 extern "C" {
 
-int relief_abi_version(void) { return RELIEF_ABI_VERSION; }
+int relief_abi_version(void)
+{
+    return RELIEF_ABI_VERSION;
+}
 
 const char* relief_operations_json(void)
 {
@@ -132,8 +135,8 @@ const char* relief_operations_json(void)
     }
 }
 
-int relief_run(const char* operation, const char* modifiers, const relief_image* inputs,
-               int n_inputs, relief_image* output)
+int relief_run(const char* operation, const char* modifiers, const relief_image* inputs, int n_inputs,
+               relief_image* output)
 {
     return relief_run_on("auto", operation, modifiers, inputs, n_inputs, output);
 }
@@ -153,8 +156,7 @@ int relief_run_on(const char* device, const char* operation, const char* modifie
         const std::string op = operation;
         relief::OperationCall call;
         if (!relief::parse_modifiers(call, op, modifiers ? modifiers : ""))
-            throw Refused(relief::find_operation(op) ? op + ": " + relief::geterror()
-                                                     : relief::geterror());
+            throw Refused(relief::find_operation(op) ? op + ": " + relief::geterror() : relief::geterror());
         const relief::OperationInfo& info = *relief::find_operation(op);
         if (n_inputs != int(info.inputs.size()) || (n_inputs > 0 && !inputs))
             throw Refused(op + " takes " + std::to_string(info.inputs.size()) + " image(s), got " +
@@ -197,7 +199,10 @@ void relief_image_free(relief_image* image)
     *image = relief_image{};
 }
 
-const char* relief_last_error(void) { return c_last_error.c_str(); }
+const char* relief_last_error(void)
+{
+    return c_last_error.c_str();
+}
 
 const relief_plugin* relief_plugin_entry(void)
 {
@@ -206,4 +211,4 @@ const relief_plugin* relief_plugin_entry(void)
     return &plugin;
 }
 
-} // extern "C"
+}  // extern "C"

@@ -19,8 +19,13 @@ bool has_env_config()
 }
 
 // Names under which configs commonly carry sRGB-encoded textures.
-const char* kSrgbNames[] = {"sRGB", "sRGB - Texture", "srgb_tx", "Utility - sRGB - Texture",
-                            "Input - Generic - sRGB - Texture", "srgb_texture", "sRGB Encoded Rec.709 (sRGB)"};
+const char* kSrgbNames[] = {"sRGB",
+                            "sRGB - Texture",
+                            "srgb_tx",
+                            "Utility - sRGB - Texture",
+                            "Input - Generic - sRGB - Texture",
+                            "srgb_texture",
+                            "sRGB Encoded Rec.709 (sRGB)"};
 
 OCIO::ConstProcessorRcPtr processor(const std::string& space, bool decode)
 {
@@ -75,7 +80,7 @@ void apply(std::vector<float>& px, int nch, const std::string& space, bool decod
             px[i * nch + c] = rgb[3 * i + c];
 }
 
-} // namespace
+}  // namespace
 
 void to_linear(std::vector<float>& px, int nch, const std::string& space)
 {
@@ -94,4 +99,4 @@ std::string colour_engine()
     return "OCIO raw config with the sRGB curve (gamma 2.4, offset 0.055; set $OCIO for a studio config)";
 }
 
-} // namespace relief::detail
+}  // namespace relief::detail

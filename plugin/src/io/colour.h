@@ -18,4 +18,4 @@ void from_linear(std::vector<float>& px, int nch, const std::string& space);
 // "OCIO config <file>" or "built-in sRGB curve (no $OCIO)".
 std::string colour_engine();
 
-} // namespace relief::detail
+}  // namespace relief::detail

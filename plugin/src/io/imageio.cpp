@@ -144,8 +144,8 @@ namespace {
 // Extensions whose writers have no float pixels.
 bool integer_only_format(const std::string& ext)
 {
-    static const char* exts[] = {".png", ".jpg", ".jpeg", ".tga", ".bmp", ".ppm",
-                                 ".pgm", ".pnm", ".gif", ".webp", ".jp2"};
+    static const char* exts[] = {".png", ".jpg", ".jpeg", ".tga",  ".bmp", ".ppm",
+                                 ".pgm", ".pnm", ".gif",  ".webp", ".jp2"};
     for (const char* e : exts)
         if (ext == e)
             return true;
@@ -238,7 +238,7 @@ std::string write_file(const ImageBuf& image, const fs::path& target, detail::Te
     return why.empty() ? "unknown error" : why;
 }
 
-} // namespace
+}  // namespace
 
 namespace {
 
@@ -264,14 +264,16 @@ bool pixels_complete(OIIO::ImageInput& in, const std::string& path, const std::s
     // zip file, against 0.7 ms for its last strip of 32 rows).
     const int rows = std::max(1, spec.get_int_attribute("tiff:RowsPerStrip", 1));
     const int first = spec.y + (spec.height - 1) / rows * rows, end = spec.y + spec.height;
-    std::vector<float> strip(std::size_t(spec.width) * std::size_t(spec.nchannels) * std::size_t(end - first));
+    std::vector<float> strip(std::size_t(spec.width) * std::size_t(spec.nchannels) *
+                             std::size_t(end - first));
     // OIIO 2.4 returns true for a strip libtiff could not read, with the
     // error set: both count.
-    const bool read = in.read_scanlines(0, 0, first, end, 0, 0, spec.nchannels, TypeDesc::FLOAT, strip.data());
+    const bool read =
+        in.read_scanlines(0, 0, first, end, 0, 0, spec.nchannels, TypeDesc::FLOAT, strip.data());
     return in.geterror().empty() && read;
 }
 
-} // namespace
+}  // namespace
 
 std::string recorded_digest(const std::string& path)
 {
@@ -329,8 +331,7 @@ bool check_output_path(const std::string& path)
         folder = ".";
     std::error_code ec;
     if (!fs::is_directory(folder, ec)) {
-        detail::set_error("cannot write '" + path + "': the folder '" + folder.string() +
-                          "' does not exist");
+        detail::set_error("cannot write '" + path + "': the folder '" + folder.string() + "' does not exist");
         return false;
     }
     if (fs::is_directory(target, ec)) {
@@ -375,8 +376,7 @@ bool write_image(const ImageBuf& image, const std::string& path, const WriteOpti
         const ImageSpec& spec = image.spec();
         std::vector<float> px(spec.image_pixels() * spec.nchannels);
         if (!image.get_pixels(image.roi(), TypeDesc::FLOAT, px.data())) {
-            detail::set_error("cannot write '" + path + "': its pixels cannot be read: " +
-                              image.geterror());
+            detail::set_error("cannot write '" + path + "': its pixels cannot be read: " + image.geterror());
             return false;
         }
         ImageSpec s = spec;
@@ -434,4 +434,4 @@ bool write_image(const ImageBuf& image, const std::string& path, const WriteOpti
     return true;
 }
 
-} // namespace relief
+}  // namespace relief

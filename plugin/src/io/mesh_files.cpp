@@ -39,16 +39,19 @@ std::string comment(const std::string& digest)
 
 void write_obj(const Mesh& m, std::FILE* f, const std::string& digest)
 {
-    std::fprintf(f, "# %s\n# x, y in texels (y down the rows), z = scale x height\n", comment(digest).c_str());
+    std::fprintf(f, "# %s\n# x, y in texels (y down the rows), z = scale x height\n",
+                 comment(digest).c_str());
     const std::size_t n = m.positions.size() / 3;
     for (std::size_t i = 0; i < n; ++i)
-        std::fprintf(f, "v %.9g %.9g %.9g\n", m.positions[3 * i], m.positions[3 * i + 1], m.positions[3 * i + 2]);
+        std::fprintf(f, "v %.9g %.9g %.9g\n", m.positions[3 * i], m.positions[3 * i + 1],
+                     m.positions[3 * i + 2]);
     for (std::size_t i = 0; i < n; ++i)
         std::fprintf(f, "vt %.9g %.9g\n", m.texcoords[2 * i], m.texcoords[2 * i + 1]);
     for (std::size_t i = 0; i < n; ++i)
         std::fprintf(f, "vn %.9g %.9g %.9g\n", m.normals[3 * i], m.normals[3 * i + 1], m.normals[3 * i + 2]);
     for (std::size_t t = 0; t < m.triangles.size(); t += 3) {
-        const unsigned long a = m.triangles[t] + 1ul, b = m.triangles[t + 1] + 1ul, c = m.triangles[t + 2] + 1ul;
+        const unsigned long a = m.triangles[t] + 1ul, b = m.triangles[t + 1] + 1ul,
+                            c = m.triangles[t + 2] + 1ul;
         std::fprintf(f, "f %lu/%lu/%lu %lu/%lu/%lu %lu/%lu/%lu\n", a, a, a, b, b, b, c, c, c);
     }
 }
@@ -164,7 +167,7 @@ std::string gltf_bytes(const Mesh& m, bool binary, const std::string& digest)
     return bytes.str();
 }
 
-} // namespace
+}  // namespace
 
 std::string mesh_path_problem(const std::string& path)
 {
@@ -214,4 +217,4 @@ bool write_mesh(const Mesh& m, const std::string& path, const std::string& diges
     }
 }
 
-} // namespace relief
+}  // namespace relief

@@ -145,7 +145,7 @@ std::string errno_text(int e)
     return std::strerror(e ? e : EIO);
 }
 
-} // namespace
+}  // namespace
 
 void remove_temporary_files() noexcept
 {
@@ -160,7 +160,8 @@ int remove_stale_temporary_files(const std::string& folder)
     const long self = static_cast<long>(::getpid());
     int removed = 0;
     std::error_code ec;
-    for (fs::directory_iterator it(folder.empty() ? "." : folder, ec), end; !ec && it != end; it.increment(ec)) {
+    for (fs::directory_iterator it(folder.empty() ? "." : folder, ec), end; !ec && it != end;
+         it.increment(ec)) {
         const std::string name = it->path().filename().string();
         const std::size_t at = name.rfind(kMarker);
         if (name.empty() || name[0] != '.' || at == std::string::npos)
@@ -305,6 +306,6 @@ void TemporaryFile::commit()
     slot_ = -1;
 }
 
-} // namespace detail
+}  // namespace detail
 
-} // namespace relief
+}  // namespace relief

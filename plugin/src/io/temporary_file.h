@@ -36,4 +36,4 @@ private:
     bool committed_ = false;
 };
 
-} // namespace relief::detail
+}  // namespace relief::detail

@@ -96,7 +96,7 @@ std::string resolve_space(const BakeOptions& o, const ImageBuf& tex)
     return declared;
 }
 
-} // namespace
+}  // namespace
 
 bool bake(ImageBuf& dst, const ImageBuf& texture, const ImageBuf& offsets, const BakeOptions& options,
           ROI roi, int /*nthreads*/)
@@ -151,11 +151,12 @@ bool bake(ImageBuf& dst, const ImageBuf& texture, const ImageBuf& offsets, const
                                                            : "data";
         detail::say(options.exec, Severity::Notice,
                     std::string("bake: ") + std::string(texture.name()) + " as " + kind_name +
-                        (kind == BakeKind::Color
-                             ? (space.empty() ? std::string(", linear") : ", " + space + " decoded to linear by " + detail::colour_engine())
-                             : std::string()) +
-                        ", " + (options.filter == BakeFilter::Bicubic ? "bicubic" : "bilinear") +
-                        ", " + (periodic ? "wrapping" : "clamped at the edges"));
+                        (kind == BakeKind::Color ? (space.empty() ? std::string(", linear")
+                                                                  : ", " + space + " decoded to linear by " +
+                                                                        detail::colour_engine())
+                                                 : std::string()) +
+                        ", " + (options.filter == BakeFilter::Bicubic ? "bicubic" : "bilinear") + ", " +
+                        (periodic ? "wrapping" : "clamped at the edges"));
 
         if (!space.empty())
             detail::to_linear(px, nch, space);
@@ -208,4 +209,4 @@ ImageBuf bake(const ImageBuf& texture, const ImageBuf& offsets, const BakeOption
     return dst;
 }
 
-} // namespace relief
+}  // namespace relief

@@ -25,7 +25,8 @@ bool normals(ImageBuf& dst, const ImageBuf& height, const NormalsOptions& option
             throw std::invalid_argument(problem);
         roi = detail::resolve_roi(height, roi);
         const int w = roi.width(), ht = roi.height();
-        const std::vector<float> h = detail::height_channel(height, roi, options.exec, "normals", options.scale);
+        const std::vector<float> h =
+            detail::height_channel(height, roi, options.exec, "normals", options.scale);
         const bool periodic =
             detail::height_is_periodic(height, h, w, ht, options.boundary, options.exec, "normals");
         auto ctx = host::ComputeContext::acquire(options.exec.device);
@@ -39,10 +40,9 @@ bool normals(ImageBuf& dst, const ImageBuf& height, const NormalsOptions& option
         spec.channelnames = {"R", "G", "B"};
         spec.attribute("relief:method", "normals");
         spec.attribute("relief:normal_convention", directx ? "directx" : "opengl");
-        spec.attribute("relief:parameters",
-                       std::string("normal=") + (directx ? "directx" : "opengl") +
-                           " scale=" + detail::format_double("%.9g", options.scale) +
-                           " boundary=" + (periodic ? "periodic" : "free"));
+        spec.attribute("relief:parameters", std::string("normal=") + (directx ? "directx" : "opengl") +
+                                                " scale=" + detail::format_double("%.9g", options.scale) +
+                                                " boundary=" + (periodic ? "periodic" : "free"));
         dst.reset(spec);
         dst.set_pixels(dst.roi(), TypeDesc::FLOAT, n.data());
         return true;
@@ -58,8 +58,7 @@ ImageBuf normals(const ImageBuf& height, const NormalsOptions& options, ROI roi,
     return dst;
 }
 
-bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptions& options, ROI roi,
-                  int)
+bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptions& options, ROI roi, int)
 {
     try {
         if (const std::string problem = validate(options); !problem.empty())
@@ -69,8 +68,8 @@ bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptio
         const std::vector<float> h =
             detail::height_channel(height, roi, options.exec, "tessellation", options.scale);
         auto ctx = host::ComputeContext::acquire(options.exec.device);
-        std::vector<std::uint8_t> levels = host::tessellation_levels(
-            *ctx, h.data(), w, ht, options.patch, options.error, options.scale);
+        std::vector<std::uint8_t> levels =
+            host::tessellation_levels(*ctx, h.data(), w, ht, options.patch, options.error, options.scale);
         const int px = (w + options.patch - 1) / options.patch, py = (ht + options.patch - 1) / options.patch;
 
         // The share of patches per level, and those no level brings within E.
@@ -82,9 +81,8 @@ bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptio
             pixels[i] = levels[i] ? float(levels[i]) : float(host::kMaxTessellationLevel);
         if (count[0] > 0)
             detail::say(options.exec, Severity::Warning,
-                        "tessellation: " + std::to_string(count[0]) + " of " +
-                            std::to_string(levels.size()) + " patch(es) exceed error=" +
-                            detail::format_double("%g", options.error) +
+                        "tessellation: " + std::to_string(count[0]) + " of " + std::to_string(levels.size()) +
+                            " patch(es) exceed error=" + detail::format_double("%g", options.error) +
                             " even at level 64; they get 64 (use a smaller patch)");
         std::string shares;
         for (int L = 1; L <= host::kMaxTessellationLevel; ++L)
@@ -122,4 +120,4 @@ ImageBuf tessellation(const ImageBuf& height, const TessellationOptions& options
     return dst;
 }
 
-} // namespace relief
+}  // namespace relief

@@ -22,28 +22,30 @@ using OIIO::TypeDesc;
 
 namespace {
 
-DistortionSummary summary(const host::DistortionStats& s) { return {s.mean, s.p95, s.max}; }
+DistortionSummary summary(const host::DistortionStats& s)
+{
+    return {s.mean, s.p95, s.max};
+}
 
 const char* search_name(CorrectSearch s)
 {
     return s == CorrectSearch::Ternary ? "ternary" : s == CorrectSearch::Golden ? "golden" : "brent";
 }
 
-
-
-} // namespace
+}  // namespace
 
 std::string CorrectReport::to_json() const
 {
     std::ostringstream s;
     s.precision(9);
     auto stats = [&](const char* name, const DistortionSummary& d) {
-        s << "\"" << name << "\": {\"mean\": " << d.mean << ", \"p95\": " << d.p95
-          << ", \"max\": " << d.max << "}";
+        s << "\"" << name << "\": {\"mean\": " << d.mean << ", \"p95\": " << d.p95 << ", \"max\": " << d.max
+          << "}";
     };
     s << "{\n  \"width\": " << width << ", \"height\": " << height << ",\n";
     s << "  \"skipped\": " << (skipped ? "true" : "false") << ",\n";
-    s << "  \"boundary\": \"" << boundary << "\", \"nodes\": \"" << nodes << "\", \"scale\": " << scale << ",\n";
+    s << "  \"boundary\": \"" << boundary << "\", \"nodes\": \"" << nodes << "\", \"scale\": " << scale
+      << ",\n";
     s << "  \"energy_before\": " << energy_before << ", \"energy_after\": " << energy_after << ",\n";
     s << "  \"iterations\": " << iterations << ",\n  \"levels\": [";
     for (std::size_t i = 0; i < levels.size(); ++i) {
@@ -66,8 +68,7 @@ std::string CorrectReport::to_json() const
     return s.str();
 }
 
-bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& options, ROI roi,
-             int /*nthreads*/)
+bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& options, ROI roi, int /*nthreads*/)
 {
     try {
         const auto t0 = std::chrono::steady_clock::now();
@@ -94,8 +95,8 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
             detail::say(options.exec, Severity::Notice,
                         std::string("correct: boundary ") + (p.periodic ? "periodic" : "fixed") +
                             " (height jump across the wrap seam / mean jump between neighbours: x " +
-                            detail::format_double("%.2f", rx) + ", y " +
-                            detail::format_double("%.2f", ry) + "; periodic when both <= 2)");
+                            detail::format_double("%.2f", rx) + ", y " + detail::format_double("%.2f", ry) +
+                            "; periodic when both <= 2)");
         } else {
             p.periodic = options.boundary == CorrectBoundary::Periodic;
         }
@@ -145,8 +146,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         rep.energy_after = hr.energy_after;
         rep.iterations = hr.total_iterations();
         for (const auto& l : hr.levels)
-            rep.levels.push_back({l.width, l.height, l.iterations, l.energy_start, l.energy_end,
-                                  l.converged,
+            rep.levels.push_back({l.width, l.height, l.iterations, l.energy_start, l.energy_end, l.converged,
                                   l.tile_phases ? double(l.tile_phases_run) / l.tile_phases : 1.0,
                                   l.seconds});
         rep.anisotropy_before = summary(hr.anisotropy_before);
@@ -181,8 +181,8 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
                             "; anisotropy s1/s2 mean/p95/max " + f(rep.anisotropy_before.mean) + "/" +
                             f(rep.anisotropy_before.p95) + "/" + f(rep.anisotropy_before.max) + " -> " +
                             f(rep.anisotropy_after.mean) + "/" + f(rep.anisotropy_after.p95) + "/" +
-                            f(rep.anisotropy_after.max) + "; area ratio " + f(rep.area_before.mean) +
-                            "/" + f(rep.area_before.p95) + "/" + f(rep.area_before.max) + " -> " +
+                            f(rep.anisotropy_after.max) + "; area ratio " + f(rep.area_before.mean) + "/" +
+                            f(rep.area_before.p95) + "/" + f(rep.area_before.max) + " -> " +
                             f(rep.area_after.mean) + "/" + f(rep.area_after.p95) + "/" +
                             f(rep.area_after.max));
         }
@@ -220,4 +220,4 @@ ImageBuf correct(const ImageBuf& height, const CorrectOptions& options, ROI roi,
     return dst;
 }
 
-} // namespace relief
+}  // namespace relief

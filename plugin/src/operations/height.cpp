@@ -57,8 +57,8 @@ Boundary choose_boundary(const HeightOptions& o, const detail::DerivedSlopes& d,
     };
     detail::say(o.exec, Severity::Notice,
                 std::string("boundary: ") + name(b, rays) +
-                    " (slope correlation across the wrap seam vs between neighbours: " +
-                    axis("x", e.x) + ", " + axis("y", e.y) + ")");
+                    " (slope correlation across the wrap seam vs between neighbours: " + axis("x", e.x) +
+                    ", " + axis("y", e.y) + ")");
     return b;
 }
 
@@ -74,15 +74,13 @@ std::vector<float> mask_weights(const HeightOptions& o, const ImageBuf& normals,
         a.chbegin = 3;
         a.chend = 4;
         if (!normals.get_pixels(a, TypeDesc::FLOAT, w.data()))
-            throw std::runtime_error("cannot read the normal map's alpha as a mask: " +
-                                     normals.geterror());
+            throw std::runtime_error("cannot read the normal map's alpha as a mask: " + normals.geterror());
     } else {
         const ImageBuf& m = *o.mask;
         if (m.spec().width != roi.width() || m.spec().height != roi.height())
             throw std::runtime_error("the mask is " + std::to_string(m.spec().width) + "x" +
                                      std::to_string(m.spec().height) + ", the normal map " +
-                                     std::to_string(roi.width()) + "x" +
-                                     std::to_string(roi.height()));
+                                     std::to_string(roi.width()) + "x" + std::to_string(roi.height()));
         ROI a = m.roi();
         a.chbegin = 0;
         a.chend = 1;
@@ -92,10 +90,9 @@ std::vector<float> mask_weights(const HeightOptions& o, const ImageBuf& normals,
     bool ones = true;
     for (std::size_t i = 0; i < w.size(); ++i) {
         if (!(w[i] >= 0.0f && w[i] <= 1.0f))
-            throw std::runtime_error("mask values must be in [0, 1]; texel (" +
-                                     std::to_string(i % roi.width()) + ", " +
-                                     std::to_string(i / roi.width()) + ") is " +
-                                     detail::format_double("%g", w[i]));
+            throw std::runtime_error(
+                "mask values must be in [0, 1]; texel (" + std::to_string(i % roi.width()) + ", " +
+                std::to_string(i / roi.width()) + ") is " + detail::format_double("%g", w[i]));
         ones &= w[i] == 1.0f;
     }
     if (ones)
@@ -146,13 +143,14 @@ void check_memory(const HeightOptions& o, int w, int h, bool slopes_made)
         host_bytes += 4 * n;  // the convolution's values inside the band
     if (o.method != HeightMethod::Rays && (o.mask || o.mask_alpha))
         host_bytes += 8 * n;  // the weights, and the spectral start
-    host::check_memory(*ctx,
-                       std::string(o.method == HeightMethod::Rays ? "ray integration" : "the Poisson integration") +
-                           " of a " + std::to_string(w) + "x" + std::to_string(h) + " map",
-                       device, host_bytes, slopes_made ? 8 * n : 0, at_result);
+    host::check_memory(
+        *ctx,
+        std::string(o.method == HeightMethod::Rays ? "ray integration" : "the Poisson integration") +
+            " of a " + std::to_string(w) + "x" + std::to_string(h) + " map",
+        device, host_bytes, slopes_made ? 8 * n : 0, at_result);
 }
 
-} // namespace
+}  // namespace
 
 std::string HeightReport::to_json() const
 {
@@ -175,8 +173,8 @@ std::string describe(const HeightOptions& o)
     ss << "method=" << (rays ? "rays" : o.method == HeightMethod::Poisson ? "poisson" : "auto");
     if (rays)
         ss << " impl=" << (o.impl == RayImpl::Fast ? "fast" : "reference") << " rays=" << o.rays
-           << " radius=" << o.radius << " phase=" << o.phase << " directions="
-           << (o.directions == RayDirections::Rational ? "rational" : "exact");
+           << " radius=" << o.radius << " phase=" << o.phase
+           << " directions=" << (o.directions == RayDirections::Rational ? "rational" : "exact");
     ss << " boundary=" << name(o.boundary, rays);
     if (!rays)
         ss << " highpass=" << o.highpass;
@@ -187,8 +185,7 @@ std::string describe(const HeightOptions& o)
     return ss.str();
 }
 
-bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options, ROI roi,
-            int /*nthreads*/)
+bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options, ROI roi, int /*nthreads*/)
 {
     try {
         const auto t0 = std::chrono::steady_clock::now();
@@ -223,11 +220,10 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
             p.rays = chosen.rays;
             p.radius = chosen.radius;
             p.phase = chosen.phase;
-            p.directions = chosen.directions == RayDirections::Rational
-                               ? host::DirectionSet::Rational
-                               : host::DirectionSet::Exact;
-            p.boundary = chosen.boundary == Boundary::Free ? host::RayBoundary::Clip
-                                                           : host::RayBoundary::Periodic;
+            p.directions = chosen.directions == RayDirections::Rational ? host::DirectionSet::Rational
+                                                                        : host::DirectionSet::Exact;
+            p.boundary =
+                chosen.boundary == Boundary::Free ? host::RayBoundary::Clip : host::RayBoundary::Periodic;
             p.skip_flat = chosen.skip_flat;
             host::RayReport report;
             if (chosen.impl == RayImpl::Fast)
@@ -240,8 +236,7 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
                 detail::say(options.exec, Severity::Info,
                             "rays: skipped " + std::to_string(report.skipped) + " of " +
                                 std::to_string(report.tiles) + " tiles of " +
-                                std::to_string(host::kSkipTile) + "x" +
-                                std::to_string(host::kSkipTile) +
+                                std::to_string(host::kSkipTile) + "x" + std::to_string(host::kSkipTile) +
                                 " texels (zero slopes within the radius)");
         } else {
             host::PoissonParams p;
@@ -266,8 +261,8 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
         }
         if (HeightReport* r = options.report) {
             const bool periodic = chosen.boundary == Boundary::Periodic;
-            const host::RoundTrip t = host::round_trip(*derived.context, derived.slopes,
-                                                       static_cast<const float*>(result.localpixels()), periodic);
+            const host::RoundTrip t = host::round_trip(
+                *derived.context, derived.slopes, static_cast<const float*>(result.localpixels()), periodic);
             r->method = rays ? "rays" : "poisson";
             r->normal_convention = detail::convention_name(derived.stats.chosen);
             r->boundary = name(chosen.boundary, rays);
@@ -278,8 +273,9 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
             r->angular_error_max = t.max_deg;
             r->residual_share = t.residual_share;
             detail::say(options.exec, Severity::Info,
-                        "height: round trip: angular error mean " + detail::format_double("%.3g", t.mean_deg) +
-                            " deg, p95 " + detail::format_double("%.3g", t.p95_deg) + ", max " +
+                        "height: round trip: angular error mean " +
+                            detail::format_double("%.3g", t.mean_deg) + " deg, p95 " +
+                            detail::format_double("%.3g", t.p95_deg) + ", max " +
                             detail::format_double("%.3g", t.max_deg) + "; residual share " +
                             detail::format_double("%.3g", t.residual_share) +
                             " (the part of the slopes the height does not reproduce)");
@@ -287,7 +283,8 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
         detail::publish_result(dst, std::move(result), rays ? "rays" : "poisson", derived.stats,
                                describe(chosen));
         if (options.report)
-            options.report->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            options.report->seconds =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         return true;
     } catch (const std::exception& e) {
         return detail::fail(dst, "height", e);
@@ -301,4 +298,4 @@ ImageBuf height(const ImageBuf& normals, const HeightOptions& options, ROI roi, 
     return dst;
 }
 
-} // namespace relief
+}  // namespace relief

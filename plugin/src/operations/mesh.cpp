@@ -44,11 +44,20 @@ Rational rational(std::int64_t n, std::int64_t d)
     return g > 1 ? Rational{n / g, d / g} : Rational{n, d};
 }
 
-bool operator<(const Rational& a, const Rational& b) { return a.n * b.d < b.n * a.d; }
-bool operator==(const Rational& a, const Rational& b) { return a.n == b.n && a.d == b.d; }
+bool operator<(const Rational& a, const Rational& b)
+{
+    return a.n * b.d < b.n * a.d;
+}
+bool operator==(const Rational& a, const Rational& b)
+{
+    return a.n == b.n && a.d == b.d;
+}
 
 // a + (b - a) t for integers a, b and a fraction t.
-Rational along(int a, int b, const Rational& t) { return rational(std::int64_t(a) * t.d + std::int64_t(b - a) * t.n, t.d); }
+Rational along(int a, int b, const Rational& t)
+{
+    return rational(std::int64_t(a) * t.d + std::int64_t(b - a) * t.n, t.d);
+}
 
 struct Key {
     Rational x, y;
@@ -70,8 +79,8 @@ enum Side { Top, Right, Bottom, Left };
 class Builder {
 public:
     Builder(const std::vector<float>& h, int w, int ht, const TessellationOptions& o)
-        : h_(h), w_(w), ht_(ht), patch_(o.patch), scale_(o.scale),
-          px_((w + o.patch - 1) / o.patch), py_((ht + o.patch - 1) / o.patch)
+        : h_(h), w_(w), ht_(ht), patch_(o.patch), scale_(o.scale), px_((w + o.patch - 1) / o.patch),
+          py_((ht + o.patch - 1) / o.patch)
     {
     }
 
@@ -106,9 +115,12 @@ public:
             for (std::uint32_t v : list) {
                 if (number[v] == UINT32_MAX) {
                     number[v] = std::uint32_t(m.positions.size() / 3);
-                    m.positions.insert(m.positions.end(), &pos_[3 * std::size_t(v)], &pos_[3 * std::size_t(v)] + 3);
-                    m.normals.insert(m.normals.end(), &nrm_[3 * std::size_t(v)], &nrm_[3 * std::size_t(v)] + 3);
-                    m.texcoords.insert(m.texcoords.end(), &uv_[2 * std::size_t(v)], &uv_[2 * std::size_t(v)] + 2);
+                    m.positions.insert(m.positions.end(), &pos_[3 * std::size_t(v)],
+                                       &pos_[3 * std::size_t(v)] + 3);
+                    m.normals.insert(m.normals.end(), &nrm_[3 * std::size_t(v)],
+                                     &nrm_[3 * std::size_t(v)] + 3);
+                    m.texcoords.insert(m.texcoords.end(), &uv_[2 * std::size_t(v)],
+                                       &uv_[2 * std::size_t(v)] + 2);
                 }
                 m.triangles.push_back(number[v]);
             }
@@ -246,8 +258,7 @@ private:
             for (int a = 0; a < L; ++a) {
                 const Corner v00{a, c}, v10{a + 1, c}, v01{a, c + 1}, v11{a + 1, c + 1};
                 const bool main = (2 * a < L) == (2 * c < L);
-                const Corner tris[2][3] = {{v00, v10, main ? v11 : v01},
-                                           {main ? v00 : v10, v11, v01}};
+                const Corner tris[2][3] = {{v00, v10, main ? v11 : v01}, {main ? v00 : v10, v11, v01}};
                 for (const auto& t : tris)
                     add_grid_triangle(b, L, sides, t[0].a, t[0].c, t[1].a, t[1].c, t[2].a, t[2].c, grid);
             }
@@ -256,8 +267,8 @@ private:
     // A grid triangle; an edge on the patch border with extra points
     // (from a finer neighbour) becomes a fan from the opposite vertex.
     template <class Grid>
-    void add_grid_triangle(const Bounds& b, int L, const std::vector<Rational>* sides, int a0, int c0,
-                           int a1, int c1, int a2, int c2, Grid grid)
+    void add_grid_triangle(const Bounds& b, int L, const std::vector<Rational>* sides, int a0, int c0, int a1,
+                           int c1, int a2, int c2, Grid grid)
     {
         const int A[3] = {a0, a1, a2}, C[3] = {c0, c1, c2};
         for (int e = 0; e < 3; ++e) {
@@ -274,7 +285,8 @@ private:
             else
                 continue;
             const bool horizontal = side == Top || side == Bottom;
-            const Rational ti = rational(horizontal ? A[i] : C[i], L), tj = rational(horizontal ? A[j] : C[j], L);
+            const Rational ti = rational(horizontal ? A[i] : C[i], L),
+                           tj = rational(horizontal ? A[j] : C[j], L);
             std::vector<Rational> chain;
             for (const Rational& t : sides[side])
                 if ((ti < t && t < tj) || (tj < t && t < ti))
@@ -329,7 +341,8 @@ private:
                     if (l1 < -1e-9 || l2 < -1e-9 || l3 < -1e-9)
                         continue;
                     const double s = l1 * z[0] + l2 * z[1] + l3 * z[2];
-                    const double e = std::abs(s - scale_ * double(h_[std::size_t(j) * std::size_t(w_) + std::size_t(i)]));
+                    const double e =
+                        std::abs(s - scale_ * double(h_[std::size_t(j) * std::size_t(w_) + std::size_t(i)]));
                     double& slot = err[std::size_t(j - b.y0) * std::size_t(pw) + std::size_t(i - b.x0)];
                     slot = std::max(slot, e);
                 }
@@ -381,8 +394,8 @@ void check_mesh_memory(const std::vector<int>& levels, bool gltf)
                                triangles * (kBytesPerTriangle + (gltf ? kGltfBytesPerTriangle : 0));
     if (const std::string why = host::refuse_host(need); !why.empty())
         throw std::runtime_error("the mesh (about " + std::to_string(vertices) + " vertices, " +
-                                 std::to_string(triangles) + " triangles at the patches' first levels) " + why +
-                                 "; use a larger error or patch");
+                                 std::to_string(triangles) + " triangles at the patches' first levels) " +
+                                 why + "; use a larger error or patch");
 }
 
 bool build_mesh(Mesh& mesh, const OIIO::ImageBuf& height, const TessellationOptions& options, bool gltf)
@@ -447,13 +460,14 @@ bool build_mesh(Mesh& mesh, const OIIO::ImageBuf& height, const TessellationOpti
             worst = std::max(worst, mesh.errors[p]);
         }
         const std::size_t full = 2 * std::size_t(w) * std::size_t(ht);
-        detail::say(options.exec, Severity::Info,
-                    "mesh: " + std::to_string(mesh.positions.size() / 3) + " vertices, " +
-                        std::to_string(mesh.triangles.size() / 3) + " triangles (" +
-                        detail::format_double("%.1f%%", 100.0 * double(mesh.triangles.size() / 3) / double(full)) +
-                        " of a full-resolution grid's " + std::to_string(full) + "), largest error " +
-                        detail::format_double("%.4g", worst) + "; " + std::to_string(mesh.raised) +
-                        " patch(es) raised above their level to keep the stitched sides within E");
+        detail::say(
+            options.exec, Severity::Info,
+            "mesh: " + std::to_string(mesh.positions.size() / 3) + " vertices, " +
+                std::to_string(mesh.triangles.size() / 3) + " triangles (" +
+                detail::format_double("%.1f%%", 100.0 * double(mesh.triangles.size() / 3) / double(full)) +
+                " of a full-resolution grid's " + std::to_string(full) + "), largest error " +
+                detail::format_double("%.4g", worst) + "; " + std::to_string(mesh.raised) +
+                " patch(es) raised above their level to keep the stitched sides within E");
         if (over > 0)
             detail::say(options.exec, Severity::Warning,
                         "mesh: " + std::to_string(over) + " patch(es) exceed error=" +
@@ -466,7 +480,7 @@ bool build_mesh(Mesh& mesh, const OIIO::ImageBuf& height, const TessellationOpti
     }
 }
 
-} // namespace
+}  // namespace
 
 bool displaced_mesh(Mesh& mesh, const OIIO::ImageBuf& height, const TessellationOptions& options)
 {
@@ -481,7 +495,8 @@ bool mesh(OIIO::ImageBuf& dst, const OIIO::ImageBuf& height, const MeshOptions& 
         Mesh m;
         const std::string ext = std::filesystem::path(options.out).extension().string();
         const bool gltf = ext == ".gltf" || ext == ".glb" || ext == ".GLTF" || ext == ".GLB";
-        if (!build_mesh(m, height, options.tessellation, gltf) || !write_mesh(m, options.out, options.digest)) {
+        if (!build_mesh(m, height, options.tessellation, gltf) ||
+            !write_mesh(m, options.out, options.digest)) {
             dst.errorfmt("{}", relief::geterror(false));
             return false;
         }
@@ -494,4 +509,4 @@ bool mesh(OIIO::ImageBuf& dst, const OIIO::ImageBuf& height, const MeshOptions& 
     }
 }
 
-} // namespace relief
+}  // namespace relief

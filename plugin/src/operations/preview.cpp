@@ -87,10 +87,16 @@ Rgb ramp(const std::vector<Rgb>& stops, double t)
 }
 
 // Approximations of matplotlib's inferno (heat) and viridis (height).
-const std::vector<Rgb> kHeat = {{0.0f, 0.0f, 0.02f}, {0.34f, 0.06f, 0.38f}, {0.73f, 0.21f, 0.33f},
-                                {0.98f, 0.55f, 0.04f}, {0.99f, 1.0f, 0.64f}};
-const std::vector<Rgb> kViridis = {{0.27f, 0.0f, 0.33f}, {0.23f, 0.32f, 0.55f}, {0.13f, 0.57f, 0.55f},
-                                   {0.37f, 0.79f, 0.38f}, {0.99f, 0.91f, 0.14f}};
+const std::vector<Rgb> kHeat = {{0.0f, 0.0f, 0.02f},
+                                {0.34f, 0.06f, 0.38f},
+                                {0.73f, 0.21f, 0.33f},
+                                {0.98f, 0.55f, 0.04f},
+                                {0.99f, 1.0f, 0.64f}};
+const std::vector<Rgb> kViridis = {{0.27f, 0.0f, 0.33f},
+                                   {0.23f, 0.32f, 0.55f},
+                                   {0.13f, 0.57f, 0.55f},
+                                   {0.37f, 0.79f, 0.38f},
+                                   {0.99f, 0.91f, 0.14f}};
 
 // The value of rank q (0..1) of v (a copy is partially sorted).
 double quantile(std::vector<float> v, double q)
@@ -126,8 +132,7 @@ constexpr int kMinCellWidth = 344, kMinCellHeight = 100;
 
 class Sheet {
 public:
-    Sheet(int pw, int ph)
-        : ph_(ph), cw_(std::max(pw, kMinCellWidth)), ch_(std::max(ph, kMinCellHeight))
+    Sheet(int pw, int ph) : ph_(ph), cw_(std::max(pw, kMinCellWidth)), ch_(std::max(ph, kMinCellHeight))
     {
         const int cell_h = kCaption + ch_ + kBar;
         ImageSpec spec(3 * cw_ + 4 * kMargin, 2 * cell_h + 3 * kMargin, 3, TypeDesc::FLOAT);
@@ -166,8 +171,9 @@ public:
             std::snprintf(label, sizeof label, "%.3g%s", value, k == 4 ? (" " + unit).c_str() : "");
             const int px = x(col) + int(std::lround((cw_ - 1) * k / 4.0));
             text(px, top + height + 18, label, 14,
-                 k == 0 ? OIIO::ImageBufAlgo::TextAlignX::Left
-                        : k == 4 ? OIIO::ImageBufAlgo::TextAlignX::Right : OIIO::ImageBufAlgo::TextAlignX::Center);
+                 k == 0   ? OIIO::ImageBufAlgo::TextAlignX::Left
+                 : k == 4 ? OIIO::ImageBufAlgo::TextAlignX::Right
+                          : OIIO::ImageBufAlgo::TextAlignX::Center);
         }
     }
 
@@ -176,8 +182,8 @@ public:
     {
         const float white[3] = {0.92f, 0.92f, 0.92f};
         if (!IBA::render_text(image_, px, py, s, size, kFont, white, align))
-            throw std::runtime_error("cannot draw the captions (" + image_.geterror() +
-                                     "); the font " + kFont + " comes with Debian's fonts-dejavu-core");
+            throw std::runtime_error("cannot draw the captions (" + image_.geterror() + "); the font " +
+                                     kFont + " comes with Debian's fonts-dejavu-core");
     }
 
     ImageBuf& image() { return image_; }
@@ -187,7 +193,7 @@ private:
     ImageBuf image_;
 };
 
-} // namespace
+}  // namespace
 
 SphericalHarmonics environment_harmonics(const ImageBuf& latlong)
 {
@@ -217,8 +223,9 @@ SphericalHarmonics sky_harmonics()
     std::vector<float> rgb(std::size_t(w) * h * 3);
     for (int j = 0; j < h; ++j) {
         const double z = std::cos(M_PI * (j + 0.5) / h);
-        const Rgb c = z >= 0 ? ramp({{0.80f, 0.86f, 0.95f}, {0.45f, 0.60f, 0.90f}, {0.25f, 0.42f, 0.85f}}, std::sqrt(z))
-                             : Rgb{0.20f, 0.17f, 0.14f};
+        const Rgb c =
+            z >= 0 ? ramp({{0.80f, 0.86f, 0.95f}, {0.45f, 0.60f, 0.90f}, {0.25f, 0.42f, 0.85f}}, std::sqrt(z))
+                   : Rgb{0.20f, 0.17f, 0.14f};
         for (int i = 0; i < w; ++i) {
             float* p = &rgb[3 * (std::size_t(j) * w + i)];
             p[0] = c.r;
@@ -252,7 +259,8 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         if (hroi.width() != w || hroi.height() != ht)
             throw std::runtime_error("the normal map is " + std::to_string(w) + "x" + std::to_string(ht) +
                                      ", the height " + std::to_string(hroi.width()) + "x" +
-                                     std::to_string(hroi.height()) + "; give the height made from these normals");
+                                     std::to_string(hroi.height()) +
+                                     "; give the height made from these normals");
         const std::vector<float> h = detail::height_channel(height, hroi, o.exec, "preview");
         const bool periodic = detail::height_is_periodic(height, h, w, ht, o.boundary, o.exec, "preview");
         const SphericalHarmonics sh = o.env.empty() ? sky_harmonics() : [&] {
@@ -351,7 +359,8 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         const int pw = std::max(1, int(std::lround(w * s))), ph = std::max(1, int(std::lround(ht * s)));
         Sheet sheet(pw, ph);
         const char* convention = detail::convention_name(d.stats.chosen);
-        sheet.panel(0, 0, std::string("a  input normals, lit (") + convention + ")", fit(lit_in, w, ht, pw, ph));
+        sheet.panel(0, 0, std::string("a  input normals, lit (") + convention + ")",
+                    fit(lit_in, w, ht, pw, ph));
         sheet.panel(1, 0, "b  the height's normals, lit", fit(lit_h, w, ht, pw, ph));
         sheet.panel(2, 0, "c  emboss: height toward the light - height", fit(emboss, w, ht, pw, ph));
         sheet.panel(0, 1, "d  angular error between a and b", fit(heat, w, ht, pw, ph));
@@ -367,7 +376,8 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
             std::string("normals: ") + convention + "; boundary " + (periodic ? "periodic" : "free"),
             "round trip, angular error (deg):",
             "  mean " + detail::format_double("%.3g", trip.mean_deg) + ", p95 " +
-                detail::format_double("%.3g", trip.p95_deg) + ", max " + detail::format_double("%.3g", trip.max_deg),
+                detail::format_double("%.3g", trip.p95_deg) + ", max " +
+                detail::format_double("%.3g", trip.max_deg),
             "residual share " + detail::format_double("%.3g", trip.residual_share),
         };
         for (std::size_t i = 0; i < lines.size(); ++i)
@@ -397,4 +407,4 @@ ImageBuf preview(const ImageBuf& normals, const ImageBuf& height, const PreviewO
     return dst;
 }
 
-} // namespace relief
+}  // namespace relief

@@ -87,4 +87,4 @@ bool fail(ImageBuf& dst, const char* operation, const std::exception& e)
     return false;
 }
 
-} // namespace relief::detail
+}  // namespace relief::detail

@@ -37,4 +37,4 @@ void publish_result(OIIO::ImageBuf& dst, OIIO::ImageBuf&& result, const char* me
 // Records a failed operation in dst and geterror(); returns false.
 bool fail(OIIO::ImageBuf& dst, const char* operation, const std::exception& e);
 
-} // namespace relief::detail
+}  // namespace relief::detail

@@ -38,8 +38,9 @@ std::vector<float> height_channel(const OIIO::ImageBuf& height, OIIO::ROI roi, c
         top = std::max(top, std::abs(h[i]));
     }
     if (!std::isfinite(top * scale))
-        throw std::runtime_error(operation + ": scale=" + format_double("%g", scale) + " times the height's largest |value| " +
-                                 format_double("%g", top) + " overflows single precision");
+        throw std::runtime_error(operation + ": scale=" + format_double("%g", scale) +
+                                 " times the height's largest |value| " + format_double("%g", top) +
+                                 " overflows single precision");
     return h;
 }
 
@@ -90,4 +91,4 @@ bool height_is_periodic(const OIIO::ImageBuf& height, const std::vector<float>& 
     return periodic;
 }
 
-} // namespace relief::detail
+}  // namespace relief::detail

@@ -35,4 +35,4 @@ bool seams_continuous(const std::vector<float>& h, int w, int ht, double& ratio_
 bool height_is_periodic(const OIIO::ImageBuf& height, const std::vector<float>& h, int w, int ht,
                         Boundary requested, const Execution& exec, const std::string& operation);
 
-} // namespace relief::detail
+}  // namespace relief::detail

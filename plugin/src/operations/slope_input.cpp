@@ -19,14 +19,12 @@ namespace {
 
 bool is_unorm(TypeDesc t)
 {
-    return t.basetype == TypeDesc::UINT8 || t.basetype == TypeDesc::UINT16 ||
-           t.basetype == TypeDesc::UINT32;
+    return t.basetype == TypeDesc::UINT8 || t.basetype == TypeDesc::UINT16 || t.basetype == TypeDesc::UINT32;
 }
 
 bool is_float(TypeDesc t)
 {
-    return t.basetype == TypeDesc::HALF || t.basetype == TypeDesc::FLOAT ||
-           t.basetype == TypeDesc::DOUBLE;
+    return t.basetype == TypeDesc::HALF || t.basetype == TypeDesc::FLOAT || t.basetype == TypeDesc::DOUBLE;
 }
 
 host::GreenConvention to_host(NormalConvention c)
@@ -38,7 +36,7 @@ host::GreenConvention to_host(NormalConvention c)
     }
 }
 
-} // namespace
+}  // namespace
 
 const char* convention_name(host::GreenConvention c)
 {
@@ -96,8 +94,7 @@ DerivedSlopes derive_slopes(const ImageBuf& normals, ROI roi, const NormalDecodi
             }
     };
 
-    DerivedSlopes out{host::ComputeContext::acquire(exec.device),
-                      host::DeviceSlopes(0, 0, nullptr), {}};
+    DerivedSlopes out{host::ComputeContext::acquire(exec.device), host::DeviceSlopes(0, 0, nullptr), {}};
     say(exec, Severity::Info, "device: " + out.context->device().describe());
     out.slopes = host::derive_slopes(*out.context, rows, p, out.stats);
     if (check_signed) {
@@ -115,8 +112,8 @@ DerivedSlopes derive_slopes(const ImageBuf& normals, ROI roi, const NormalDecodi
     if (s.auto_chosen) {
         double lo = std::min(s.curl_opengl, s.curl_directx);
         double hi = std::max(s.curl_opengl, s.curl_directx);
-        std::string norms = "curl rms opengl " + format_double("%.4g", s.curl_opengl) +
-                            ", directx " + format_double("%.4g", s.curl_directx) + ", ratio " +
+        std::string norms = "curl rms opengl " + format_double("%.4g", s.curl_opengl) + ", directx " +
+                            format_double("%.4g", s.curl_directx) + ", ratio " +
                             (lo > 0 ? format_double("%.3g", hi / lo) : std::string("n/a"));
         if (s.ambiguous)
             say(exec, Severity::Warning,
@@ -149,4 +146,4 @@ void tag_slope_metadata(OIIO::ImageSpec& spec, const host::SlopeStats& s)
     spec.attribute("relief:clamped_normals", int(std::min<std::int64_t>(s.clamped, INT32_MAX)));
 }
 
-} // namespace relief::detail
+}  // namespace relief::detail

@@ -30,4 +30,4 @@ const char* convention_name(host::GreenConvention c);
 // Records what derive_slopes chose on an output image.
 void tag_slope_metadata(OIIO::ImageSpec& spec, const host::SlopeStats& stats);
 
-} // namespace relief::detail
+}  // namespace relief::detail

@@ -15,8 +15,7 @@ using OIIO::ImageBuf;
 using OIIO::ROI;
 using OIIO::TypeDesc;
 
-bool slopes(ImageBuf& dst, const ImageBuf& normals, const SlopeOptions& options, ROI roi,
-            int /*nthreads*/)
+bool slopes(ImageBuf& dst, const ImageBuf& normals, const SlopeOptions& options, ROI roi, int /*nthreads*/)
 {
     try {
         if (const std::string problem = validate(options); !problem.empty())
@@ -41,4 +40,4 @@ ImageBuf slopes(const ImageBuf& normals, const SlopeOptions& options, ROI roi, i
     return dst;
 }
 
-} // namespace relief
+}  // namespace relief

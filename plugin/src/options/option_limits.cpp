@@ -65,4 +65,4 @@ std::string range_problem(const Limits& l, double v)
     return out_of_range(l.name, number_text(v), l.integer, range_text(l), l.zero_word ? l.zero_word : "");
 }
 
-} // namespace relief::detail
+}  // namespace relief::detail

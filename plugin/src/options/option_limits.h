@@ -43,7 +43,7 @@ inline constexpr Limits error{"error", false, 0, true, 1e9, false, "texels x S",
 // preview's light=AZ,EL
 inline constexpr Limits light_azimuth{"azimuth", false, -360, false, 360, false, "degrees", nullptr};
 inline constexpr Limits light_elevation{"elevation", false, 0, true, 90, false, "degrees", nullptr};
-} // namespace limits
+}  // namespace limits
 
 // Integers as integers (1000000, not 1e+06); else the shortest text that
 // reads back as the same float.
@@ -63,4 +63,4 @@ std::string not_a_number(const std::string& name, const std::string& value);
 // out_of_range() (or not_a_number()) for v, or "" when it is within.
 std::string range_problem(const Limits& l, double v);
 
-} // namespace relief::detail
+}  // namespace relief::detail

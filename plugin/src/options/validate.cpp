@@ -30,7 +30,7 @@ std::string decoding_problem(const NormalDecoding& d)
     return range_problem(limits::max_angle, d.max_angle);
 }
 
-} // namespace
+}  // namespace
 
 std::string validate(const SlopeOptions& o)
 {
@@ -61,13 +61,11 @@ std::string validate(const HeightOptions& o)
 
 std::string validate(const CorrectOptions& o)
 {
-    if (std::string p = first({range_problem(limits::displacement_scale, o.scale),
-                               range_problem(limits::theta, o.theta),
-                               range_problem(limits::iterations, o.iterations),
-                               range_problem(limits::tolerance, o.tolerance),
-                               range_problem(limits::levels, o.levels),
-                               range_problem(limits::threshold, o.threshold),
-                               range_problem(limits::relax, o.relax)});
+    if (std::string p =
+            first({range_problem(limits::displacement_scale, o.scale), range_problem(limits::theta, o.theta),
+                   range_problem(limits::iterations, o.iterations),
+                   range_problem(limits::tolerance, o.tolerance), range_problem(limits::levels, o.levels),
+                   range_problem(limits::threshold, o.threshold), range_problem(limits::relax, o.relax)});
         !p.empty())
         return p;
     if (o.max_iterations < 1)
@@ -106,11 +104,12 @@ std::string validate(const PreviewOptions& o)
 {
     if (std::string p = decoding_problem(o.normals); !p.empty())
         return p;
-    if (!detail::within(limits::light_azimuth, o.azimuth) || !detail::within(limits::light_elevation, o.elevation))
+    if (!detail::within(limits::light_azimuth, o.azimuth) ||
+        !detail::within(limits::light_elevation, o.elevation))
         return "light=" + detail::number_text(o.azimuth) + "," + detail::number_text(o.elevation) +
                " needs AZ in " + detail::range_text(limits::light_azimuth) + " and EL in " +
                detail::range_text(limits::light_elevation);
     return "";
 }
 
-} // namespace relief
+}  // namespace relief

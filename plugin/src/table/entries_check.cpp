@@ -25,21 +25,26 @@ Operation normals_operation()
                {{"normals", 3, 3, "tangent-space normal map in the chosen green convention"}},
                {},
                ""};
-    auto n = [](auto& c) -> auto& { return c.normals; };
+    auto n = [](auto& c) -> auto&
+    {
+        return c.normals;
+    };
     op.modifiers = {
-        choice("normal", [n](auto& c) -> auto& { return n(c).convention; },
-               std::vector<std::pair<std::string, NormalConvention>>{
-                   {"opengl", NormalConvention::OpenGL}, {"directx", NormalConvention::DirectX}},
-               "", "green convention to store: opengl (Y+, G = -n_y) or directx (Y-, G = +n_y)"),
-        number(detail::limits::surface_scale, [n](auto& c) -> auto& { return n(c).scale; }, "S", "",
-               "the height (texels) is multiplied by S first"),
-        choice("boundary", [n](auto& c) -> auto& { return n(c).boundary; },
-               std::vector<std::pair<std::string, Boundary>>{{"auto", Boundary::Auto},
-                                                            {"periodic", Boundary::Periodic},
-                                                            {"free", Boundary::Free}},
-               "",
-               "periodic: differences wrap; free: one-sided at the edges; auto: the height's own "
-               "(relief:parameters), else periodic when it is continuous across the wrap seams"),
+        choice(
+            "normal", [n](auto& c) -> auto& { return n(c).convention; },
+            std::vector<std::pair<std::string, NormalConvention>>{{"opengl", NormalConvention::OpenGL},
+                                                                  {"directx", NormalConvention::DirectX}},
+            "", "green convention to store: opengl (Y+, G = -n_y) or directx (Y-, G = +n_y)"),
+        number(
+            detail::limits::surface_scale, [n](auto& c) -> auto& { return n(c).scale; }, "S", "",
+            "the height (texels) is multiplied by S first"),
+        choice(
+            "boundary", [n](auto& c) -> auto& { return n(c).boundary; },
+            std::vector<std::pair<std::string, Boundary>>{
+                {"auto", Boundary::Auto}, {"periodic", Boundary::Periodic}, {"free", Boundary::Free}},
+            "",
+            "periodic: differences wrap; free: one-sided at the edges; auto: the height's own "
+            "(relief:parameters), else periodic when it is continuous across the wrap seams"),
     };
     op.validate = [](const OperationCall& c) { return relief::validate(c.normals); };
     op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
@@ -53,12 +58,15 @@ template <class F>
 std::vector<Modifier> tessellation_modifiers(F t)
 {
     return {
-        number(detail::limits::patch, [t](auto& c) -> auto& { return t(c).patch; }, "P", "",
-               "patch size: one level per P x P texels"),
-        number(detail::limits::error, [t](auto& c) -> auto& { return t(c).error; }, "E", "",
-               "the largest deviation of the tessellated surface from S x height at a texel centre"),
-        number(detail::limits::surface_scale, [t](auto& c) -> auto& { return t(c).scale; }, "S", "",
-               "the surface is S x height (texels)"),
+        number(
+            detail::limits::patch, [t](auto& c) -> auto& { return t(c).patch; }, "P", "",
+            "patch size: one level per P x P texels"),
+        number(
+            detail::limits::error, [t](auto& c) -> auto& { return t(c).error; }, "E", "",
+            "the largest deviation of the tessellated surface from S x height at a texel centre"),
+        number(
+            detail::limits::surface_scale, [t](auto& c) -> auto& { return t(c).scale; }, "S", "",
+            "the surface is S x height (texels)"),
     };
 }
 
@@ -91,7 +99,10 @@ Operation mesh_operation()
                {{"height", 1, 4096, "the input, unchanged"}},
                {},
                ""};
-    auto k = [](auto& c) -> auto& { return c.mesh; };
+    auto k = [](auto& c) -> auto&
+    {
+        return c.mesh;
+    };
     op.modifiers = tessellation_modifiers([k](auto& c) -> auto& { return k(c).tessellation; });
     Modifier out;
     out.info.name = "out";
@@ -127,7 +138,10 @@ Operation preview_operation()
                {{"sheet", 3, 3, "sRGB preview sheet"}},
                {},
                ""};
-    auto k = [](auto& c) -> auto& { return c.preview; };
+    auto k = [](auto& c) -> auto&
+    {
+        return c.preview;
+    };
     op.modifiers = decoding_modifiers([k](auto& c) -> auto& { return k(c).normals; });
     Modifier light;
     light.info.name = "light";
@@ -156,16 +170,18 @@ Operation preview_operation()
     env.info.placeholder = "FILE";
     env.info.meaning = "lat-long environment image for the diffuse light (its 9 spherical-harmonic "
                        "irradiance coefficients; 8/16-bit files are sRGB); sky: a procedural sky";
-    env.set = [k](OperationCall& c, const std::string& text, double) { k(c).env = text == "sky" ? "" : text; };
+    env.set = [k](OperationCall& c, const std::string& text, double) {
+        k(c).env = text == "sky" ? "" : text;
+    };
     env.get = [k](const OperationCall& c) { return k(c).env.empty() ? std::string("sky") : k(c).env; };
     env.path = [k](const OperationCall& c) { return k(c).env; };
     op.modifiers.push_back(light);
     op.modifiers.push_back(env);
-    op.modifiers.push_back(choice("boundary", [k](auto& c) -> auto& { return k(c).boundary; },
-                                  std::vector<std::pair<std::string, Boundary>>{{"auto", Boundary::Auto},
-                                                                               {"periodic", Boundary::Periodic},
-                                                                               {"free", Boundary::Free}},
-                                  "", "of the height's differences, as --normals"));
+    op.modifiers.push_back(choice(
+        "boundary", [k](auto& c) -> auto& { return k(c).boundary; },
+        std::vector<std::pair<std::string, Boundary>>{
+            {"auto", Boundary::Auto}, {"periodic", Boundary::Periodic}, {"free", Boundary::Free}},
+        "", "of the height's differences, as --normals"));
     op.validate = [k](const OperationCall& c) { return relief::validate(k(c)); };
     op.run = [k](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
         return relief::preview(dst, *in[0], *in[1], k(c));
@@ -173,4 +189,4 @@ Operation preview_operation()
     return op;
 }
 
-} // namespace relief::table
+}  // namespace relief::table

@@ -24,25 +24,31 @@ Operation correct_operation()
                {{"offsets", 2, 2, "du, dv in texture units (1 = the width, height)"}},
                {},
                "correct"};
-    auto k = [](auto& c) -> auto& { return c.correct; };
+    auto k = [](auto& c) -> auto&
+    {
+        return c.correct;
+    };
     op.modifiers = {
-        number(detail::limits::displacement_scale, [k](auto& c) -> auto& { return k(c).scale; }, "S", "",
-               "world height = S x stored height, the texture's width = 1 world unit (auto: "
-               "1/width for relief's own heights, in texels)"),
-        number(detail::limits::theta, [k](auto& c) -> auto& { return k(c).theta; }, "T", "",
-               "area exponent (higher: keep areas)"),
-        choice("nodes", [k](auto& c) -> auto& { return k(c).nodes; },
-               std::vector<std::pair<std::string, CorrectNodes>>{{"corner", CorrectNodes::Corner},
-                                                                 {"center", CorrectNodes::Center}},
-               "", "mesh nodes at texel corners or centres"),
-        choice("boundary", [k](auto& c) -> auto& { return k(c).boundary; },
-               std::vector<std::pair<std::string, CorrectBoundary>>{
-                   {"auto", CorrectBoundary::Auto},
-                   {"periodic", CorrectBoundary::Periodic},
-                   {"fixed", CorrectBoundary::Fixed}},
-               "",
-               "periodic: the texture tiles; fixed: the border stays; auto: periodic when the "
-               "height is continuous across the wrap seams"),
+        number(
+            detail::limits::displacement_scale, [k](auto& c) -> auto& { return k(c).scale; }, "S", "",
+            "world height = S x stored height, the texture's width = 1 world unit (auto: "
+            "1/width for relief's own heights, in texels)"),
+        number(
+            detail::limits::theta, [k](auto& c) -> auto& { return k(c).theta; }, "T", "",
+            "area exponent (higher: keep areas)"),
+        choice(
+            "nodes", [k](auto& c) -> auto& { return k(c).nodes; },
+            std::vector<std::pair<std::string, CorrectNodes>>{{"corner", CorrectNodes::Corner},
+                                                              {"center", CorrectNodes::Center}},
+            "", "mesh nodes at texel corners or centres"),
+        choice(
+            "boundary", [k](auto& c) -> auto& { return k(c).boundary; },
+            std::vector<std::pair<std::string, CorrectBoundary>>{{"auto", CorrectBoundary::Auto},
+                                                                 {"periodic", CorrectBoundary::Periodic},
+                                                                 {"fixed", CorrectBoundary::Fixed}},
+            "",
+            "periodic: the texture tiles; fixed: the border stays; auto: periodic when the "
+            "height is continuous across the wrap seams"),
         [k] {
             Modifier m;
             m.info.name = "fix";
@@ -70,34 +76,40 @@ Operation correct_operation()
             m.path = [](const OperationCall& c) { return c.fix_file; };
             m.get = [k](const OperationCall& c) {
                 if (k(c).fix_width > 0.0f)
-                    return "height:" + number_text(k(c).fix_height) + ":" +
-                           number_text(k(c).fix_width);
+                    return "height:" + number_text(k(c).fix_height) + ":" + number_text(k(c).fix_width);
                 return !c.fix_file.empty() ? c.fix_file
                        : k(c).fix_mask     ? std::string("image")
                                            : std::string("none");
             };
             return m;
         }(),
-        number(detail::limits::iterations, [k](auto& c) -> auto& { return k(c).iterations; }, "N", "",
-               "per coarse-to-fine level (auto: until the tolerance)"),
-        number(detail::limits::tolerance, [k](auto& c) -> auto& { return k(c).tolerance; }, "TOL", "",
-               "relative energy change at which iterations=auto stops"),
-        number(detail::limits::levels, [k](auto& c) -> auto& { return k(c).levels; }, "N", "",
-               "coarse-to-fine levels (1 = single resolution; auto: down to 16 texels)"),
-        number(detail::limits::threshold, [k](auto& c) -> auto& { return k(c).threshold; }, "E", "",
-               "correct nothing when no triangle's anisotropy or area change exceeds this"),
-        choice("skip", [k](auto& c) -> auto& { return k(c).skip_tiles; }, kOnOff, "",
-               "skip tiles whose nodes cannot move (the result is identical)"),
-        choice("search", [k](auto& c) -> auto& { return k(c).search; },
-               std::vector<std::pair<std::string, CorrectSearch>>{{"brent", CorrectSearch::Brent},
-                                                                  {"golden", CorrectSearch::Golden},
-                                                                  {"ternary", CorrectSearch::Ternary}},
-               "",
-               "line search per node: Brent's (parabolic, precise relative to the step), golden "
-               "section or ternary (the first implementation)"),
-        number(detail::limits::relax, [k](auto& c) -> auto& { return k(c).relax; }, "W", "",
-               "over-relaxation: move W x the searched step when that lowers the energy too "
-               "(1 = plain steps)"),
+        number(
+            detail::limits::iterations, [k](auto& c) -> auto& { return k(c).iterations; }, "N", "",
+            "per coarse-to-fine level (auto: until the tolerance)"),
+        number(
+            detail::limits::tolerance, [k](auto& c) -> auto& { return k(c).tolerance; }, "TOL", "",
+            "relative energy change at which iterations=auto stops"),
+        number(
+            detail::limits::levels, [k](auto& c) -> auto& { return k(c).levels; }, "N", "",
+            "coarse-to-fine levels (1 = single resolution; auto: down to 16 texels)"),
+        number(
+            detail::limits::threshold, [k](auto& c) -> auto& { return k(c).threshold; }, "E", "",
+            "correct nothing when no triangle's anisotropy or area change exceeds this"),
+        choice(
+            "skip", [k](auto& c) -> auto& { return k(c).skip_tiles; }, kOnOff, "",
+            "skip tiles whose nodes cannot move (the result is identical)"),
+        choice(
+            "search", [k](auto& c) -> auto& { return k(c).search; },
+            std::vector<std::pair<std::string, CorrectSearch>>{{"brent", CorrectSearch::Brent},
+                                                               {"golden", CorrectSearch::Golden},
+                                                               {"ternary", CorrectSearch::Ternary}},
+            "",
+            "line search per node: Brent's (parabolic, precise relative to the step), golden "
+            "section or ternary (the first implementation)"),
+        number(
+            detail::limits::relax, [k](auto& c) -> auto& { return k(c).relax; }, "W", "",
+            "over-relaxation: move W x the searched step when that lowers the energy too "
+            "(1 = plain steps)"),
     };
     op.validate = [](const OperationCall& c) {
         CorrectOptions o = c.correct;
@@ -131,34 +143,39 @@ Operation bake_operation()
                {{"texture", 1, 4096, "the texture's channels, corrected"}},
                {},
                ""};
-    auto b = [](auto& c) -> auto& { return c.bake; };
+    auto b = [](auto& c) -> auto&
+    {
+        return c.bake;
+    };
     op.modifiers = {
-        choice("filter", [b](auto& c) -> auto& { return b(c).filter; },
-               std::vector<std::pair<std::string, BakeFilter>>{{"bilinear", BakeFilter::Bilinear},
-                                                               {"bicubic", BakeFilter::Bicubic}},
-               "", "resampling filter (bicubic = Catmull-Rom)"),
-        choice("colorspace", [b](auto& c) -> auto& { return b(c).colorspace; },
-               std::vector<std::pair<std::string, BakeColorspace>>{
-                   {"auto", BakeColorspace::Auto},
-                   {"sRGB", BakeColorspace::SRGB},
-                   {"srgb", BakeColorspace::SRGB},
-                   {"linear", BakeColorspace::Linear},
-                   {"raw", BakeColorspace::Raw}},
-               "",
-               "colour is filtered in linear light via OpenColorIO ($OCIO, else the sRGB curve); "
-               "auto: the file's declared space, 8-bit PNG/JPEG as sRGB; raw: no conversion"),
-        choice("kind", [b](auto& c) -> auto& { return b(c).kind; },
-               std::vector<std::pair<std::string, BakeKind>>{{"auto", BakeKind::Auto},
-                                                             {"color", BakeKind::Color},
-                                                             {"normal", BakeKind::Normal},
-                                                             {"data", BakeKind::Data},
-                                                             {"height", BakeKind::Height}},
-               "", "normal maps bake as data and are renormalised; height maps are refused"),
-        choice("wrap", [b](auto& c) -> auto& { return b(c).wrap; },
-               std::vector<std::pair<std::string, BakeWrap>>{{"auto", BakeWrap::Auto},
-                                                             {"periodic", BakeWrap::Periodic},
-                                                             {"clamp", BakeWrap::Clamp}},
-               "", "auto: periodic when the offsets were computed with boundary=periodic"),
+        choice(
+            "filter", [b](auto& c) -> auto& { return b(c).filter; },
+            std::vector<std::pair<std::string, BakeFilter>>{{"bilinear", BakeFilter::Bilinear},
+                                                            {"bicubic", BakeFilter::Bicubic}},
+            "", "resampling filter (bicubic = Catmull-Rom)"),
+        choice(
+            "colorspace", [b](auto& c) -> auto& { return b(c).colorspace; },
+            std::vector<std::pair<std::string, BakeColorspace>>{{"auto", BakeColorspace::Auto},
+                                                                {"sRGB", BakeColorspace::SRGB},
+                                                                {"srgb", BakeColorspace::SRGB},
+                                                                {"linear", BakeColorspace::Linear},
+                                                                {"raw", BakeColorspace::Raw}},
+            "",
+            "colour is filtered in linear light via OpenColorIO ($OCIO, else the sRGB curve); "
+            "auto: the file's declared space, 8-bit PNG/JPEG as sRGB; raw: no conversion"),
+        choice(
+            "kind", [b](auto& c) -> auto& { return b(c).kind; },
+            std::vector<std::pair<std::string, BakeKind>>{{"auto", BakeKind::Auto},
+                                                          {"color", BakeKind::Color},
+                                                          {"normal", BakeKind::Normal},
+                                                          {"data", BakeKind::Data},
+                                                          {"height", BakeKind::Height}},
+            "", "normal maps bake as data and are renormalised; height maps are refused"),
+        choice(
+            "wrap", [b](auto& c) -> auto& { return b(c).wrap; },
+            std::vector<std::pair<std::string, BakeWrap>>{
+                {"auto", BakeWrap::Auto}, {"periodic", BakeWrap::Periodic}, {"clamp", BakeWrap::Clamp}},
+            "", "auto: periodic when the offsets were computed with boundary=periodic"),
     };
     op.validate = [](const OperationCall& c) { return relief::validate(c.bake); };
     op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
@@ -167,4 +184,4 @@ Operation bake_operation()
     return op;
 }
 
-} // namespace relief::table
+}  // namespace relief::table

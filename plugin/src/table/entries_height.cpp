@@ -42,29 +42,32 @@ Operation height_operation()
                {{"height", 1, 1, "height in texels"}},
                {},
                "height"};
-    auto h = [](auto& c) -> auto& { return c.height; };
+    auto h = [](auto& c) -> auto&
+    {
+        return c.height;
+    };
     op.modifiers = decoding_modifiers([h](auto& c) -> auto& { return h(c).normals; });
     const char* rays = "method=rays";
     const char* poisson = "method=poisson";
     std::vector<Modifier> more = {
-        choice("method", [h](auto& c) -> auto& { return h(c).method; },
-               std::vector<std::pair<std::string, HeightMethod>>{
-                   {"auto", HeightMethod::Auto},
-                   {"poisson", HeightMethod::Poisson},
-                   {"rays", HeightMethod::Rays}},
-               "",
-               "poisson: least squares (Frankot-Chellappa); rays: radial ray integration; "
-               "auto: poisson, or rays when a ray modifier is given"),
+        choice(
+            "method", [h](auto& c) -> auto& { return h(c).method; },
+            std::vector<std::pair<std::string, HeightMethod>>{{"auto", HeightMethod::Auto},
+                                                              {"poisson", HeightMethod::Poisson},
+                                                              {"rays", HeightMethod::Rays}},
+            "",
+            "poisson: least squares (Frankot-Chellappa); rays: radial ray integration; "
+            "auto: poisson, or rays when a ray modifier is given"),
         [h] {
-            Modifier m = choice("boundary", [h](auto& c) -> auto& { return h(c).boundary; },
-                                std::vector<std::pair<std::string, Boundary>>{
-                                    {"auto", Boundary::Auto},
-                                    {"periodic", Boundary::Periodic},
-                                    {"free", Boundary::Free},
-                                    {"clip", Boundary::Free}},
-                                "",
-                                "periodic: the texture tiles; free (clip for rays): it does not; auto: "
-                                "periodic when the slopes are continuous across the wrap seams");
+            Modifier m = choice(
+                "boundary", [h](auto& c) -> auto& { return h(c).boundary; },
+                std::vector<std::pair<std::string, Boundary>>{{"auto", Boundary::Auto},
+                                                              {"periodic", Boundary::Periodic},
+                                                              {"free", Boundary::Free},
+                                                              {"clip", Boundary::Free}},
+                "",
+                "periodic: the texture tiles; free (clip for rays): it does not; auto: "
+                "periodic when the slopes are continuous across the wrap seams");
             // Written as each method takes it: rays refuse "free".
             m.get = [h, get = m.get](const OperationCall& c) {
                 const std::string name = get(c);
@@ -72,8 +75,9 @@ Operation height_operation()
             };
             return m;
         }(),
-        number(detail::limits::highpass, [h](auto& c) -> auto& { return h(c).highpass; }, "R", poisson,
-               "relief balance: remove structure larger than R texels (0 = off)"),
+        number(
+            detail::limits::highpass, [h](auto& c) -> auto& { return h(c).highpass; }, "R", poisson,
+            "relief balance: remove structure larger than R texels (0 = off)"),
         [h] {
             Modifier m;
             m.info.name = "mask";
@@ -91,29 +95,34 @@ Operation height_operation()
             };
             m.path = [](const OperationCall& c) { return c.mask_file; };
             m.get = [h](const OperationCall& c) {
-                return h(c).mask_alpha ? std::string("alpha")
+                return h(c).mask_alpha        ? std::string("alpha")
                        : !c.mask_file.empty() ? c.mask_file
-                       : h(c).mask ? std::string("image")
-                                   : std::string("none");
+                       : h(c).mask            ? std::string("image")
+                                              : std::string("none");
             };
             return m;
         }(),
-        choice("impl", [h](auto& c) -> auto& { return h(c).impl; },
-               std::vector<std::pair<std::string, RayImpl>>{{"fast", RayImpl::Fast},
-                                                            {"reference", RayImpl::Reference}},
-               rays, "fast: cost independent of the radius; reference: walks every ray"),
-        number(detail::limits::rays, [h](auto& c) -> auto& { return h(c).rays; }, "J", rays,
-               "ray directions per texel"),
-        number(detail::limits::radius, [h](auto& c) -> auto& { return h(c).radius; }, "R", rays, "ray length"),
-        number(detail::limits::phase, [h](auto& c) -> auto& { return h(c).phase; }, "PHI", rays,
-               "ray angles are 2 pi (j + PHI) / J"),
-        choice("directions", [h](auto& c) -> auto& { return h(c).directions; },
-               std::vector<std::pair<std::string, RayDirections>>{
-                   {"rational", RayDirections::Rational}, {"exact", RayDirections::Exact}},
-               rays,
-               "rational: integer steps nearest the angles; exact: the angles (impl=reference)"),
-        choice("skip", [h](auto& c) -> auto& { return h(c).skip_flat; }, kOnOff, rays,
-               "skip tiles whose rays meet only zero slopes (the result is identical)"),
+        choice(
+            "impl", [h](auto& c) -> auto& { return h(c).impl; },
+            std::vector<std::pair<std::string, RayImpl>>{{"fast", RayImpl::Fast},
+                                                         {"reference", RayImpl::Reference}},
+            rays, "fast: cost independent of the radius; reference: walks every ray"),
+        number(
+            detail::limits::rays, [h](auto& c) -> auto& { return h(c).rays; }, "J", rays,
+            "ray directions per texel"),
+        number(
+            detail::limits::radius, [h](auto& c) -> auto& { return h(c).radius; }, "R", rays, "ray length"),
+        number(
+            detail::limits::phase, [h](auto& c) -> auto& { return h(c).phase; }, "PHI", rays,
+            "ray angles are 2 pi (j + PHI) / J"),
+        choice(
+            "directions", [h](auto& c) -> auto& { return h(c).directions; },
+            std::vector<std::pair<std::string, RayDirections>>{{"rational", RayDirections::Rational},
+                                                               {"exact", RayDirections::Exact}},
+            rays, "rational: integer steps nearest the angles; exact: the angles (impl=reference)"),
+        choice(
+            "skip", [h](auto& c) -> auto& { return h(c).skip_flat; }, kOnOff, rays,
+            "skip tiles whose rays meet only zero slopes (the result is identical)"),
     };
     op.modifiers.insert(op.modifiers.end(), more.begin(), more.end());
     op.finish = [](OperationCall& c, const std::map<std::string, std::string>& given,
@@ -164,4 +173,4 @@ Operation height_operation()
     return op;
 }
 
-} // namespace relief::table
+}  // namespace relief::table

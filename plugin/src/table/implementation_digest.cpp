@@ -21,4 +21,4 @@ std::string implementation_digest()
     return host::BinaryCache::key(parts);
 }
 
-} // namespace relief
+}  // namespace relief

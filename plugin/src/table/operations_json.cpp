@@ -53,7 +53,7 @@ std::string json_slots(const std::vector<ImageSlot>& slots)
     return s + "]";
 }
 
-} // namespace
+}  // namespace
 
 std::string operations_json()
 {
@@ -62,14 +62,13 @@ std::string operations_json()
     bool first_op = true;
     for (const OperationInfo& op : operations()) {
         j << (first_op ? "\n" : ",\n") << "  {\"name\": " << json_string(op.name)
-          << ", \"summary\": " << json_string(op.summary) << ",\n   \"inputs\": "
-          << json_slots(op.inputs) << ",\n   \"outputs\": " << json_slots(op.outputs)
-          << ",\n   \"modifiers\": [";
+          << ", \"summary\": " << json_string(op.summary) << ",\n   \"inputs\": " << json_slots(op.inputs)
+          << ",\n   \"outputs\": " << json_slots(op.outputs) << ",\n   \"modifiers\": [";
         first_op = false;
         bool first = true;
         for (const ModifierInfo& m : op.modifiers) {
-            j << (first ? "\n" : ",\n") << "    {\"name\": " << json_string(m.name)
-              << ", \"type\": \"" << type_name(m.type) << "\"";
+            j << (first ? "\n" : ",\n") << "    {\"name\": " << json_string(m.name) << ", \"type\": \""
+              << type_name(m.type) << "\"";
             first = false;
             j << ", \"choices\": [";
             for (std::size_t i = 0; i < m.choices.size(); ++i)
@@ -90,4 +89,4 @@ std::string operations_json()
     return j.str();
 }
 
-} // namespace relief
+}  // namespace relief

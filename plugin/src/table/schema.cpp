@@ -19,7 +19,7 @@ std::string range_text(const ModifierInfo& m)
     return detail::range_text(m.min, m.min_open, m.max, m.max_open, m.unit);
 }
 
-} // namespace relief
+}  // namespace relief
 
 namespace relief::table {
 
@@ -64,30 +64,31 @@ double check_value(const ModifierInfo& m, const std::string& text)
         if (text == w)
             return 0.0;
     switch (m.type) {
-    case ModifierType::Choice:
-        throw std::invalid_argument(kv + " is not one of " + joined(m.choices, "|"));
+    case ModifierType::Choice: throw std::invalid_argument(kv + " is not one of " + joined(m.choices, "|"));
     case ModifierType::Integer: {
         long long v = 0;
         const char* end = text.data() + text.size();
         auto r = std::from_chars(text.data(), end, v);
         if (text.empty() || r.ec != std::errc() || r.ptr != end || v < m.min || v > m.max)
-            throw std::invalid_argument(detail::out_of_range(m.name, text, true, range_text(m), joined(m.choices, "|")));
+            throw std::invalid_argument(
+                detail::out_of_range(m.name, text, true, range_text(m), joined(m.choices, "|")));
         return double(v);
     }
     case ModifierType::Number: {
         double v = 0.0;
         const char* end = text.data() + text.size();
         auto r = std::from_chars(text.data(), end, v);
-        const bool overflow = r.ec == std::errc::result_out_of_range || (r.ec == std::errc() && !std::isfinite(v));
+        const bool overflow =
+            r.ec == std::errc::result_out_of_range || (r.ec == std::errc() && !std::isfinite(v));
         if (text.empty() || r.ptr != end || (r.ec != std::errc() && !overflow) || std::isnan(v))
             throw std::invalid_argument(detail::not_a_number(m.name, text));
         if (overflow || !in_range(m, v))  // inf, 1e999
-            throw std::invalid_argument(detail::out_of_range(m.name, text, false, range_text(m), joined(m.choices, "|")));
+            throw std::invalid_argument(
+                detail::out_of_range(m.name, text, false, range_text(m), joined(m.choices, "|")));
         return v;
     }
     case ModifierType::Output:
-    case ModifierType::Text:
-        return 0.0;  // checked by the modifier's set()
+    case ModifierType::Text: return 0.0;  // checked by the modifier's set()
     case ModifierType::File: {
         for (const auto& w : m.choices) {
             const std::string p = word_prefix(w);
@@ -124,4 +125,4 @@ const ImageSlot kNormals{"normals", 2, 4,
                          "rebuild z, a 4th is alpha"};
 const ImageSlot kHeight{"height", 1, 4096, "displacement in texels; channel 0 is used"};
 
-} // namespace relief::table
+}  // namespace relief::table

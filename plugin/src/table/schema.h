@@ -47,7 +47,7 @@ struct Operation {
     // relief::validate() of the call's options: "" or the broken rule.
     std::function<std::string(const OperationCall&)> validate;
     std::function<bool(ImageBuf&, const OperationCall&, const std::vector<const ImageBuf*>&)> run;
-    std::function<bool(const OperationCall&)> sets_up_ahead;  // empty: never
+    std::function<bool(const OperationCall&)> sets_up_ahead;    // empty: never
     std::function<std::string(const OperationCall&)> describe;  // empty: nothing to add
 };
 
@@ -147,26 +147,28 @@ template <class F>
 std::vector<Modifier> decoding_modifiers(F decoding)
 {
     return {
-        choice("normal", [decoding](auto& c) -> auto& { return decoding(c).convention; },
-               std::vector<std::pair<std::string, NormalConvention>>{
-                   {"auto", NormalConvention::Auto},
-                   {"opengl", NormalConvention::OpenGL},
-                   {"directx", NormalConvention::DirectX}},
-               "",
-               "green convention: opengl (Y+), directx (Y-), auto: the one with less curl"),
-        number(detail::limits::max_angle, [decoding](auto& c) -> auto& { return decoding(c).max_angle; },
-               "DEG", "", "clamp grazing normals to this angle from +z"),
-        choice("range", [decoding](auto& c) -> auto& { return decoding(c).float_encoding; },
-               std::vector<std::pair<std::string, FloatEncoding>>{
-                   {"signed", FloatEncoding::Signed}, {"unsigned", FloatEncoding::Unsigned}},
-               "", "float/half normals stored in [-1,1] (signed) or [0,1] (unsigned)"),
+        choice(
+            "normal", [decoding](auto& c) -> auto& { return decoding(c).convention; },
+            std::vector<std::pair<std::string, NormalConvention>>{{"auto", NormalConvention::Auto},
+                                                                  {"opengl", NormalConvention::OpenGL},
+                                                                  {"directx", NormalConvention::DirectX}},
+            "", "green convention: opengl (Y+), directx (Y-), auto: the one with less curl"),
+        number(
+            detail::limits::max_angle, [decoding](auto& c) -> auto& { return decoding(c).max_angle; }, "DEG",
+            "", "clamp grazing normals to this angle from +z"),
+        choice(
+            "range", [decoding](auto& c) -> auto& { return decoding(c).float_encoding; },
+            std::vector<std::pair<std::string, FloatEncoding>>{{"signed", FloatEncoding::Signed},
+                                                               {"unsigned", FloatEncoding::Unsigned}},
+            "", "float/half normals stored in [-1,1] (signed) or [0,1] (unsigned)"),
     };
 }
 
 // The image of a file modifier (mask=FILE, fix=FILE): `given` when the
 // caller read it already (the command line reads quietly), else read into
 // `storage`; nullptr when there is none.
-const ImageBuf* file_image(const ImageBuf* given, const std::string& path, const char* what, ImageBuf& storage);
+const ImageBuf* file_image(const ImageBuf* given, const std::string& path, const char* what,
+                           ImageBuf& storage);
 
 // Stands for the image of a file modifier (mask=FILE, fix=FILE) when a
 // parsed call is validated: the file is read only when the call runs.
@@ -193,4 +195,4 @@ const Operation* find(const std::string& name);
 // Throws std::invalid_argument naming the known operations.
 const Operation& find_or_throw(const std::string& name);
 
-} // namespace relief::table
+}  // namespace relief::table

@@ -16,9 +16,9 @@ namespace relief::table {
 const std::vector<Operation>& entries()
 {
     static const std::vector<Operation> ops = [] {
-        std::vector<Operation> v = {slopes_operation(), height_operation(), correct_operation(),
-                                    bake_operation(), normals_operation(), tessellation_operation(),
-                                    mesh_operation(), preview_operation()};
+        std::vector<Operation> v = {slopes_operation(), height_operation(),  correct_operation(),
+                                    bake_operation(),   normals_operation(), tessellation_operation(),
+                                    mesh_operation(),   preview_operation()};
         const OperationCall defaults;
         for (Operation& op : v)
             for (Modifier& m : op.modifiers) {
@@ -48,18 +48,18 @@ const Operation& find_or_throw(const std::string& name)
     throw std::invalid_argument("unknown operation '" + name + "' (known: " + known + ")");
 }
 
-} // namespace relief::table
+}  // namespace relief::table
 
 namespace relief {
 
+using OIIO::ImageBuf;
+using table::check_value;
 using table::entries;
 using table::find;
 using table::find_or_throw;
 using table::Modifier;
 using table::Operation;
-using table::check_value;
 using table::word_prefix;
-using OIIO::ImageBuf;
 
 namespace {
 
@@ -137,7 +137,7 @@ std::vector<std::string> modifier_paths(const OperationCall& call, ModifierType 
     return paths;
 }
 
-} // namespace
+}  // namespace
 
 std::string input_problem(const std::string& operation, const ImageSlot& slot, int width, int height,
                           int channels)
@@ -195,15 +195,14 @@ bool parse_modifiers(OperationCall& call, const std::string& operation, const st
     }
 }
 
-bool run_operation(ImageBuf& dst, const OperationCall& call,
-                   const std::vector<const ImageBuf*>& inputs, const Execution& exec)
+bool run_operation(ImageBuf& dst, const OperationCall& call, const std::vector<const ImageBuf*>& inputs,
+                   const Execution& exec)
 {
     try {
         const Operation& op = find_or_throw(call.operation);
         if (inputs.size() != op.info.inputs.size())
-            throw std::invalid_argument(op.info.name + " takes " +
-                                        std::to_string(op.info.inputs.size()) + " image(s), got " +
-                                        std::to_string(inputs.size()));
+            throw std::invalid_argument(op.info.name + " takes " + std::to_string(op.info.inputs.size()) +
+                                        " image(s), got " + std::to_string(inputs.size()));
         // Channel counts are the operations' own to check (their messages say
         // what the channels mean); the C ABI and Python check them against the
         // table's slots before converting.
@@ -251,4 +250,4 @@ std::string modifier_text(const OperationCall& call)
     return text;
 }
 
-} // namespace relief
+}  // namespace relief
