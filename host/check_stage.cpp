@@ -32,13 +32,8 @@ void height_normals(ComputeContext& ctx, const float* h, int w, int ht, bool per
             c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n, "the normals", h);
         cl::Buffer normals = c.buffer(CL_MEM_WRITE_ONLY, 3 * sizeof(float) * n, "the normals");
         cl::Kernel k(c.program("check.cl"), "height_normals");
-        k.setArg(0, in);
-        k.setArg(1, cl_int(w));
-        k.setArg(2, cl_int(ht));
-        k.setArg(3, cl_int(periodic));
-        k.setArg(4, cl_float(scale));
-        k.setArg(5, cl_float(directx ? 1.0f : -1.0f));
-        k.setArg(6, normals);
+        set_args(k, in, cl_int(w), cl_int(ht), cl_int(periodic), cl_float(scale),
+                 cl_float(directx ? 1.0f : -1.0f), normals);
         c.launch(k, n);
         c.queue.enqueueReadBuffer(normals, CL_TRUE, 0, 3 * sizeof(float) * n, out);
     } catch (const cl::Error& e) {
@@ -61,13 +56,7 @@ RoundTrip round_trip(ComputeContext& ctx, const DeviceSlopes& slopes, const floa
             cl::Buffer a = c.buffer(CL_MEM_WRITE_ONLY, sizeof(float) * n, "the round trip");
             cl::Buffer r = c.buffer(CL_MEM_WRITE_ONLY, 2 * sizeof(float) * n, "the round trip");
             cl::Kernel k(c.program("check.cl"), "round_trip");
-            k.setArg(0, slopes.impl().buffer);
-            k.setArg(1, in);
-            k.setArg(2, cl_int(w));
-            k.setArg(3, cl_int(ht));
-            k.setArg(4, cl_int(periodic));
-            k.setArg(5, a);
-            k.setArg(6, r);
+            set_args(k, slopes.impl().buffer, in, cl_int(w), cl_int(ht), cl_int(periodic), a, r);
             c.launch(k, n);
             c.queue.enqueueReadBuffer(a, CL_TRUE, 0, sizeof(float) * n, angle.data());
             c.queue.enqueueReadBuffer(r, CL_TRUE, 0, 2 * sizeof(float) * n, residual.data());
@@ -129,15 +118,8 @@ std::vector<std::uint8_t> tessellation_levels(ComputeContext& ctx, const float* 
                                      "the tessellation levels", h);
             cl::Buffer out = c.buffer(CL_MEM_WRITE_ONLY, items, "the tessellation levels");
             cl::Kernel k(c.program("check.cl"), per_patch ? "tessellation_levels" : "tessellation_pass");
-            k.setArg(0, in);
-            k.setArg(1, cl_int(w));
-            k.setArg(2, cl_int(ht));
-            k.setArg(3, cl_int(patch));
-            k.setArg(4, cl_float(error));
-            k.setArg(5, cl_float(scale));
-            k.setArg(6, cl_int(px));
-            k.setArg(7, cl_int(patches));
-            k.setArg(8, out);
+            set_args(k, in, cl_int(w), cl_int(ht), cl_int(patch), cl_float(error), cl_float(scale),
+                     cl_int(px), cl_int(patches), out);
             c.launch(k, items);
             c.queue.enqueueReadBuffer(out, CL_TRUE, 0, items, out_bytes.data());
         } catch (const cl::Error& e) {

@@ -359,10 +359,7 @@ void ComputeContext::Impl::fill(cl::Buffer& buffer, const void* pattern, std::si
         return;
     if (size == 1) {
         cl::Kernel k(program("device.cl"), "device_fill_bytes");
-        k.setArg(0, buffer);
-        k.setArg(1, cl_uint(offset));
-        k.setArg(2, cl_uint(bytes));
-        k.setArg(3, *static_cast<const cl_uchar*>(pattern));
+        set_args(k, buffer, cl_uint(offset), cl_uint(bytes), *static_cast<const cl_uchar*>(pattern));
         launch(k, bytes);
         return;
     }
@@ -376,10 +373,7 @@ void ComputeContext::Impl::fill(cl::Buffer& buffer, const void* pattern, std::si
     if (offset / 4 + bytes / 4 > std::size_t(UINT32_MAX))
         throw Error("internal error: a fill past 2^32 words");
     cl::Kernel k(program("device.cl"), "device_fill_words");
-    k.setArg(0, buffer);
-    k.setArg(1, cl_uint(offset / 4));
-    k.setArg(2, cl_uint(bytes / 4));
-    k.setArg(3, words[0]);
+    set_args(k, buffer, cl_uint(offset / 4), cl_uint(bytes / 4), words[0]);
     launch(k, bytes / 4);
 }
 
@@ -394,9 +388,7 @@ std::uint64_t ComputeContext::Impl::loop_limit()
         cl_uint x = seed;
         for (cl_uint k = 0; k < n; ++k)
             x = x * 1664525u + 1013904223u;
-        probe.setArg(0, seed);
-        probe.setArg(1, n);
-        probe.setArg(2, out);
+        set_args(probe, seed, n, out);
         queue.enqueueNDRangeKernel(probe, cl::NullRange, cl::NDRange(1), cl::NDRange(1));
         cl_uint got = 0;
         queue.enqueueReadBuffer(out, CL_TRUE, 0, sizeof got, &got);

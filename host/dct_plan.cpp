@@ -1,14 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "dct_plan.h"
 
-#include "plan_cache.h"
-
 namespace relief::host {
 
-DctPlan::DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1)
+DctPlan::DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, const FftOf& fft_of)
     : c_(c), n0_(n0), n1_(n1),
       work_(c.buffer(CL_MEM_READ_WRITE, sizeof(float) * FftPlan::row_stride(n0) * n1, "the DCT")),
-      fft_(c.plans->fft(c, n0, n1, work_))
+      fft_(fft_of(work_))
 {
     cl::Program& prog = c.program("dct.cl");
     reorder_ = cl::Kernel(prog, "dct_reorder");
@@ -23,9 +21,7 @@ DctPlan::DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1)
     }
     reorder_.setArg(4, work_);
     unreorder_.setArg(0, work_);
-    post_.setArg(0, work_);
-    post_.setArg(1, cl_int(n0));
-    post_.setArg(2, cl_int(n1));
+    set_args(post_, work_, cl_int(n0), cl_int(n1));
     pre_.setArg(1, cl_int(n0));
     pre_.setArg(2, cl_int(n1));
     pre_.setArg(3, work_);

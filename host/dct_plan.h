@@ -8,6 +8,7 @@
 #include <CL/opencl.hpp>
 
 #include <cstddef>
+#include <functional>
 #include <memory>
 
 #include "fft_plan.h"
@@ -17,8 +18,11 @@ namespace relief::host {
 
 class DctPlan {
 public:
+    // The FFT plan of n0 x n1 built against `work` (a plan cache's: the
+    // DCT's transforms are that FFT's).
+    using FftOf = std::function<std::shared_ptr<FftPlan>(cl::Buffer& work)>;
     // A plan over n0 (fast axis) x n1 dense floats (n1 == 1: 1-D). n0 >= 2.
-    DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1);
+    DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, const FftOf& fft_of);
 
     // In place on a dense n0 x n1 float buffer. forward: the unnormalised
     // DCT-II X[k0,k1] = sum x cos(pi k0 (2i+1)/2n0) cos(pi k1 (2j+1)/2n1);
@@ -31,7 +35,7 @@ private:
     ComputeContext::Impl& c_;
     std::size_t n0_, n1_;
     cl::Buffer work_;               // the R2C grid
-    std::shared_ptr<FftPlan> fft_;  // the context's plan of this size (plan_cache.h)
+    std::shared_ptr<FftPlan> fft_;  // from fft_of: the context's plan of this size
     cl::Kernel reorder_, unreorder_, post_, pre_;
 };
 

@@ -286,10 +286,7 @@ struct FftPlan::Impl {
 
     void transpose_to(cl::Buffer& in, int rows_in, int columns_in, cl::Buffer& out)
     {
-        transpose.setArg(0, in);
-        transpose.setArg(1, cl_int(rows_in));
-        transpose.setArg(2, cl_int(columns_in));
-        transpose.setArg(3, out);
+        set_args(transpose, in, cl_int(rows_in), cl_int(columns_in), out);
         c.launch(transpose, std::size_t(rows_in) * columns_in);
     }
 };
@@ -363,17 +360,10 @@ void FftPlan::forward(cl::Buffer& buffer)
     auto& p = *impl_;
     if (p.complex_rows) {
         const cl_int n0 = cl_int(p.n0), n1 = cl_int(p.n1);
-        p.widen.setArg(0, buffer);
-        p.widen.setArg(1, n0);
-        p.widen.setArg(2, n1);
-        p.widen.setArg(3, cl_int(row_stride(p.n0)));
-        p.widen.setArg(4, p.wide);
+        set_args(p.widen, buffer, n0, n1, cl_int(row_stride(p.n0)), p.wide);
         p.c.launch(p.widen, p.n0 * p.n1);
         p.rows->run(p.c.queue, p.wide, -1);
-        p.narrow.setArg(0, p.wide);
-        p.narrow.setArg(1, n0);
-        p.narrow.setArg(2, n1);
-        p.narrow.setArg(3, buffer);
+        set_args(p.narrow, p.wide, n0, n1, buffer);
         p.c.launch(p.narrow, p.columns * p.n1);
     } else {
         p.rows->run(p.c.queue, buffer, -1);
@@ -395,17 +385,10 @@ void FftPlan::inverse(cl::Buffer& buffer)
     }
     if (p.complex_rows) {
         const cl_int n0 = cl_int(p.n0), n1 = cl_int(p.n1);
-        p.hermitian.setArg(0, buffer);
-        p.hermitian.setArg(1, n0);
-        p.hermitian.setArg(2, n1);
-        p.hermitian.setArg(3, p.wide);
+        set_args(p.hermitian, buffer, n0, n1, p.wide);
         p.c.launch(p.hermitian, p.n0 * p.n1);
         p.rows->run(p.c.queue, p.wide, 1);
-        p.real_part.setArg(0, p.wide);
-        p.real_part.setArg(1, n0);
-        p.real_part.setArg(2, n1);
-        p.real_part.setArg(3, cl_int(row_stride(p.n0)));
-        p.real_part.setArg(4, buffer);
+        set_args(p.real_part, p.wide, n0, n1, cl_int(row_stride(p.n0)), buffer);
         p.c.launch(p.real_part, row_stride(p.n0) * p.n1);
     } else {
         p.rows->run(p.c.queue, buffer, 1);

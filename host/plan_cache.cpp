@@ -64,11 +64,13 @@ std::shared_ptr<DctPlan> PlanCache::dct(ComputeContext::Impl& c, std::size_t n0,
     if (Entry* e = find(true, n0, n1))
         return e->dct_plan;
     const std::size_t bytes = sizeof(float) * FftPlan::row_stride(n0) * n1;
+    // (Recursive: the DCT takes its FFT plan from this cache while being made.)
+    const DctPlan::FftOf fft_of = [&](cl::Buffer& work) { return fft(c, n0, n1, work); };
     if (bytes > max_plan_bytes_)
-        return std::make_shared<DctPlan>(c, n0, n1);
+        return std::make_shared<DctPlan>(c, n0, n1, fft_of);
     make_room(2 * bytes);
     Entry e{true, n0, n1, 2 * bytes, cl::Buffer(), nullptr, nullptr};
-    e.dct_plan = std::make_shared<DctPlan>(c, n0, n1);
+    e.dct_plan = std::make_shared<DctPlan>(c, n0, n1, fft_of);
     entries_.push_front(std::move(e));
     return entries_.front().dct_plan;
 }
@@ -87,6 +89,15 @@ void prepare_height(ComputeContext& ctx, int width, int height)
     if (n0 >= 2 && c.plans->keeps(n0, n1))
         c.plans->dct(c, n0, n1);
     c.program("poisson.cl");
+}
+
+SpectralPlan::SpectralPlan(ComputeContext::Impl& c, bool periodic, std::size_t n0, std::size_t n1,
+                           cl::Buffer& grid)
+{
+    if (periodic)
+        fft_ = c.plans->fft(c, n0, n1, grid);
+    else
+        dct_ = c.plans->dct(c, n0, n1);
 }
 
 }  // namespace relief::host

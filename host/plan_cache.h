@@ -57,4 +57,18 @@ private:
     std::list<Entry> entries_;  // most recently used first
 };
 
+// The transform a boundary takes, from the cache: the FFT of a periodic map,
+// the DCT (its even extension) of a free one, behind one forward/inverse.
+class SpectralPlan {
+public:
+    // `grid`: as PlanCache::fft() takes it (unused for the DCT).
+    SpectralPlan(ComputeContext::Impl& c, bool periodic, std::size_t n0, std::size_t n1, cl::Buffer& grid);
+    void forward(cl::Buffer& b) const { fft_ ? fft_->forward(b) : dct_->forward(b); }
+    void inverse(cl::Buffer& b) const { fft_ ? fft_->inverse(b) : dct_->inverse(b); }
+
+private:
+    std::shared_ptr<FftPlan> fft_;
+    std::shared_ptr<DctPlan> dct_;
+};
+
 }  // namespace relief::host

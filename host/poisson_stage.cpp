@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include "errors.h"
@@ -76,31 +77,18 @@ void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const Pois
             slopes.release();      // freed once the split has run
         }
         // The plans' own buffers are made after the slopes are gone.
-        std::shared_ptr<FftPlan> fft;
-        std::shared_ptr<DctPlan> dct;
-        if (periodic)
-            fft = c.plans->fft(c, n0, n1, gx);
-        else
-            dct = c.plans->dct(c, n0, n1);
-        auto forward = [&](cl::Buffer& b) { periodic ? fft->forward(b) : dct->forward(b); };
-        forward(gx);
-        forward(gy);
+        std::optional<SpectralPlan> plan;
+        plan.emplace(c, periodic, n0, n1, gx);
+        plan->forward(gx);
+        plan->forward(gy);
 
         // In place on gx's spectrum (the free kernel pairs k with n0 - k).
         cl::Kernel divide(prog, periodic ? "poisson_periodic_divide" : "poisson_free_divide");
-        divide.setArg(0, gx);
-        divide.setArg(1, gy);
-        divide.setArg(2, cl_int(n0));
-        divide.setArg(3, cl_int(n1));
-        divide.setArg(4, sigma);
+        set_args(divide, gx, gy, cl_int(n0), cl_int(n1), sigma);
         c.launch(divide, std::size_t(n0 / 2 + 1) * n1);
-        if (periodic)
-            fft->inverse(gx);
-        else
-            dct->inverse(gx);
+        plan->inverse(gx);
         divide = cl::Kernel();
-        fft.reset();
-        dct.reset();
+        plan.reset();
 
         height_out = read_real_result(c, gx, gy, stride, w, h, sink);
     } catch (const cl::Error& e) {

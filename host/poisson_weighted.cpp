@@ -48,11 +48,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
                           "the weighted Poisson stage", p.weights);
         masked->buffer = c.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * n, "the weighted Poisson stage");
         cl::Kernel k(c.program("poisson_weighted.cl"), "weighted_mask_slopes");
-        k.setArg(0, slopes.impl().buffer);
-        k.setArg(1, weight);
-        k.setArg(2, cl_int(n));
-        k.setArg(3, kExcludedEdgeWeight);
-        k.setArg(4, masked->buffer);
+        set_args(k, slopes.impl().buffer, weight, cl_int(n), kExcludedEdgeWeight, masked->buffer);
         c.launch(k, n);
     } catch (const cl::Error& e) {
         throw opencl_error("weighted Poisson", e);
@@ -83,12 +79,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
         const std::size_t groups = (n + dot_group - 1) / dot_group;
         cl::Buffer partial = buffer(sizeof(float) * groups);
         cl::Buffer grid = buffer(sizeof(float) * stride * n1);
-        std::shared_ptr<FftPlan> fft;
-        std::shared_ptr<DctPlan> dct;
-        if (periodic)
-            fft = c.plans->fft(c, n0, n1, grid);
-        else
-            dct = c.plans->dct(c, n0, n1);
+        const SpectralPlan plan(c, periodic, n0, n1, grid);
         auto run = [&](cl::Kernel& k, std::size_t items = 0) { c.launch(k, items ? items : n); };
 
         cl::Kernel edges(prog, "weighted_edges");
@@ -107,11 +98,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
             run(edges);
         };
         cl::Kernel rhs(prog, "weighted_rhs");
-        rhs.setArg(0, edge_c);
-        rhs.setArg(1, edge_t);
-        rhs.setArg(2, cl_int(w));
-        rhs.setArg(3, cl_int(h));
-        rhs.setArg(4, cl_int(periodic));
+        set_args(rhs, edge_c, edge_t, cl_int(w), cl_int(h), cl_int(periodic));
         rhs.setArg(5, r);  // b
         cl::Kernel apply(prog, "weighted_apply");
         apply.setArg(1, edge_c);
@@ -120,11 +107,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
         apply.setArg(4, cl_int(periodic));
         std::vector<float> partial_host(groups);
         auto dot = [&](cl::Buffer& a, cl::Buffer& b) {
-            dot_k.setArg(0, a);
-            dot_k.setArg(1, b);
-            dot_k.setArg(2, cl_int(n));
-            dot_k.setArg(3, partial);
-            dot_k.setArg(4, cl::Local(sizeof(float) * dot_group));
+            set_args(dot_k, a, b, cl_int(n), partial, cl::Local(sizeof(float) * dot_group));
             c.launch(dot_k, n, sizeof(float));
             c.queue.enqueueReadBuffer(partial, CL_TRUE, 0, sizeof(float) * groups, partial_host.data());
             double s = 0.0;
@@ -134,33 +117,19 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
         };
         cl::Kernel axpy(prog, "weighted_axpy"), xpby(prog, "weighted_xpby");
         auto add = [&](cl::Buffer& y, cl::Buffer& v, double alpha) {
-            axpy.setArg(0, y);
-            axpy.setArg(1, v);
-            axpy.setArg(2, float(alpha));
-            axpy.setArg(3, cl_int(n));
+            set_args(axpy, y, v, float(alpha), cl_int(n));
             run(axpy);
         };
         cl::Kernel to_grid(prog, "weighted_to_grid"), from_grid(prog, "weighted_from_grid");
         cl::Kernel divide(prog, "weighted_laplace_divide");
         auto precondition = [&]() {  // z = L^-1 r
-            to_grid.setArg(0, r);
-            to_grid.setArg(1, cl_int(n0));
-            to_grid.setArg(2, cl_int(n1));
-            to_grid.setArg(3, cl_int(stride));
-            to_grid.setArg(4, grid);
+            set_args(to_grid, r, cl_int(n0), cl_int(n1), cl_int(stride), grid);
             run(to_grid, stride * std::size_t(n1));
-            periodic ? fft->forward(grid) : dct->forward(grid);
-            divide.setArg(0, grid);
-            divide.setArg(1, cl_int(n0));
-            divide.setArg(2, cl_int(n1));
-            divide.setArg(3, cl_int(periodic));
+            plan.forward(grid);
+            set_args(divide, grid, cl_int(n0), cl_int(n1), cl_int(periodic));
             run(divide, std::size_t(periodic ? n0 / 2 + 1 : n0) * n1);
-            periodic ? fft->inverse(grid) : dct->inverse(grid);
-            from_grid.setArg(0, grid);
-            from_grid.setArg(1, cl_int(n0));
-            from_grid.setArg(2, cl_int(n1));
-            from_grid.setArg(3, cl_int(stride));
-            from_grid.setArg(4, z);
+            plan.inverse(grid);
+            set_args(from_grid, grid, cl_int(n0), cl_int(n1), cl_int(stride), z);
             run(from_grid);
         };
 
@@ -169,10 +138,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
         run(rhs);
         precondition();                            // z = L^-1 D^T mean(s g)
         cl::Kernel negate(prog, "weighted_xpby");  // z = x + (-1) z
-        negate.setArg(0, z);
-        negate.setArg(1, x);
-        negate.setArg(2, -1.0f);
-        negate.setArg(3, cl_int(n));
+        set_args(negate, z, x, -1.0f, cl_int(n));
         run(negate);
         set_edges(0);
         run(rhs);  // r = b
@@ -203,10 +169,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
                     break;
                 precondition();
                 const double rz_next = dot(r, z);
-                xpby.setArg(0, d);
-                xpby.setArg(1, z);
-                xpby.setArg(2, float(rz_next / rz));
-                xpby.setArg(3, cl_int(n));
+                set_args(xpby, d, z, float(rz_next / rz), cl_int(n));
                 run(xpby);
                 rz = rz_next;
             }

@@ -106,8 +106,7 @@ void fft_ray_sums(ComputeContext::Impl& c, DeviceSlopes& slopes, bool consume, c
                                       "ray integration", index.data());
         cl::Buffer kernel_grid = c.buffer(CL_MEM_READ_WRITE, bytes, "ray integration");
         cl::Kernel scatter(prog, "rays_fft_scatter");
-        scatter.setArg(0, kernel_grid);
-        scatter.setArg(1, taps_at);
+        set_args(scatter, kernel_grid, taps_at);
         scatter.setArg(3, cl_int(taps));
         auto make_kernel_spectrum = [&](const std::vector<float>& values) {
             cl::Buffer v = c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * taps,

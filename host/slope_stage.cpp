@@ -27,10 +27,7 @@ void measure_curl(ComputeContext::Impl& cl_, const cl::Buffer& slopes, int w, in
     int cell_rows = h - 1;
     cl::Buffer sums = cl_.buffer(CL_MEM_WRITE_ONLY, sizeof(cl_float2) * cell_rows, "the DDM stage");
     cl::Kernel k(cl_.program("ddm.cl"), "curl_row_sums");
-    k.setArg(0, slopes);
-    k.setArg(1, w);
-    k.setArg(2, cell_rows);
-    k.setArg(3, sums);
+    set_args(k, slopes, w, cell_rows, sums);
     cl_.launch(k, cell_rows);
     std::vector<cl_float2> host(cell_rows);
     cl_.queue.enqueueReadBuffer(sums, CL_TRUE, 0, sizeof(cl_float2) * cell_rows, host.data());
@@ -88,8 +85,7 @@ DeviceSlopes derive_slopes(ComputeContext& ctx, const NormalRows& rows, const Sl
         // Derive with OpenGL first; DirectX is the same field with gy negated.
         const double a = p.max_angle_deg * M_PI / 180.0;
         cl::Kernel k(c.program("ddm.cl"), "ddm_slopes");
-        k.setArg(0, in);
-        k.setArg(1, p.channels);
+        set_args(k, in, p.channels);
         k.setArg(4, p.scale);
         k.setArg(5, p.bias);
         k.setArg(6, p.zero_band);
@@ -126,8 +122,7 @@ DeviceSlopes derive_slopes(ComputeContext& ctx, const NormalRows& rows, const Sl
         }
         if (stats.chosen == GreenConvention::DirectX) {
             cl::Kernel f(c.program("ddm.cl"), "flip_row_slope");
-            f.setArg(0, impl->buffer);
-            f.setArg(1, texels);
+            set_args(f, impl->buffer, texels);
             c.launch(f, n);
         }
         c.queue.finish();

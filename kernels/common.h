@@ -19,4 +19,29 @@ inline int relief_wrap(int v, int n)
     return v < 0 ? v + n : v;
 }
 
+// The type long sums accumulate in: double where the device has fp64 (the
+// host then builds the program with -DRELIEF_FP64), else float (the kernels
+// compensate where float alone is too coarse).
+#ifdef RELIEF_FP64
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+typedef double relief_acc_t;
+#else
+typedef float relief_acc_t;
+#endif
+
+// Defines `T name(T x, int n)`: x^n for a whole n >= 0 by squaring, the
+// shortest dependency chain (x^5 = (x^2)^2 x). For scalar and vector T; a
+// macro so that a program only instantiates the types it uses.
+#define RELIEF_DEFINE_POWN(name, T)                                                                          \
+    inline T name(T x, int n)                                                                                \
+    {                                                                                                        \
+        T r = (T)(1), b = x;                                                                                 \
+        for (; n > 0; n >>= 1) {                                                                             \
+            if (n & 1)                                                                                       \
+                r *= b;                                                                                      \
+            b *= b;                                                                                          \
+        }                                                                                                    \
+        return r;                                                                                            \
+    }
+
 #endif

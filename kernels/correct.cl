@@ -23,12 +23,7 @@
 // (one division per evaluation). A flipped or degenerate texture triangle
 // has infinite energy.
 
-#ifdef RELIEF_FP64
-#pragma OPENCL EXTENSION cl_khr_fp64 : enable
-typedef double energy_t;
-#else
-typedef float energy_t;
-#endif
+typedef relief_acc_t energy_t;  // (common.h)
 
 #define CORRECT_TILE 16                // nodes per tile side (8 x 8 quads, one work-group)
 #define CORRECT_STEPS 31               // ternary search: at most this many steps ...
@@ -57,16 +52,15 @@ typedef float energy_t;
 // dominated the line search 10:1).
 // In energy_t (double where the device has fp64): at theta = 20, k^theta
 // passes float's range once the area ratio reaches about 60 (a 60-texel step).
+#ifdef CORRECT_ITHETA
+RELIEF_DEFINE_POWN(correct_pown_total, energy_t)
+RELIEF_DEFINE_POWN(correct_pown8, float8)
+#endif
+
 inline energy_t correct_pow_theta_total(energy_t x, float theta)
 {
 #ifdef CORRECT_ITHETA
-    energy_t r = 1, b = x;  // by squaring: the shortest dependency chain
-    for (int n = CORRECT_ITHETA; n > 0; n >>= 1) {
-        if (n & 1)
-            r *= b;
-        b *= b;
-    }
-    return r;
+    return correct_pown_total(x, CORRECT_ITHETA);
 #else
     return pow(x, (energy_t)theta);
 #endif
@@ -214,14 +208,7 @@ kernel void correct_active(global const uchar* moved, int slots, int tiles_x, in
 inline float8 correct_pow_theta8(float8 x, float theta)
 {
 #ifdef CORRECT_ITHETA
-    // By squaring: the shortest dependency chain (x^5 = (x^2)^2 x).
-    float8 r = (float8)(1.0f), b = x;
-    for (int n = CORRECT_ITHETA; n > 0; n >>= 1) {
-        if (n & 1)
-            r *= b;
-        b *= b;
-    }
-    return r;
+    return correct_pown8(x, CORRECT_ITHETA);
 #else
     return pow(x, (float8)(theta));
 #endif

@@ -20,12 +20,7 @@
 // recomputed from scratch every `reanchor` steps, which bounds the rounding
 // a float running sum collects.
 
-#ifdef RELIEF_FP64
-#pragma OPENCL EXTENSION cl_khr_fp64 : enable
-typedef double acc_t;
-#else
-typedef float acc_t;
-#endif
+typedef relief_acc_t acc_t;  // (common.h)
 
 inline int inside(int x, int y, int w, int h)
 {

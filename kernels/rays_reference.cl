@@ -18,12 +18,7 @@
 // float with Kahan compensation: plain float sums over a 65536-texel ray
 // were off by 2e-3 of max|h|.
 
-#ifdef RELIEF_FP64
-#pragma OPENCL EXTENSION cl_khr_fp64 : enable
-typedef double acc_t;
-#else
-typedef float acc_t;
-#endif
+typedef relief_acc_t acc_t;  // (common.h)
 
 // s += v, compensated: c carries the low-order bits lost so far.
 inline void acc_add(acc_t* s, acc_t* c, acc_t v)

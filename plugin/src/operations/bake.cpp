@@ -204,9 +204,7 @@ bool bake(ImageBuf& dst, const ImageBuf& texture, const ImageBuf& offsets, const
 ImageBuf bake(const ImageBuf& texture, const ImageBuf& offsets, const BakeOptions& options, ROI roi,
               int nthreads)
 {
-    ImageBuf dst;
-    bake(dst, texture, offsets, options, roi, nthreads);
-    return dst;
+    return detail::first_form([&](ImageBuf& dst) { bake(dst, texture, offsets, options, roi, nthreads); });
 }
 
 }  // namespace relief

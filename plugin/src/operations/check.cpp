@@ -53,9 +53,7 @@ bool normals(ImageBuf& dst, const ImageBuf& height, const NormalsOptions& option
 
 ImageBuf normals(const ImageBuf& height, const NormalsOptions& options, ROI roi, int nthreads)
 {
-    ImageBuf dst;
-    normals(dst, height, options, roi, nthreads);
-    return dst;
+    return detail::first_form([&](ImageBuf& dst) { normals(dst, height, options, roi, nthreads); });
 }
 
 bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptions& options, ROI roi, int)
@@ -115,9 +113,7 @@ bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptio
 
 ImageBuf tessellation(const ImageBuf& height, const TessellationOptions& options, ROI roi, int nthreads)
 {
-    ImageBuf dst;
-    tessellation(dst, height, options, roi, nthreads);
-    return dst;
+    return detail::first_form([&](ImageBuf& dst) { tessellation(dst, height, options, roi, nthreads); });
 }
 
 }  // namespace relief

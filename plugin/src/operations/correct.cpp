@@ -215,9 +215,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
 
 ImageBuf correct(const ImageBuf& height, const CorrectOptions& options, ROI roi, int nthreads)
 {
-    ImageBuf dst;
-    correct(dst, height, options, roi, nthreads);
-    return dst;
+    return detail::first_form([&](ImageBuf& dst) { correct(dst, height, options, roi, nthreads); });
 }
 
 }  // namespace relief

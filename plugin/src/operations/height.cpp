@@ -293,9 +293,7 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
 
 ImageBuf height(const ImageBuf& normals, const HeightOptions& options, ROI roi, int nthreads)
 {
-    ImageBuf dst;
-    height(dst, normals, options, roi, nthreads);
-    return dst;
+    return detail::first_form([&](ImageBuf& dst) { height(dst, normals, options, roi, nthreads); });
 }
 
 }  // namespace relief

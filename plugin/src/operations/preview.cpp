@@ -402,9 +402,7 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
 
 ImageBuf preview(const ImageBuf& normals, const ImageBuf& height, const PreviewOptions& options)
 {
-    ImageBuf dst;
-    preview(dst, normals, height, options);
-    return dst;
+    return detail::first_form([&](ImageBuf& dst) { preview(dst, normals, height, options); });
 }
 
 }  // namespace relief

@@ -34,6 +34,16 @@ OIIO::ImageBuf make_result(OIIO::ROI roi, std::vector<std::string> channels);
 void publish_result(OIIO::ImageBuf& dst, OIIO::ImageBuf&& result, const char* method,
                     const host::SlopeStats& stats, const std::string& parameters);
 
+// The API's first form (returns the image) from its second (fills `dst`):
+// second_form(dst); a failure leaves its error in the image returned.
+template <class SecondForm>
+OIIO::ImageBuf first_form(SecondForm&& second_form)
+{
+    OIIO::ImageBuf dst;
+    second_form(dst);
+    return dst;
+}
+
 // Records a failed operation in dst and geterror(); returns false.
 bool fail(OIIO::ImageBuf& dst, const char* operation, const std::exception& e);
 

@@ -35,9 +35,7 @@ bool slopes(ImageBuf& dst, const ImageBuf& normals, const SlopeOptions& options,
 
 ImageBuf slopes(const ImageBuf& normals, const SlopeOptions& options, ROI roi, int nthreads)
 {
-    ImageBuf dst;
-    slopes(dst, normals, options, roi, nthreads);
-    return dst;
+    return detail::first_form([&](ImageBuf& dst) { slopes(dst, normals, options, roi, nthreads); });
 }
 
 }  // namespace relief
