@@ -17,30 +17,15 @@ std::uint64_t size_from_environment(const char* name)
     char* end = nullptr;
     errno = 0;
     const double v = std::strtod(text, &end);
+    // K, M, G, T (either case): powers of 1024, as memory is counted.
+    static const char kSuffixes[] = "KMGT";
     std::uint64_t scale = 1;
-    switch (*end) {
-    case 'k':
-    case 'K':
-        scale = std::uint64_t(1) << 10;
-        ++end;
-        break;
-    case 'm':
-    case 'M':
-        scale = std::uint64_t(1) << 20;
-        ++end;
-        break;
-    case 'g':
-    case 'G':
-        scale = std::uint64_t(1) << 30;
-        ++end;
-        break;
-    case 't':
-    case 'T':
-        scale = std::uint64_t(1) << 40;
-        ++end;
-        break;
-    default: break;
-    }
+    for (int k = 0; *end && k < 4; ++k)
+        if (*end == kSuffixes[k] || *end == kSuffixes[k] - 'A' + 'a') {
+            scale = std::uint64_t(1) << (10 * (k + 1));
+            ++end;
+            break;
+        }
     if (end == text || *end || errno || !(v > 0) || v * double(scale) < 1.0 || v * double(scale) > 1e18)
         throw Error(std::string(name) + " must be a size in bytes > 0 (suffix K, M, G or T allowed), not '" +
                     text + "'");

@@ -14,6 +14,7 @@
 #include "compute_context.h"
 #include "bake_stage.h"
 #include "correct_stage.h"
+#include "environment.h"
 #include "errors.h"
 #include "plan_cache.h"
 #include "slope_stage.h"
@@ -308,4 +309,28 @@ TEST_CASE("plans are kept by kind and size, the least recently used dropped firs
                                                     x[r * FftPlan::row_stride(64) + i])));
     CHECK(worst < 1e-3);
     CHECK(e != nullptr);
+}
+
+TEST_CASE("environment sizes: K, M, G and T in either case are powers of 1024, anything else is refused",
+          "[host][errors]")
+{
+    const char* name = "RELIEF_TEST_SIZE";
+    const struct {
+        const char* text;
+        std::uint64_t bytes;
+    } sizes[] = {{"1000", 1000},     {"2k", 2048},       {"2K", 2048},
+                 {"3m", 3ull << 20}, {"3M", 3ull << 20}, {"1.5G", 3ull << 29},
+                 {"1g", 1ull << 30}, {"2T", 2ull << 40}, {"0.5t", 1ull << 39}};
+    for (const auto& s : sizes) {
+        INFO(s.text);
+        ::setenv(name, s.text, 1);
+        CHECK(size_from_environment(name) == s.bytes);
+    }
+    for (const char* bad : {"1P", "1KB", "K", "-1M", "0", "0.1", "1e30T", "12 M", "nan"}) {
+        INFO(bad);
+        ::setenv(name, bad, 1);
+        CHECK_THROWS_WITH(size_from_environment(name), Catch::Contains("RELIEF_TEST_SIZE must be a size"));
+    }
+    ::unsetenv(name);
+    CHECK(size_from_environment(name) == 0);
 }

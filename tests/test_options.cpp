@@ -38,12 +38,7 @@ constexpr int kW = 48, kH = 40;
 std::vector<double> tiling_slopes(int w, int h, unsigned seed)
 {
     test::PeriodicField f{w, h, {{1, 1, 3.0, 0.4}, {2, -1, 1.5, 1.3}, {5, 3, 0.4, 2.0}}};
-    auto g = f.slopes();
-    std::mt19937 rng(seed);
-    std::normal_distribution<double> noise(0.0, 0.1);
-    for (double& v : g)
-        v += noise(rng);
-    return g;
+    return test::plus_noise(f.slopes(), 0.1, seed);
 }
 
 // The slopes exactly as the API derives them from `normals`.

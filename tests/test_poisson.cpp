@@ -11,6 +11,7 @@
 #include "reference/poisson_reference.h"
 #include "slope_stage.h"
 #include "support/fields.h"
+#include "support/images.h"
 #include "tiling.h"
 
 using namespace relief;
@@ -33,12 +34,7 @@ std::vector<float> solve(const std::vector<double>& g, int w, int h, bool period
 std::vector<double> noisy_slopes(int w, int h, unsigned seed)
 {
     test::PeriodicField f{w, h, {{1, 1, 2.0, 0.4}, {2, -1, 1.0, 1.3}}};
-    auto g = f.slopes();
-    std::mt19937 rng(seed);
-    std::normal_distribution<double> noise(0.0, 0.3);
-    for (double& v : g)
-        v += noise(rng);
-    return g;
+    return test::plus_noise(f.slopes(), 0.3, seed);
 }
 
 template <class A>
@@ -61,15 +57,6 @@ double rmse(const A& a, const B& b)
     return std::sqrt(s / double(a.size()));
 }
 
-template <class A, class B>
-double max_diff(const A& a, const B& b)
-{
-    double m = 0;
-    for (std::size_t i = 0; i < a.size(); ++i)
-        m = std::max(m, std::abs(double(a[i]) - double(b[i])));
-    return m;
-}
-
 }  // namespace
 
 TEST_CASE("Poisson solver equals the double-precision golden model", "[poisson]")
@@ -88,8 +75,8 @@ TEST_CASE("Poisson solver equals the double-precision golden model", "[poisson]"
                 s.highpass_sigma = host::highpass_sigma(highpass);
                 auto ref = reference::poisson(g, c.w, c.h, s);
                 auto got = solve(g, c.w, c.h, periodic, highpass);
-                INFO("max diff " << max_diff(got, ref) << ", spread " << spread(ref));
-                CHECK(max_diff(got, ref) <= 1e-4 * spread(ref) + 1e-6);
+                INFO("max diff " << test::max_abs_diff(got, ref) << ", spread " << spread(ref));
+                CHECK(test::max_abs_diff(got, ref) <= 1e-4 * spread(ref) + 1e-6);
             }
 }
 
@@ -226,9 +213,9 @@ TEST_CASE("weighted Poisson equals the double-precision golden model", "[poisson
             host::PoissonReport report;
             auto got = solve_weighted(g, wf, c.w, c.h, periodic, &report);
             INFO("iterations " << report.iterations << ", residual " << report.residual << ", max diff "
-                               << max_diff(got, ref) << ", spread " << spread(ref));
+                               << test::max_abs_diff(got, ref) << ", spread " << spread(ref));
             CHECK(report.residual <= 1e-6);
-            CHECK(max_diff(got, ref) <= 1e-3 * spread(ref) + 1e-6);
+            CHECK(test::max_abs_diff(got, ref) <= 1e-3 * spread(ref) + 1e-6);
         }
 }
 

@@ -12,6 +12,7 @@
 #include "compute_context.h"
 #include "poisson_stage.h"
 #include "slope_stage.h"
+#include "support/fields.h"
 
 using namespace relief;
 
@@ -80,17 +81,6 @@ std::vector<float> solve(const std::vector<float>& slopes, int w, int h, bool pe
     return out;
 }
 
-double std_dev(const std::vector<float>& a)
-{
-    double m = 0, s = 0;
-    for (float v : a)
-        m += v;
-    m /= double(a.size());
-    for (float v : a)
-        s += (v - m) * (v - m);
-    return std::sqrt(s / double(a.size()));
-}
-
 // RMSE of a - b over std(b); infinite if a is not finite.
 double relative_rmse(const std::vector<float>& a, const std::vector<float>& b)
 {
@@ -100,7 +90,7 @@ double relative_rmse(const std::vector<float>& a, const std::vector<float>& b)
             return INFINITY;
         s += (double(a[i]) - b[i]) * (double(a[i]) - b[i]);
     }
-    return std::sqrt(s / double(a.size())) / std_dev(b);
+    return std::sqrt(s / double(a.size())) / test::rms(b);
 }
 
 }  // namespace

@@ -38,12 +38,7 @@ std::vector<float> kernel_rays(const std::vector<double>& g, int w, int h, int r
 std::vector<double> rough_slopes(int w, int h, unsigned seed)
 {
     test::PeriodicField f{w, h, {{1, 1, 2.0, 0.4}, {2, -1, 1.0, 1.3}}};
-    auto g = f.slopes();
-    std::mt19937 rng(seed);
-    std::normal_distribution<double> noise(0.0, 0.3);
-    for (double& v : g)
-        v += noise(rng);
-    return g;
+    return test::plus_noise(f.slopes(), 0.3, seed);
 }
 
 double max_abs(const std::vector<double>& v)

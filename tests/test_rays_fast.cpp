@@ -15,6 +15,7 @@
 #include "reference/rays_reference.h"
 #include "slope_stage.h"
 #include "support/fields.h"
+#include "support/images.h"
 
 using namespace relief;
 
@@ -65,15 +66,6 @@ std::vector<float> rough_slopes(int w, int h, unsigned seed, double noise_std = 
     for (std::size_t i = 0; i < g.size(); ++i)
         out[i] = float(g[i] + noise(rng));
     return out;
-}
-
-template <class A, class B>
-double max_diff(const A& a, const B& b)
-{
-    double m = 0;
-    for (std::size_t i = 0; i < a.size(); ++i)
-        m = std::max(m, std::abs(double(a[i]) - double(b[i])));
-    return m;
 }
 
 template <class A>
@@ -182,7 +174,7 @@ TEST_CASE("reference kernel with rational directions equals the golden model", "
         double scale = 0;
         for (double v : ref)
             scale = std::max(scale, std::abs(v));
-        CHECK(max_diff(got, ref) <= 1e-5 * scale);
+        CHECK(test::max_abs_diff(got, ref) <= 1e-5 * scale);
     }
 }
 
@@ -239,8 +231,8 @@ TEST_CASE("fast kernel equals the reference kernel for the same directions", "[r
             auto got = run_rays(g, c.w, c.h, r);
             REQUIRE(all_finite(got));
             const double sd = stddev(ref);
-            INFO("max diff " << max_diff(got, ref) << ", std " << sd);
-            CHECK(max_diff(got, ref) <= 1e-4 * sd + 1e-7);
+            INFO("max diff " << test::max_abs_diff(got, ref) << ", std " << sd);
+            CHECK(test::max_abs_diff(got, ref) <= 1e-4 * sd + 1e-7);
         }
     }
 }

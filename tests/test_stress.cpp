@@ -182,13 +182,7 @@ TEST_CASE("stress: 16K-long chains, fast kernel against the golden model in doub
         reference::RaySettings s{4, 256.0, 0.0, periodic};
         s.rational = true;
         auto ref = reference::rays(g, w, h, s);
-        double mean = 0, var = 0;
-        for (double v : ref)
-            mean += v;
-        mean /= double(ref.size());
-        for (double v : ref)
-            var += (v - mean) * (v - mean);
-        const double sd = std::sqrt(var / double(ref.size()));
+        const double sd = test::rms(ref);
         for (int variant : {0, 1, 2}) {
             // 0: chains in fp64, 1: chains in float (re-anchored), 2: FFT.
             const bool force_float = variant == 1;

@@ -132,14 +132,27 @@ inline std::vector<float> waves(int w, int h, double amp = 1.0, unsigned seed = 
     return v;
 }
 
-inline double rms(const std::vector<double>& a)
+// g plus Gaussian noise of standard deviation sigma (seeded): slopes that no
+// height field has, so a comparison exercises every texel's own value.
+inline std::vector<double> plus_noise(std::vector<double> g, double sigma, unsigned seed)
+{
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> noise(0.0, sigma);
+    for (double& v : g)
+        v += noise(rng);
+    return g;
+}
+
+// The root mean square about the mean (the standard deviation), in double.
+template <class A>
+double rms(const A& a)
 {
     double s = 0, m = 0;
-    for (double v : a)
-        m += v;
+    for (const auto v : a)
+        m += double(v);
     m /= double(a.size());
-    for (double v : a)
-        s += (v - m) * (v - m);
+    for (const auto v : a)
+        s += (double(v) - m) * (double(v) - m);
     return std::sqrt(s / double(a.size()));
 }
 

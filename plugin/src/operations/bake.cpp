@@ -98,6 +98,12 @@ std::string resolve_space(const BakeOptions& o, const ImageBuf& tex)
 
 }  // namespace
 
+ImageBuf bake(const ImageBuf& texture, const ImageBuf& offsets, const BakeOptions& options, ROI roi,
+              int nthreads)
+{
+    return detail::first_form([&](ImageBuf& dst) { bake(dst, texture, offsets, options, roi, nthreads); });
+}
+
 bool bake(ImageBuf& dst, const ImageBuf& texture, const ImageBuf& offsets, const BakeOptions& options,
           ROI roi, int /*nthreads*/)
 {
@@ -193,18 +199,11 @@ bool bake(ImageBuf& dst, const ImageBuf& texture, const ImageBuf& offsets, const
         spec.set_format(TypeDesc::FLOAT);
         spec.attribute("relief:native_format", texture.nativespec().format.c_str());
         spec.attribute("relief:baked", std::string(kind_name) + (space.empty() ? "" : ", " + space));
-        dst.reset(spec);
-        dst.set_pixels(dst.roi(), TypeDesc::FLOAT, out.data());
+        detail::set_result(dst, spec, out.data());
         return true;
     } catch (const std::exception& e) {
         return detail::fail(dst, "bake", e);
     }
-}
-
-ImageBuf bake(const ImageBuf& texture, const ImageBuf& offsets, const BakeOptions& options, ROI roi,
-              int nthreads)
-{
-    return detail::first_form([&](ImageBuf& dst) { bake(dst, texture, offsets, options, roi, nthreads); });
 }
 
 }  // namespace relief

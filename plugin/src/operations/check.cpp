@@ -18,6 +18,11 @@ using OIIO::ImageBuf;
 using OIIO::ROI;
 using OIIO::TypeDesc;
 
+ImageBuf normals(const ImageBuf& height, const NormalsOptions& options, ROI roi, int nthreads)
+{
+    return detail::first_form([&](ImageBuf& dst) { normals(dst, height, options, roi, nthreads); });
+}
+
 bool normals(ImageBuf& dst, const ImageBuf& height, const NormalsOptions& options, ROI roi, int)
 {
     try {
@@ -43,17 +48,16 @@ bool normals(ImageBuf& dst, const ImageBuf& height, const NormalsOptions& option
         spec.attribute("relief:parameters", std::string("normal=") + (directx ? "directx" : "opengl") +
                                                 " scale=" + detail::format_double("%.9g", options.scale) +
                                                 " boundary=" + (periodic ? "periodic" : "free"));
-        dst.reset(spec);
-        dst.set_pixels(dst.roi(), TypeDesc::FLOAT, n.data());
+        detail::set_result(dst, spec, n.data());
         return true;
     } catch (const std::exception& e) {
         return detail::fail(dst, "normals", e);
     }
 }
 
-ImageBuf normals(const ImageBuf& height, const NormalsOptions& options, ROI roi, int nthreads)
+ImageBuf tessellation(const ImageBuf& height, const TessellationOptions& options, ROI roi, int nthreads)
 {
-    return detail::first_form([&](ImageBuf& dst) { normals(dst, height, options, roi, nthreads); });
+    return detail::first_form([&](ImageBuf& dst) { tessellation(dst, height, options, roi, nthreads); });
 }
 
 bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptions& options, ROI roi, int)
@@ -103,17 +107,11 @@ bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptio
         spec.attribute("relief:parameters", "patch=" + std::to_string(options.patch) +
                                                 " error=" + detail::format_double("%.9g", options.error) +
                                                 " scale=" + detail::format_double("%.9g", options.scale));
-        dst.reset(spec);
-        dst.set_pixels(dst.roi(), TypeDesc::FLOAT, pixels.data());
+        detail::set_result(dst, spec, pixels.data());
         return true;
     } catch (const std::exception& e) {
         return detail::fail(dst, "tessellation", e);
     }
-}
-
-ImageBuf tessellation(const ImageBuf& height, const TessellationOptions& options, ROI roi, int nthreads)
-{
-    return detail::first_form([&](ImageBuf& dst) { tessellation(dst, height, options, roi, nthreads); });
 }
 
 }  // namespace relief

@@ -68,6 +68,11 @@ std::string CorrectReport::to_json() const
     return s.str();
 }
 
+ImageBuf correct(const ImageBuf& height, const CorrectOptions& options, ROI roi, int nthreads)
+{
+    return detail::first_form([&](ImageBuf& dst) { correct(dst, height, options, roi, nthreads); });
+}
+
 bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& options, ROI roi, int /*nthreads*/)
 {
     try {
@@ -205,17 +210,11 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
             << " levels=" << (p.levels ? std::to_string(p.levels) : "auto")
             << " search=" << search_name(options.search) << " relax=" << p.relax;
         spec.attribute("relief:parameters", par.str());
-        dst.reset(spec);
-        dst.set_pixels(dst.roi(), TypeDesc::FLOAT, offsets.data());
+        detail::set_result(dst, spec, offsets.data());
         return true;
     } catch (const std::exception& e) {
         return detail::fail(dst, "correct", e);
     }
-}
-
-ImageBuf correct(const ImageBuf& height, const CorrectOptions& options, ROI roi, int nthreads)
-{
-    return detail::first_form([&](ImageBuf& dst) { correct(dst, height, options, roi, nthreads); });
 }
 
 }  // namespace relief

@@ -185,6 +185,11 @@ std::string describe(const HeightOptions& o)
     return ss.str();
 }
 
+ImageBuf height(const ImageBuf& normals, const HeightOptions& options, ROI roi, int nthreads)
+{
+    return detail::first_form([&](ImageBuf& dst) { height(dst, normals, options, roi, nthreads); });
+}
+
 bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options, ROI roi, int /*nthreads*/)
 {
     try {
@@ -289,11 +294,6 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
     } catch (const std::exception& e) {
         return detail::fail(dst, "height", e);
     }
-}
-
-ImageBuf height(const ImageBuf& normals, const HeightOptions& options, ROI roi, int nthreads)
-{
-    return detail::first_form([&](ImageBuf& dst) { height(dst, normals, options, roi, nthreads); });
 }
 
 }  // namespace relief

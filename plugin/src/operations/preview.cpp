@@ -248,6 +248,11 @@ void irradiance(const SphericalHarmonics& sh, const float n[3], float rgb[3])
     }
 }
 
+ImageBuf preview(const ImageBuf& normals, const ImageBuf& height, const PreviewOptions& options)
+{
+    return detail::first_form([&](ImageBuf& dst) { preview(dst, normals, height, options); });
+}
+
 bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, const PreviewOptions& o)
 {
     try {
@@ -389,8 +394,7 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         spec.attribute("oiio:ColorSpace", "sRGB");
         std::vector<float> px(std::size_t(spec.width) * spec.height * 3);
         sheet.image().get_pixels(sheet.image().roi(), TypeDesc::FLOAT, px.data());
-        dst.reset(spec);
-        dst.set_pixels(dst.roi(), TypeDesc::FLOAT, px.data());
+        detail::set_result(dst, spec, px.data());
         detail::say(o.exec, Severity::Info,
                     "preview: " + std::to_string(spec.width) + "x" + std::to_string(spec.height) +
                         " sheet, panels " + std::to_string(pw) + "x" + std::to_string(ph));
@@ -398,11 +402,6 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
     } catch (const std::exception& e) {
         return detail::fail(dst, "preview", e);
     }
-}
-
-ImageBuf preview(const ImageBuf& normals, const ImageBuf& height, const PreviewOptions& options)
-{
-    return detail::first_form([&](ImageBuf& dst) { preview(dst, normals, height, options); });
 }
 
 }  // namespace relief

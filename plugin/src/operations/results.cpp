@@ -76,6 +76,11 @@ void publish_result(ImageBuf& dst, ROI roi, std::vector<std::string> channels, c
         spec.attribute("relief:parameters", parameters);
     spec.attribute("relief:height_unit", "texel");
     tag_slope_metadata(spec, stats);
+    set_result(dst, spec, pixels);
+}
+
+void set_result(ImageBuf& dst, const OIIO::ImageSpec& spec, const float* pixels)
+{
     dst.reset(spec);
     dst.set_pixels(dst.roi(), TypeDesc::FLOAT, pixels);
 }

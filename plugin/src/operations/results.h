@@ -44,6 +44,9 @@ OIIO::ImageBuf first_form(SecondForm&& second_form)
     return dst;
 }
 
+// dst becomes an image of `spec` (its channels float) holding `pixels`.
+void set_result(OIIO::ImageBuf& dst, const OIIO::ImageSpec& spec, const float* pixels);
+
 // Records a failed operation in dst and geterror(); returns false.
 bool fail(OIIO::ImageBuf& dst, const char* operation, const std::exception& e);
 

@@ -15,6 +15,11 @@ using OIIO::ImageBuf;
 using OIIO::ROI;
 using OIIO::TypeDesc;
 
+ImageBuf slopes(const ImageBuf& normals, const SlopeOptions& options, ROI roi, int nthreads)
+{
+    return detail::first_form([&](ImageBuf& dst) { slopes(dst, normals, options, roi, nthreads); });
+}
+
 bool slopes(ImageBuf& dst, const ImageBuf& normals, const SlopeOptions& options, ROI roi, int /*nthreads*/)
 {
     try {
@@ -31,11 +36,6 @@ bool slopes(ImageBuf& dst, const ImageBuf& normals, const SlopeOptions& options,
     } catch (const std::exception& e) {
         return detail::fail(dst, "slopes", e);
     }
-}
-
-ImageBuf slopes(const ImageBuf& normals, const SlopeOptions& options, ROI roi, int nthreads)
-{
-    return detail::first_form([&](ImageBuf& dst) { slopes(dst, normals, options, roi, nthreads); });
 }
 
 }  // namespace relief
