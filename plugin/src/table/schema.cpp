@@ -116,8 +116,9 @@ const ImageBuf* file_image(const ImageBuf* given, const std::string& path, const
 
 const ImageBuf& file_to_come()
 {
-    static const ImageBuf image;
-    return image;
+    // Never destroyed: the image library may be torn down first at exit.
+    static const ImageBuf* const image = new ImageBuf();
+    return *image;
 }
 
 const ImageSlot kNormals{"normals", 2, 4,
