@@ -245,13 +245,14 @@ private:
             const std::string native = top.spec().get_string_attribute("relief:native_format");
             if (!s.format_given && !native.empty())
                 w.format = OIIO::TypeDesc(native);
-            if (w.format == OIIO::TypeDesc::HALF &&
-                top.spec().get_string_attribute("relief:method") == "correct" &&
-                std::max(top.spec().width, top.spec().height) > 2048)
+            // A result that half floats hold only up to a size says so.
+            const int half_max = top.spec().get_int_attribute("relief:half_max_texels", 0);
+            if (w.format == OIIO::TypeDesc::HALF && half_max > 0 &&
+                std::max(top.spec().width, top.spec().height) > half_max)
                 std::fprintf(stderr,
-                             "relief: warning: %s: half offsets above 2048 texels are coarser than 1/8 "
+                             "relief: warning: %s: half values above %d texels are coarser than 1/8 "
                              "texel; prefer float\n",
-                             s.path.c_str());
+                             s.path.c_str(), half_max);
             w.compression = s.compression;
             const std::string digest = output_digest(digest_, outputs_++);
             if (digest.empty())

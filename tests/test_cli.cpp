@@ -471,3 +471,18 @@ TEST_CASE("cli: a buffer larger than the device allows is refused with the numbe
     CHECK(r.rc == 1);
     CHECK(r.err.find("RELIEF_DEVICE_MAX_ALLOC must be a number of bytes") != std::string::npos);
 }
+
+TEST_CASE("cli: -d half warns for offsets wider than half floats hold to 1/8 texel, not below", "[cli]")
+{
+    const fs::path dir = scratch("half-offsets");
+    for (const int w : {2048, 2049}) {
+        const std::string in = (dir / ("h" + std::to_string(w) + ".exr")).string();
+        REQUIRE(relief::test::image(w, 2, 1, std::vector<float>(std::size_t(w) * 2, 0.0f)).write(in));
+        const std::string out = (dir / ("o" + std::to_string(w) + ".exr")).string();
+        auto r = run_cli("'" + in + "' --correct:scale=0.01 -d half -o '" + out + "'");
+        INFO(r.err);
+        CHECK(r.rc == 0);
+        CHECK((r.err.find("half values above 2048 texels are coarser than 1/8 texel") != std::string::npos) ==
+              (w > 2048));
+    }
+}

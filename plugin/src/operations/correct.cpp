@@ -200,6 +200,9 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         spec.channelnames = {"du", "dv"};
         spec.attribute("relief:method", "correct");
         spec.attribute("relief:offset_unit", "texture (1 = the width, the height)");
+        // Half floats hold an offset to 1/8 texel up to 2048 texels: a writer
+        // warns beyond (relief writes -d half when asked).
+        spec.attribute("relief:half_max_texels", 2048);
         spec.attribute("relief:boundary", rep.boundary);
         spec.attribute("relief:nodes", rep.nodes);
         spec.attribute("relief:scale", float(p.scale));
