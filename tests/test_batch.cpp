@@ -505,3 +505,15 @@ TEST_CASE("update: a job is skipped exactly when its outputs record the digest i
     write_crop(kDem, d / "moved1.png", 24);  // the mask's bytes do count
     CHECK(statuses((run(), log)) == S{"ok"});
 }
+
+TEST_CASE("batch: --log strings are JSON: quotes, backslashes and control characters escaped",
+          "[batch][parse]")
+{
+    using relief::cli::json_quote;
+    CHECK(json_quote("") == "\"\"");
+    CHECK(json_quote("a b.exr") == "\"a b.exr\"");
+    CHECK(json_quote("say \"hi\"") == "\"say \\\"hi\\\"\"");
+    CHECK(json_quote("C:\\maps\\n.png") == "\"C:\\\\maps\\\\n.png\"");
+    CHECK(json_quote(std::string("tab\there\nnl\x01\x1f")) == "\"tab\\u0009here\\u000anl\\u0001\\u001f\"");
+    CHECK(json_quote("\x7f and caf\xc3\xa9") == "\"\x7f and caf\xc3\xa9\"");  // bytes >= 0x20 as they are
+}
