@@ -539,6 +539,14 @@ TEST_CASE("validate: a rule reads the same from validate(), the modifiers and th
         {"mesh", "patch=8", [](OperationCall&) {}, "a mesh needs a file name (out=FILE.obj|.ply|.gltf|.glb)"},
         {"preview", "light=400,45", [](OperationCall& c) { c.preview.azimuth = 400.0f; },
          "light=400,45 needs AZ in [-360, 360] degrees and EL in (0, 90] degrees"},
+        {"correct", "fix=height:1:1e35",
+         [](OperationCall& c) {
+             c.correct.fix_height = 1.0f;
+             c.correct.fix_width = 1e35f;
+         },
+         "fix width=1e+35 is out of range; it must be in (0, 1e+30] or none"},
+        {"normals", "normal=auto", [](OperationCall& c) { c.normals.convention = NormalConvention::Auto; },
+         "normal=auto is not one of opengl|directx"},
         {"slopes", "max_angle=0", [](OperationCall& c) { c.slopes.normals.max_angle = 0.0f; },
          "max_angle=0 is out of range; it must be in (0, 90) degrees"},
     };
@@ -573,6 +581,19 @@ TEST_CASE("validate: a rule reads the same from validate(), the modifiers and th
     CHECK_FALSE(parse_modifiers(masked, "height", "rays=8:mask=" + kHeight));
     CHECK(geterror() == "a mask applies to method=poisson, not to rays");
     CHECK(parse_modifiers(masked, "height", "mask=" + kHeight));
+    // Enum values that C++ casts can make and no modifier can: refused with their number.
+    HeightOptions cast;
+    cast.method = static_cast<HeightMethod>(7);
+    CHECK(validate(cast) == "method=7 is not one of auto|rays|poisson");
+    CorrectOptions search;
+    search.search = static_cast<CorrectSearch>(-1);
+    CHECK(validate(search) == "search=-1 is not one of brent|golden|ternary");
+    BakeOptions bake;
+    bake.wrap = static_cast<BakeWrap>(3);
+    CHECK(validate(bake) == "wrap=3 is not one of auto|periodic|clamp");
+    SlopeOptions slopes;
+    slopes.normals.float_encoding = static_cast<FloatEncoding>(2);
+    CHECK(validate(slopes) == "range=2 is not one of signed|unsigned");
     // The defaults are valid, and so are words standing for 0 (auto).
     OperationCall defaults;
     CHECK(validate(defaults.height).empty());

@@ -51,6 +51,11 @@ std::string out_of_range(const std::string& name, const std::string& value, bool
            range + (words.empty() ? "" : " or " + words);
 }
 
+std::string not_one_of(const std::string& name, const std::string& value, const std::string& choices)
+{
+    return name + "=" + value + " is not one of " + choices;
+}
+
 std::string not_a_number(const std::string& name, const std::string& value)
 {
     return name + "=" + value + " is not a number";

@@ -40,6 +40,9 @@ inline constexpr Limits relax{"relax", false, 1, false, 2, true, "", nullptr};
 inline constexpr Limits surface_scale{"scale", false, 0, true, 1e9, false, "", nullptr};
 inline constexpr Limits patch{"patch", true, 1, false, 4096, false, "texels", nullptr};
 inline constexpr Limits error{"error", false, 0, true, 1e9, false, "texels x S", nullptr};
+// correct's fix=height:H0:DH (DH 0: no tent)
+inline constexpr Limits fix_height{"fix height", false, -1e30, false, 1e30, false, "", nullptr};
+inline constexpr Limits fix_width{"fix width", false, 0, true, 1e30, false, "", "none"};
 // preview's light=AZ,EL
 inline constexpr Limits light_azimuth{"azimuth", false, -360, false, 360, false, "degrees", nullptr};
 inline constexpr Limits light_elevation{"elevation", false, 0, true, 90, false, "degrees", nullptr};
@@ -58,6 +61,9 @@ bool within(const Limits& l, double v);
 // "auto" or "a|b", appended as " or auto").
 std::string out_of_range(const std::string& name, const std::string& value, bool integer,
                          const std::string& range, const std::string& words);
+// The one wording of a choice outside its words: "normal=auto is not one of
+// opengl|directx" (`choices`: "a|b|c").
+std::string not_one_of(const std::string& name, const std::string& value, const std::string& choices);
 // "phase=nan is not a number"
 std::string not_a_number(const std::string& name, const std::string& value);
 // out_of_range() (or not_a_number()) for v, or "" when it is within.

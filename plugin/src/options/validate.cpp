@@ -6,6 +6,7 @@
 #include "relief/validate.h"
 
 #include <cmath>
+#include <string>
 
 #include "option_limits.h"
 
@@ -25,9 +26,20 @@ std::string first(std::initializer_list<std::string> problems)
     return "";
 }
 
+// An enum field set in C++ to a value it does not name (a cast, memory
+// gone bad): its number and the words it takes.
+template <class E>
+std::string choice_problem(const char* name, E value, int count, const char* choices)
+{
+    const int v = int(value);
+    return v >= 0 && v < count ? "" : detail::not_one_of(name, std::to_string(v), choices);
+}
+
 std::string decoding_problem(const NormalDecoding& d)
 {
-    return range_problem(limits::max_angle, d.max_angle);
+    return first({choice_problem("normal", d.convention, 3, "auto|opengl|directx"),
+                  choice_problem("range", d.float_encoding, 2, "signed|unsigned"),
+                  range_problem(limits::max_angle, d.max_angle)});
 }
 
 }  // namespace
@@ -39,9 +51,13 @@ std::string validate(const SlopeOptions& o)
 
 std::string validate(const HeightOptions& o)
 {
-    if (std::string p = first({decoding_problem(o.normals), range_problem(limits::highpass, o.highpass),
-                               range_problem(limits::rays, o.rays), range_problem(limits::radius, o.radius),
-                               range_problem(limits::phase, o.phase)});
+    if (std::string p =
+            first({decoding_problem(o.normals), choice_problem("method", o.method, 3, "auto|rays|poisson"),
+                   choice_problem("boundary", o.boundary, 3, "auto|periodic|free"),
+                   choice_problem("impl", o.impl, 2, "fast|reference"),
+                   choice_problem("directions", o.directions, 2, "rational|exact"),
+                   range_problem(limits::highpass, o.highpass), range_problem(limits::rays, o.rays),
+                   range_problem(limits::radius, o.radius), range_problem(limits::phase, o.phase)});
         !p.empty())
         return p;
     const bool rays = o.method == HeightMethod::Rays;
@@ -62,7 +78,10 @@ std::string validate(const HeightOptions& o)
 std::string validate(const CorrectOptions& o)
 {
     if (std::string p =
-            first({range_problem(limits::displacement_scale, o.scale), range_problem(limits::theta, o.theta),
+            first({choice_problem("nodes", o.nodes, 2, "corner|center"),
+                   choice_problem("boundary", o.boundary, 3, "auto|periodic|fixed"),
+                   choice_problem("search", o.search, 3, "brent|golden|ternary"),
+                   range_problem(limits::displacement_scale, o.scale), range_problem(limits::theta, o.theta),
                    range_problem(limits::iterations, o.iterations),
                    range_problem(limits::tolerance, o.tolerance), range_problem(limits::levels, o.levels),
                    range_problem(limits::threshold, o.threshold), range_problem(limits::relax, o.relax)});
@@ -70,23 +89,32 @@ std::string validate(const CorrectOptions& o)
         return p;
     if (o.max_iterations < 1)
         return "max_iterations must be >= 1";
-    if (!(o.fix_width >= 0.0f) || !std::isfinite(o.fix_width) || !std::isfinite(o.fix_height))
-        return "fix=height needs a finite height and a width > 0";
+    if (std::string p = first({range_problem(limits::fix_width, o.fix_width),
+                               o.fix_width > 0.0f ? range_problem(limits::fix_height, o.fix_height) : ""});
+        !p.empty())
+        return p;
     if (o.fix_mask && o.fix_width > 0.0f)
         return "give a fixation mask or a height tent, not both";
     return "";
 }
 
-std::string validate(const BakeOptions&)
+std::string validate(const BakeOptions& o)
 {
-    return "";  // its choices are all valid; kind=height is refused by bake() (a height map is its input)
+    // (kind=height is refused by bake(), which may find a height map by itself)
+    return first({choice_problem("filter", o.filter, 2, "bilinear|bicubic"),
+                  choice_problem("colorspace", o.colorspace, 4, "auto|sRGB|linear|raw"),
+                  choice_problem("kind", o.kind, 5, "auto|color|normal|data|height"),
+                  choice_problem("wrap", o.wrap, 3, "auto|periodic|clamp")});
 }
 
 std::string validate(const NormalsOptions& o)
 {
+    // A height has no green convention to detect: auto is not one of them.
     if (o.convention == NormalConvention::Auto)
-        return "normal=auto is not one of opengl|directx (a height has no convention to detect)";
-    return range_problem(limits::surface_scale, o.scale);
+        return detail::not_one_of("normal", "auto", "opengl|directx");
+    return first({choice_problem("normal", o.convention, 3, "opengl|directx"),
+                  choice_problem("boundary", o.boundary, 3, "auto|periodic|free"),
+                  range_problem(limits::surface_scale, o.scale)});
 }
 
 std::string validate(const TessellationOptions& o)
@@ -102,7 +130,9 @@ std::string validate(const MeshOptions& o)
 
 std::string validate(const PreviewOptions& o)
 {
-    if (std::string p = decoding_problem(o.normals); !p.empty())
+    if (std::string p = first(
+            {decoding_problem(o.normals), choice_problem("boundary", o.boundary, 3, "auto|periodic|free")});
+        !p.empty())
         return p;
     if (!detail::within(limits::light_azimuth, o.azimuth) ||
         !detail::within(limits::light_elevation, o.elevation))

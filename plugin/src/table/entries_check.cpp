@@ -148,8 +148,10 @@ Operation preview_operation()
     light.info.type = ModifierType::Text;
     light.info.placeholder = "AZ,EL";
     light.info.unit = "degrees";
-    light.info.meaning = "key light: azimuth counter-clockwise from the image's right (90 = from the top), "
-                         "in [-360, 360]; elevation above the surface, in (0, 90]";
+    light.info.meaning =
+        "key light: azimuth counter-clockwise from the image's right (90 = from the top), in " +
+        detail::range_text(detail::limits::light_azimuth) + "; elevation above the surface, in " +
+        detail::range_text(detail::limits::light_elevation);
     light.set = [k](OperationCall& c, const std::string& text, double) {
         // The written form; the angles' ranges are validate()'s.
         const std::size_t comma = text.find(',');

@@ -67,7 +67,7 @@ Operation correct_operation()
                 const std::size_t a1 = v.find(':'), a2 = v.find(':', a1 + 1);
                 double h0 = 0.0, dh = 0.0;
                 if (a2 == std::string::npos || !read_number(v.substr(a1 + 1, a2 - a1 - 1), h0) ||
-                    !read_number(v.substr(a2 + 1), dh) || !(dh > 0.0))
+                    !read_number(v.substr(a2 + 1), dh) || !(float(dh) > 0.0f))
                     throw std::invalid_argument(
                         "fix=" + v + ": write fix=height:H0:DH (stored height H0, tent half-width DH > 0)");
                 k(c).fix_height = float(h0);

@@ -64,7 +64,8 @@ double check_value(const ModifierInfo& m, const std::string& text)
         if (text == w)
             return 0.0;
     switch (m.type) {
-    case ModifierType::Choice: throw std::invalid_argument(kv + " is not one of " + joined(m.choices, "|"));
+    case ModifierType::Choice:
+        throw std::invalid_argument(detail::not_one_of(m.name, text, joined(m.choices, "|")));
     case ModifierType::Integer: {
         long long v = 0;
         const char* end = text.data() + text.size();
