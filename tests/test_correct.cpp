@@ -16,6 +16,7 @@
 #include "relief/correct.h"
 #include "relief/errors.h"
 #include "support/fields.h"
+#include "support/images.h"
 
 using namespace relief;
 namespace ref = relief::reference;
@@ -740,4 +741,20 @@ TEST_CASE("correct: statistics larger than one device buffer come in chunks, sam
     CHECK(whole.anisotropy_after.p95 == chunked.anisotropy_after.p95);
     CHECK(whole.area_after.max == chunked.area_after.max);
     CHECK(whole.area_before.mean == chunked.area_before.mean);
+}
+
+TEST_CASE("correct: boundary=auto on a map one texel wide or tall is fixed (a seam needs two texels)",
+          "[correct][boundary]")
+{
+    for (const auto& [w, h] : {std::pair<int, int>{1, 12}, {12, 1}, {1, 1}}) {
+        INFO(w << "x" << h);
+        std::vector<float> ramp(std::size_t(w) * h);
+        for (std::size_t i = 0; i < ramp.size(); ++i)
+            ramp[i] = 0.25f * float(i % 3);
+        CorrectOptions o;
+        o.scale = 0.1f;
+        OIIO::ImageBuf offsets = correct(test::image(w, h, 1, ramp), o);
+        REQUIRE_FALSE(offsets.has_error());
+        CHECK(offsets.spec().get_string_attribute("relief:boundary") == "fixed");
+    }
 }
