@@ -12,11 +12,10 @@
 //   g++ -O1 tests/portability/float3_from_float2.cpp -lOpenCL -o /tmp/float3
 //   oclgrind --uninitialized --build-options -cl-opt-disable /tmp/float3        # exit 139
 //   oclgrind --uninitialized --build-options -cl-opt-disable /tmp/float3 split  # out = 3
-#define CL_TARGET_OPENCL_VERSION 120
-#include <CL/cl.h>
-
 #include <cstdio>
 #include <cstring>
+
+#include "first_device.h"
 
 int main(int argc, char** argv)
 {
@@ -27,28 +26,20 @@ int main(int argc, char** argv)
                             : "__kernel void k(__global const float* in, __global float* out)"
                               " { float2 o = (float2)(in[0], in[1]); float3 c = (float3)(o, in[2]);"
                               " out[get_global_id(0)] = c.z; }";
-    cl_platform_id p;
-    cl_device_id d;
-    cl_int err;
-    clGetPlatformIDs(1, &p, nullptr);
-    clGetDeviceIDs(p, CL_DEVICE_TYPE_ALL, 1, &d, nullptr);
-    cl_context ctx = clCreateContext(nullptr, 1, &d, nullptr, nullptr, &err);
-    cl_command_queue q = clCreateCommandQueue(ctx, d, 0, &err);
-    cl_program prog = clCreateProgramWithSource(ctx, 1, &src, nullptr, &err);
-    if (clBuildProgram(prog, 1, &d, "", nullptr, nullptr) != CL_SUCCESS) {
+    const FirstDevice f = open_first_device();
+    cl_program prog = build_program(f, src);
+    if (!prog) {
         std::fprintf(stderr, "build failed\n");
         return 1;
     }
-    cl_kernel k = clCreateKernel(prog, "k", &err);
+    cl_kernel k = clCreateKernel(prog, "k", nullptr);
     float host[3] = {1, 2, 3};
-    cl_mem in = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof host, host, &err);
-    cl_mem out = clCreateBuffer(ctx, CL_MEM_READ_WRITE, 8 * sizeof(float), nullptr, &err);
-    clSetKernelArg(k, 0, sizeof in, &in);
-    clSetKernelArg(k, 1, sizeof out, &out);
-    const size_t n = 8;
-    clEnqueueNDRangeKernel(q, k, 1, nullptr, &n, nullptr, 0, nullptr, nullptr);
+    cl_mem in =
+        clCreateBuffer(f.context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof host, host, nullptr);
+    cl_mem out = new_buffer(f, 8 * sizeof(float));
+    run_in_out(f, k, in, out, 8);
     float r = 0;
-    clEnqueueReadBuffer(q, out, CL_TRUE, 0, sizeof r, &r, 0, nullptr, nullptr);
+    clEnqueueReadBuffer(f.queue, out, CL_TRUE, 0, sizeof r, &r, 0, nullptr, nullptr);
     std::printf("out = %g\n", r);
     return 0;
 }

@@ -16,46 +16,36 @@
 //   g++ -O1 tests/portability/reused_buffer.cpp -lOpenCL -o /tmp/reused_buffer
 //   oclgrind --uninitialized /tmp/reused_buffer          # reports, out[15] = 2
 //   oclgrind --uninitialized /tmp/reused_buffer fresh    # none
-#define CL_TARGET_OPENCL_VERSION 120
-#include <CL/cl.h>
-
 #include <cstdio>
 #include <cstring>
+
+#include "first_device.h"
 
 int main(int argc, char** argv)
 {
     const bool reuse = argc < 2 || std::strcmp(argv[1], "fresh") != 0;
-    cl_platform_id p;
-    cl_device_id d;
-    cl_int err;
-    clGetPlatformIDs(1, &p, nullptr);
-    clGetDeviceIDs(p, CL_DEVICE_TYPE_ALL, 1, &d, nullptr);
-    cl_context ctx = clCreateContext(nullptr, 1, &d, nullptr, nullptr, &err);
-    cl_command_queue q = clCreateCommandQueue(ctx, d, 0, &err);
-    const char* src = "__kernel void ones(__global float* b) { b[get_global_id(0)] = 1.0f; }\n"
-                      "__kernel void twice(__global const float* in, __global float* out)"
-                      " { size_t i = get_global_id(0); out[i] = 2.0f * in[i]; }\n";
-    cl_program prog = clCreateProgramWithSource(ctx, 1, &src, nullptr, &err);
-    clBuildProgram(prog, 1, &d, "", nullptr, nullptr);
-    cl_kernel ones = clCreateKernel(prog, "ones", &err), twice = clCreateKernel(prog, "twice", &err);
+    const FirstDevice f = open_first_device();
+    cl_program prog =
+        build_program(f, "__kernel void ones(__global float* b) { b[get_global_id(0)] = 1.0f; }\n"
+                         "__kernel void twice(__global const float* in, __global float* out)"
+                         " { size_t i = get_global_id(0); out[i] = 2.0f * in[i]; }\n");
+    cl_kernel ones = clCreateKernel(prog, "ones", nullptr), twice = clCreateKernel(prog, "twice", nullptr);
     if (reuse) {  // a 4-byte buffer a kernel writes, then released
-        cl_mem small = clCreateBuffer(ctx, CL_MEM_READ_WRITE, 4, nullptr, &err);
+        cl_mem small = new_buffer(f, 4);
         clSetKernelArg(ones, 0, sizeof small, &small);
         const size_t one = 1;
-        clEnqueueNDRangeKernel(q, ones, 1, nullptr, &one, nullptr, 0, nullptr, nullptr);
-        clFinish(q);
+        clEnqueueNDRangeKernel(f.queue, ones, 1, nullptr, &one, nullptr, 0, nullptr, nullptr);
+        clFinish(f.queue);
         clReleaseMemObject(small);
     }
     const size_t n = 16;
-    cl_mem in = clCreateBuffer(ctx, CL_MEM_READ_WRITE, n * sizeof(float), nullptr, &err);
-    cl_mem out = clCreateBuffer(ctx, CL_MEM_READ_WRITE, n * sizeof(float), nullptr, &err);
+    cl_mem in = new_buffer(f, n * sizeof(float)), out = new_buffer(f, n * sizeof(float));
     clSetKernelArg(ones, 0, sizeof in, &in);
-    clEnqueueNDRangeKernel(q, ones, 1, nullptr, &n, nullptr, 0, nullptr, nullptr);  // writes all of `in`
-    clSetKernelArg(twice, 0, sizeof in, &in);
-    clSetKernelArg(twice, 1, sizeof out, &out);
-    clEnqueueNDRangeKernel(q, twice, 1, nullptr, &n, nullptr, 0, nullptr, nullptr);
+    clEnqueueNDRangeKernel(f.queue, ones, 1, nullptr, &n, nullptr, 0, nullptr,
+                           nullptr);  // writes all of `in`
+    run_in_out(f, twice, in, out, n);
     float r[n];
-    clEnqueueReadBuffer(q, out, CL_TRUE, 0, sizeof r, r, 0, nullptr, nullptr);
+    clEnqueueReadBuffer(f.queue, out, CL_TRUE, 0, sizeof r, r, 0, nullptr, nullptr);
     std::printf("%s: out[15] = %g\n", reuse ? "after a released buffer" : "fresh buffers", r[15]);
     return 0;
 }
