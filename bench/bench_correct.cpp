@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "relief/relief.h"
+#include "image_files.h"
 #include "run_process.h"
 
 namespace {
@@ -202,24 +203,6 @@ Scored score(const std::vector<float>& h, int w, int ht, const std::vector<float
     return r;
 }
 
-std::vector<float> channels(const std::string& path, int nch, int& w, int& h, std::string* boundary = nullptr)
-{
-    OIIO::ImageBuf b(path);
-    if (!b.read(0, 0, true, OIIO::TypeDesc::FLOAT)) {
-        std::fprintf(stderr, "bench_correct: cannot read %s\n", path.c_str());
-        std::exit(1);
-    }
-    w = b.spec().width;
-    h = b.spec().height;
-    if (boundary)
-        *boundary = b.spec().get_string_attribute("relief:boundary");
-    OIIO::ROI r = b.roi();
-    r.chend = nch;
-    std::vector<float> v(std::size_t(w) * h * nch);
-    b.get_pixels(r, OIIO::TypeDesc::FLOAT, v.data());
-    return v;
-}
-
 struct Variant {
     const char* name;
     relief::CorrectSearch search;
@@ -259,7 +242,7 @@ void real_maps(const std::vector<std::string>& names, const std::string& data, c
         const std::string path =
             name.find('/') != std::string::npos ? name : data + "/" + name + "/height.png";
         int w = 0, h = 0;
-        const std::vector<float> hts = channels(path, 1, w, h);
+        const std::vector<float> hts = bench::read_channels(path, w, h, 1);
         OIIO::ImageBuf hb(OIIO::ImageSpec(w, h, 1, OIIO::TypeDesc::FLOAT));
         hb.set_pixels(hb.roi(), OIIO::TypeDesc::FLOAT, hts.data());
         for (const Variant& v : kVariants)
@@ -300,8 +283,8 @@ void real_maps(const std::vector<std::string>& names, const std::string& data, c
         }
         int ow = 0, oh = 0;
         std::string bc_old, bc_cur;
-        const auto off_old = channels(old_out, 2, ow, oh, &bc_old),
-                   off_cur = channels(cur_out, 2, ow, oh, &bc_cur);
+        const auto off_old = bench::read_channels(old_out, ow, oh, 2, &bc_old),
+                   off_cur = bench::read_channels(cur_out, ow, oh, 2, &bc_cur);
         const Scored so = score(hts, w, h, off_old, 0.05, 5.0, bc_old == "periodic");
         const Scored sc = score(hts, w, h, off_cur, 0.05, 5.0, bc_cur == "periodic");
         const double mb = bench::median(tb), mc = bench::median(tc);

@@ -37,6 +37,7 @@
 #include <string>
 #include <vector>
 
+#include "image_files.h"
 #include "run_process.h"
 
 namespace fs = std::filesystem;
@@ -51,32 +52,6 @@ double run(const std::vector<std::string>& argv, const std::string& log = "")
 }
 
 using bench::median;
-
-std::vector<float> pixels(const std::string& path)
-{
-    OIIO::ImageBuf img(path);
-    img.read(0, 0, true, OIIO::TypeDesc::FLOAT);
-    std::vector<float> v(img.spec().image_pixels() * img.spec().nchannels);
-    img.get_pixels(img.roi(), OIIO::TypeDesc::FLOAT, v.data());
-    return v;
-}
-
-// The largest difference as a fraction of a's standard deviation.
-double relative_difference(const std::vector<float>& a, const std::vector<float>& b)
-{
-    if (a.size() != b.size() || a.empty())
-        return INFINITY;
-    double mean = 0, var = 0, worst = 0;
-    for (float v : a)
-        mean += v;
-    mean /= double(a.size());
-    for (std::size_t i = 0; i < a.size(); ++i) {
-        var += (a[i] - mean) * (a[i] - mean);
-        worst = std::max(worst, double(std::abs(a[i] - b[i])));
-    }
-    const double sd = std::sqrt(var / double(a.size()));
-    return sd > 0 ? worst / sd : worst;
-}
 
 struct Map {
     std::string name, png, tga;
@@ -181,7 +156,8 @@ int main(int argc, char** argv)
         const std::string single = work + "/out/" + m.name + ".single.exr";
         single_total += run({relief, m.png, "--height", "-o", single});
         worst =
-            std::max(worst, relative_difference(pixels(single), pixels(work + "/out/" + m.name + ".exr")));
+            std::max(worst, bench::max_diff_over_std(bench::read_channels(single),
+                                                     bench::read_channels(work + "/out/" + m.name + ".exr")));
     }
     const double update = run({relief, "--batch", work + "/jobs.txt", "--update"});
 

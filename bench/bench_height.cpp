@@ -6,7 +6,7 @@
 //
 // For each size, writes a float normal map of a smooth periodic field with
 // exact normals, then times whole `relief` processes (fork + exec, warm PoCL
-// kernel cache; the first run of each size with an empty cache is reported
+// kernel caches; the first run of each size with empty caches is reported
 // as cold) and measures the error of the result against exact truth:
 //   rays     RMSE against h - mean_disk_R(h) (exact via Bessel J1), / std
 //   poisson  RMSE against h - mean(h), / std; highpass against the filtered h
@@ -16,10 +16,6 @@
 // listed as skipped. Writes results.csv, results.md and plot.gp (gnuplot:
 // run time against error, log axes, one curve per method) into --out.
 #include <OpenImageIO/imagebuf.h>
-
-#include <sys/resource.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -32,6 +28,9 @@
 #include <string>
 #include <vector>
 
+#include "image_files.h"
+#include "run_process.h"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -42,58 +41,25 @@ struct Wave {
 };
 const Wave kWaves[] = {{1, 0, 8.0, 0.2}, {2, 3, 3.0, 1.0}, {-5, 2, 1.5, 2.5}, {9, 7, 0.6, 0.4}};
 
-struct Timing {
-    double wall = 0;    // seconds
-    double rss_mb = 0;  // peak resident set of the process
+// A first run of cmd (cold where `cache` is new), then `runs` warm ones.
+struct Runs {
+    double cold = 0;           // seconds
+    std::vector<double> warm;  // seconds
+    double rss_mb = 0;         // the peak of them all
 };
 
-// Runs argv with POCL_CACHE_DIR=cache; exits on failure.
-Timing run(const std::vector<std::string>& argv, const std::string& cache)
+Runs run_repeated(const std::vector<std::string>& cmd, const std::string& cache, int runs)
 {
-    auto t0 = std::chrono::steady_clock::now();
-    pid_t pid = fork();
-    if (pid == 0) {
-        setenv("POCL_CACHE_DIR", cache.c_str(), 1);
-        std::vector<char*> a;
-        for (const auto& s : argv)
-            a.push_back(const_cast<char*>(s.c_str()));
-        a.push_back(nullptr);
-        if (!std::freopen("/dev/null", "w", stderr))
-            _exit(127);
-        execv(a[0], a.data());
-        _exit(127);
+    Runs r;
+    const bench::Timing cold = bench::run_measured(cmd, cache);
+    r.cold = cold.wall;
+    r.rss_mb = cold.rss_mb;
+    for (int i = 0; i < runs; ++i) {
+        const bench::Timing t = bench::run_measured(cmd, cache);
+        r.warm.push_back(t.wall);
+        r.rss_mb = std::max(r.rss_mb, t.rss_mb);
     }
-    int status = 0;
-    struct rusage ru {};
-    wait4(pid, &status, 0, &ru);
-    Timing t;
-    t.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    t.rss_mb = ru.ru_maxrss / 1024.0;
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-        std::string cmd;
-        for (const auto& s : argv)
-            cmd += s + " ";
-        std::fprintf(stderr, "bench: command failed: %s\n", cmd.c_str());
-        std::exit(1);
-    }
-    return t;
-}
-
-std::vector<float> read_channel0(const std::string& path, int& w, int& h)
-{
-    OIIO::ImageBuf img(path);
-    if (!img.read(0, 0, true, OIIO::TypeDesc::FLOAT)) {
-        std::fprintf(stderr, "bench: cannot read %s\n", path.c_str());
-        std::exit(1);
-    }
-    w = img.spec().width;
-    h = img.spec().height;
-    std::vector<float> v(std::size_t(w) * h);
-    OIIO::ROI roi = img.roi();
-    roi.chbegin = 0;
-    roi.chend = 1;
-    img.get_pixels(roi, OIIO::TypeDesc::FLOAT, v.data());
-    return v;
+    return r;
 }
 
 double rel_rmse(const std::vector<float>& got, const std::vector<double>& truth)
@@ -174,11 +140,7 @@ std::vector<Case> analytic_cases()
     return cases;
 }
 
-double median(std::vector<double> v)
-{
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-}
+using bench::median;
 
 }  // namespace
 
@@ -283,7 +245,7 @@ int main(int argc, char** argv)
             std::fprintf(stderr, "bench: cannot write %s\n", normal.c_str());
             return 1;
         }
-        const std::string cache = (work / ("pocl-cache-" + std::to_string(n))).string();
+        const std::string cache = (work / ("caches-" + std::to_string(n))).string();
         fs::remove_all(cache);
         bool first = true;
         for (const Case& c : analytic_cases()) {
@@ -297,19 +259,13 @@ int main(int argc, char** argv)
             const std::vector<std::string> cmd{RELIEF_CLI, normal, "--height:normal=opengl:" + c.mods, "-o",
                                                height};
             // Cold: only the first case of each size runs with an empty cache.
-            Timing cold = run(cmd, cache);
-            std::vector<double> t;
-            double rss = cold.rss_mb;
-            for (int r = 0; r < runs; ++r) {
-                Timing w = run(cmd, cache);
-                t.push_back(w.wall);
-                rss = std::max(rss, w.rss_mb);
-            }
+            const Runs timed = run_repeated(cmd, cache, runs);
+            const std::vector<double>& t = timed.warm;
             overhead = std::min(overhead, median(t));
             if (c.reference && median(t) > 2 * overhead)
                 reference_rate = std::max(reference_rate, (median(t) - overhead) / work_units);
             int w = 0, h = 0;
-            auto got = read_channel0(height, w, h);
+            auto got = bench::read_channels(height, w, h, 1);
             std::vector<double> truth(got.size());
             for (int y = 0; y < n; ++y)
                 for (int x = 0; x < n; ++x) {
@@ -328,7 +284,7 @@ int main(int argc, char** argv)
                     }
                     truth[std::size_t(y) * n + x] = v;
                 }
-            record("analytic", n, c, first ? cold.wall : NAN, t, rss, rel_rmse(got, truth),
+            record("analytic", n, c, first ? timed.cold : NAN, t, timed.rss_mb, rel_rmse(got, truth),
                    "RMSE/std vs exact");
             first = false;
         }
@@ -336,7 +292,7 @@ int main(int argc, char** argv)
 
     const fs::path shared = fs::path(RELIEF_SHARED_DATA);
     if (real && fs::is_directory(shared)) {
-        const std::string cache = (work / "pocl-cache-real").string();
+        const std::string cache = (work / "caches-real").string();
         std::vector<fs::path> dirs;
         for (const auto& e : fs::directory_iterator(shared))
             if (fs::exists(e.path() / "normal.png") && fs::exists(e.path() / "height.png"))
@@ -346,27 +302,20 @@ int main(int argc, char** argv)
                                       {"rays fast J=32", "method=rays:rays=32:radius=64"}};
         for (const auto& d : dirs) {
             int w = 0, h = 0;
-            auto truth = read_channel0((d / "height.png").string(), w, h);
+            auto truth = bench::read_channels((d / "height.png").string(), w, h, 1);
             for (const Case& c : cases) {
                 const std::string height = (work / "real.exr").string();
                 const std::vector<std::string> cmd{RELIEF_CLI, (d / "normal.png").string(),
                                                    "--height:" + c.mods, "-o", height};
-                Timing cold = run(cmd, cache);
-                std::vector<double> t;
-                double rss = cold.rss_mb;
-                for (int r = 0; r < runs; ++r) {
-                    Timing tw = run(cmd, cache);
-                    t.push_back(tw.wall);
-                    rss = std::max(rss, tw.rss_mb);
-                }
+                const Runs timed = run_repeated(cmd, cache, runs);
                 int ew = 0, eh = 0;
-                auto est = read_channel0(height, ew, eh);
+                auto est = bench::read_channels(height, ew, eh, 1);
                 if (ew != w || eh != h) {
                     std::fprintf(stderr, "bench: %s: height.png is %dx%d, normal map %dx%d: skipped\n",
                                  d.filename().c_str(), w, h, ew, eh);
                     break;
                 }
-                record(d.filename().string(), w, c, NAN, t, rss, nrmse_affine(est, truth),
+                record(d.filename().string(), w, c, NAN, timed.warm, timed.rss_mb, nrmse_affine(est, truth),
                        "NRMSE vs height.png (affine fit)");
             }
         }

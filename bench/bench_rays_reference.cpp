@@ -11,8 +11,6 @@
 // h - mean_disk_R(h) as a fraction of its standard deviation.
 #include <OpenImageIO/imagebuf.h>
 
-#include <sys/wait.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -21,6 +19,9 @@
 #include <string>
 #include <vector>
 
+#include "image_files.h"
+#include "run_process.h"
+
 namespace {
 
 struct Wave {
@@ -28,18 +29,6 @@ struct Wave {
     double a, phase;
 };
 const Wave kWaves[] = {{1, 0, 8.0, 0.2}, {2, 3, 3.0, 1.0}, {-5, 2, 1.5, 2.5}, {9, 7, 0.6, 0.4}};
-
-double run(const std::string& cmd)
-{
-    auto t0 = std::chrono::steady_clock::now();
-    int status = std::system(cmd.c_str());
-    double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-        std::fprintf(stderr, "bench: command failed: %s\n", cmd.c_str());
-        std::exit(1);
-    }
-    return s;
-}
 
 }  // namespace
 
@@ -90,18 +79,13 @@ int main(int argc, char** argv)
     const std::string cmd = std::string("'") + RELIEF_CLI + "' " + normal + " " + mods + " -o " + height;
     const std::string cache = dir + "/pocl-cache";
     std::system(("rm -rf " + cache).c_str());
-    const double cold = run("POCL_CACHE_DIR=" + cache + " " + cmd);
+    const double cold = bench::run_shell("POCL_CACHE_DIR=" + cache + " " + cmd);
     std::vector<double> t;
     for (int i = 0; i < runs; ++i)
-        t.push_back(run("POCL_CACHE_DIR=" + cache + " " + cmd));
+        t.push_back(bench::run_shell("POCL_CACHE_DIR=" + cache + " " + cmd));
     std::sort(t.begin(), t.end());
 
-    OIIO::ImageBuf out(height);
-    std::vector<float> h(std::size_t(n) * n);
-    if (!out.read() || !out.get_pixels(out.roi(), OIIO::TypeDesc::FLOAT, h.data())) {
-        std::fprintf(stderr, "bench: cannot read %s\n", height.c_str());
-        return 1;
-    }
+    const std::vector<float> h = bench::read_channels(height);
     double se = 0, st = 0;
     for (std::size_t i = 0; i < h.size(); ++i) {
         se += (h[i] - truth[i]) * (h[i] - truth[i]);

@@ -10,8 +10,6 @@
 // outputs are bit-identical.
 #include <OpenImageIO/imagebuf.h>
 
-#include <sys/wait.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -21,35 +19,10 @@
 #include <string>
 #include <vector>
 
+#include "image_files.h"
+#include "run_process.h"
+
 namespace fs = std::filesystem;
-
-namespace {
-
-double run(const std::string& cmd)
-{
-    auto t0 = std::chrono::steady_clock::now();
-    int status = std::system(cmd.c_str());
-    double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-        std::fprintf(stderr, "bench: command failed: %s\n", cmd.c_str());
-        std::exit(1);
-    }
-    return s;
-}
-
-std::vector<float> pixels(const std::string& path)
-{
-    OIIO::ImageBuf b(path);
-    if (!b.read(0, 0, true, OIIO::TypeDesc::FLOAT)) {
-        std::fprintf(stderr, "bench: cannot read %s\n", path.c_str());
-        std::exit(1);
-    }
-    std::vector<float> v(b.spec().image_pixels() * b.spec().nchannels);
-    b.get_pixels(b.roi(), OIIO::TypeDesc::FLOAT, v.data());
-    return v;
-}
-
-}  // namespace
 
 int main(int argc, char** argv)
 {
@@ -102,12 +75,13 @@ int main(int argc, char** argv)
                                 " --height:normal=opengl:boundary=clip:rays=" + std::to_string(rays) +
                                 ":radius=" + std::to_string(radius) + ":skip=" + (skip ? "on" : "off") +
                                 " -o " + out + " 2>/dev/null";
-        run(cmd);  // warm the kernel cache
+        bench::run_shell(cmd);  // warm the kernel cache
         for (int r = 0; r < runs; ++r)
-            t[skip].push_back(run(cmd));
+            t[skip].push_back(bench::run_shell(cmd));
         std::sort(t[skip].begin(), t[skip].end());
     }
-    const bool same = pixels((dir / "on.exr").string()) == pixels((dir / "off.exr").string());
+    const bool same =
+        bench::read_channels((dir / "on.exr").string()) == bench::read_channels((dir / "off.exr").string());
     const double on = t[1][t[1].size() / 2], off = t[0][t[0].size() / 2];
     std::printf("| size | flat | rays | radius | runs | skip=off median s | skip=on median s | saved | "
                 "identical |\n");

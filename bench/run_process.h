@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Whole-process timing for the benchmarks that run relief (or a peer, or an
-// older relief build) as a user would: fork, exec, wait.
+// older relief build) as a user would: fork, exec, wait; and the median.
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -14,12 +15,18 @@
 
 namespace bench {
 
+struct Timing {
+    double wall = 0;    // seconds
+    double rss_mb = 0;  // peak resident set of the process
+};
+
 // Runs argv with stdout to /dev/null and stderr to `log` (or /dev/null),
 // POCL_CACHE_DIR and RELIEF_CACHE_DIR set under `cache_root` (warm caches,
-// as a farm node's after its first map); returns the wall seconds, or exits
-// naming the command when it fails.
-inline double run_process(const std::vector<std::string>& argv, const std::string& cache_root,
-                          const std::string& log = "")
+// as a farm node's after its first map, once one run has filled them);
+// returns the wall time and peak memory, or exits naming the command when
+// it fails.
+inline Timing run_measured(const std::vector<std::string>& argv, const std::string& cache_root,
+                           const std::string& log = "")
 {
     const auto t0 = std::chrono::steady_clock::now();
     const pid_t pid = fork();
@@ -37,8 +44,11 @@ inline double run_process(const std::vector<std::string>& argv, const std::strin
         _exit(127);
     }
     int status = 0;
-    waitpid(pid, &status, 0);
-    const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    struct rusage ru {};
+    wait4(pid, &status, 0, &ru);
+    Timing t;
+    t.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    t.rss_mb = ru.ru_maxrss / 1024.0;
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
         std::string cmd;
         for (const auto& s : argv)
@@ -46,7 +56,27 @@ inline double run_process(const std::vector<std::string>& argv, const std::strin
         std::fprintf(stderr, "bench: command failed (status %d): %s\n", status, cmd.c_str());
         std::exit(1);
     }
-    return sec;
+    return t;
+}
+
+inline double run_process(const std::vector<std::string>& argv, const std::string& cache_root,
+                          const std::string& log = "")
+{
+    return run_measured(argv, cache_root, log).wall;
+}
+
+// A shell command line (environment assignments in front, as a user types
+// them): the wall seconds, or exits naming it when it fails.
+inline double run_shell(const std::string& cmd)
+{
+    const auto t0 = std::chrono::steady_clock::now();
+    const int status = std::system(cmd.c_str());
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+        std::fprintf(stderr, "bench: command failed: %s\n", cmd.c_str());
+        std::exit(1);
+    }
+    return s;
 }
 
 inline double median(std::vector<double> v)
