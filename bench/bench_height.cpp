@@ -239,12 +239,7 @@ int main(int argc, char** argv)
             }
         const std::string normal = (work / "normal.exr").string();
         const std::string height = (work / "height.exr").string();
-        OIIO::ImageBuf img(OIIO::ImageSpec(n, n, 3, OIIO::TypeDesc::FLOAT));
-        img.set_pixels(img.roi(), OIIO::TypeDesc::FLOAT, px.data());
-        if (!img.write(normal)) {
-            std::fprintf(stderr, "bench: cannot write %s\n", normal.c_str());
-            return 1;
-        }
+        bench::write_rgb(normal, n, OIIO::TypeDesc::FLOAT, px);
         const std::string cache = (work / ("caches-" + std::to_string(n))).string();
         fs::remove_all(cache);
         bool first = true;

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "image_files.h"
 #include "relief/relief.h"
 
 int main(int argc, char** argv)
@@ -95,21 +96,15 @@ int main(int argc, char** argv)
     if (reference == "off")
         return 0;
     const double tr = timed(relief::RayImpl::Reference, ref);
-    double mean = 0, var = 0, worst = 0, lo = 1e300, hi = -1e300;
-    for (float v : ref)
-        mean += v;
-    mean /= double(ref.size());
-    for (std::size_t i = 0; i < ref.size(); ++i) {
-        var += (ref[i] - mean) * (ref[i] - mean);
+    const auto [lo, hi] = std::minmax_element(ref.begin(), ref.end());
+    const double over_std = bench::max_diff_over_std(ref, fast);
+    double worst = 0;
+    for (std::size_t i = 0; i < ref.size(); ++i)
         worst = std::max(worst, double(std::abs(fast[i] - ref[i])));
-        lo = std::min(lo, double(ref[i]));
-        hi = std::max(hi, double(ref[i]));
-    }
-    const double sd = std::sqrt(var / double(ref.size()));
     std::printf("| size | rays | radius | boundary | fast s | reference s | ratio | max diff / std | max "
                 "diff / spread |\n");
     std::printf("|---|---|---|---|---|---|---|---|---|\n");
     std::printf("| %d | %d | %g | %s | %.2f | %.2f | %.1f | %.2e | %.2e |\n", n, rays, radius,
-                boundary.c_str(), tf, tr, tr / tf, worst / sd, worst / (hi - lo));
+                boundary.c_str(), tf, tr, tr / tf, over_std, worst / (*hi - *lo));
     return 0;
 }

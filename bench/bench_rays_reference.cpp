@@ -66,12 +66,7 @@ int main(int argc, char** argv)
     const std::string dir = "bench_rays_reference.tmp";
     std::system(("mkdir -p " + dir).c_str());
     const std::string normal = dir + "/normal.exr", height = dir + "/height.exr";
-    OIIO::ImageBuf img(OIIO::ImageSpec(n, n, 3, OIIO::TypeDesc::FLOAT));
-    img.set_pixels(img.roi(), OIIO::TypeDesc::FLOAT, px.data());
-    if (!img.write(normal)) {
-        std::fprintf(stderr, "bench: cannot write %s\n", normal.c_str());
-        return 1;
-    }
+    bench::write_rgb(normal, n, OIIO::TypeDesc::FLOAT, px);
 
     char mods[160];
     std::snprintf(mods, sizeof mods, "--height:method=rays:impl=reference:normal=opengl:rays=%d:radius=%g",

@@ -61,12 +61,7 @@ int main(int argc, char** argv)
                 p[0] = p[1] = 128, p[2] = 255;
         }
     const std::string normal = (dir / "atlas.png").string();
-    OIIO::ImageBuf img(OIIO::ImageSpec(n, n, 3, OIIO::TypeDesc::UINT8));
-    img.set_pixels(img.roi(), OIIO::TypeDesc::UINT8, px.data());
-    if (!img.write(normal)) {
-        std::fprintf(stderr, "bench: cannot write %s\n", normal.c_str());
-        return 1;
-    }
+    bench::write_rgb(normal, n, OIIO::TypeDesc::UINT8, px);
     const std::string cache = "POCL_CACHE_DIR=" + (dir / "pocl-cache").string() + " ";
     std::vector<double> t[2];
     for (int skip : {1, 0}) {

@@ -41,6 +41,18 @@ inline std::vector<float> read_channels(const std::string& path)
     return read_channels(path, w, h);
 }
 
+// Writes n x n RGB pixels of `type` (row by row) to `path`, or exits naming it.
+template <class T>
+void write_rgb(const std::string& path, int n, OIIO::TypeDesc type, const std::vector<T>& px)
+{
+    OIIO::ImageBuf img(OIIO::ImageSpec(n, n, 3, type));
+    img.set_pixels(img.roi(), type, px.data());
+    if (!img.write(path)) {
+        std::fprintf(stderr, "bench: cannot write %s\n", path.c_str());
+        std::exit(1);
+    }
+}
+
 // The largest |a - b| as a fraction of a's standard deviation (the
 // difference itself where a is constant; infinite where the sizes differ).
 inline double max_diff_over_std(const std::vector<float>& a, const std::vector<float>& b)
