@@ -9,6 +9,7 @@
 #include "compute_context.h"
 #include "ray_stage.h"
 #include "reference/rays_reference.h"
+#include "reference/zero_mean.h"
 #include "relief/relief.h"
 #include "slope_stage.h"
 #include "support/fields.h"
@@ -116,7 +117,6 @@ TEST_CASE("clip mode at edges and corners: a tilted plane against the clipped-di
     auto got = kernel_rays(g, w, h, rays, radius, phase, false);
 
     std::vector<double> expect(got.size());
-    double mean = 0;
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
             double a = 0, wsum = 0;
@@ -130,11 +130,8 @@ TEST_CASE("clip mode at edges and corners: a tilted plane against the clipped-di
                 wsum += (L * L - t0 * t0) / 2.0;
             }
             expect[std::size_t(y) * w + x] = -a / wsum;
-            mean += -a / wsum;
         }
-    mean /= double(expect.size());
-    for (double& v : expect)
-        v -= mean;
+    relief::reference::subtract_mean(expect);
     const double spread = test::rms(expect);
     auto at = [&](int x, int y) { return std::size_t(y) * w + x; };
     for (auto [x, y] : {std::pair{0, 0},

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "poisson_reference.h"
+#include "zero_mean.h"
 
 #include <algorithm>
 #include <cmath>
@@ -97,12 +98,7 @@ std::vector<double> poisson(const std::vector<double>& g, int w, int h, const Po
             for (int x = 0; x < w; ++x)
                 out[std::size_t(y) * w + x] = ext[std::size_t(y) * W + x];
     }
-    double mean = 0;
-    for (double v : out)
-        mean += v;
-    mean /= double(out.size());
-    for (double& v : out)
-        v -= mean;
+    subtract_mean(out);
     return out;
 }
 
@@ -179,12 +175,7 @@ std::vector<double> discrete_ls(const std::vector<double>& sg, int w, int h, con
             d[i] = r[i] + rr_next / rr * d[i];
         rr = rr_next;
     }
-    double mean = 0;
-    for (double v : x)
-        mean += v;
-    mean /= double(n);
-    for (double& v : x)
-        v -= mean;
+    subtract_mean(x);
     return x;
 }
 

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rays_reference.h"
+#include "zero_mean.h"
 
 #include <algorithm>
 #include <cmath>
@@ -132,12 +133,7 @@ std::vector<double> rays(const std::vector<double>& g, int w, int h, const RaySe
             }
             out[std::size_t(py) * w + px] = sum_w > 0.0 ? -sum_a / sum_w : 0.0;
         }
-    double mean = 0.0;
-    for (double v : out)
-        mean += v;
-    mean /= double(out.size());
-    for (double& v : out)
-        v -= mean;
+    subtract_mean(out);
     return out;
 }
 
