@@ -108,8 +108,7 @@ bool bake(ImageBuf& dst, const ImageBuf& texture, const ImageBuf& offsets, const
           ROI roi, int /*nthreads*/)
 {
     try {
-        if (const std::string problem = validate(options); !problem.empty())
-            throw std::invalid_argument(problem);
+        detail::require_valid(options);
         roi = detail::resolve_roi(texture, roi);
         const int w = roi.width(), h = roi.height(), nch = texture.nchannels();
         // Exactly 2 channels, or more only when relief's metadata says they

@@ -26,8 +26,7 @@ ImageBuf normals(const ImageBuf& height, const NormalsOptions& options, ROI roi,
 bool normals(ImageBuf& dst, const ImageBuf& height, const NormalsOptions& options, ROI roi, int)
 {
     try {
-        if (const std::string problem = validate(options); !problem.empty())
-            throw std::invalid_argument(problem);
+        detail::require_valid(options);
         roi = detail::resolve_roi(height, roi);
         const int w = roi.width(), ht = roi.height();
         const std::vector<float> h =
@@ -63,8 +62,7 @@ ImageBuf tessellation(const ImageBuf& height, const TessellationOptions& options
 bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptions& options, ROI roi, int)
 {
     try {
-        if (const std::string problem = validate(options); !problem.empty())
-            throw std::invalid_argument(problem);
+        detail::require_valid(options);
         roi = detail::resolve_roi(height, roi);
         const int w = roi.width(), ht = roi.height();
         const std::vector<float> h =

@@ -77,8 +77,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
 {
     try {
         const auto t0 = std::chrono::steady_clock::now();
-        if (const std::string problem = validate(options); !problem.empty())
-            throw std::invalid_argument(problem);
+        detail::require_valid(options);
         roi = detail::resolve_roi(height, roi);
         const int w = roi.width(), h = roi.height();
         const std::vector<float> heights = detail::height_channel(height, roi, options.exec, "correct");

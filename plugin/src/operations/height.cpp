@@ -194,8 +194,7 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
 {
     try {
         const auto t0 = std::chrono::steady_clock::now();
-        if (const std::string problem = validate(options); !problem.empty())
-            throw std::invalid_argument(problem);
+        detail::require_valid(options);
         roi = detail::resolve_roi(normals, roi);
         HeightOptions chosen = options;
         if (chosen.method == HeightMethod::Auto)

@@ -69,8 +69,7 @@ void check_mesh_memory(const std::vector<int>& levels, bool gltf)
 bool build_mesh(Mesh& mesh, const OIIO::ImageBuf& height, const TessellationOptions& options, bool gltf)
 {
     try {
-        if (const std::string problem = validate(options); !problem.empty())
-            throw std::invalid_argument(problem);
+        detail::require_valid(options);
         const OIIO::ROI roi = detail::resolve_roi(height, {});
         const int w = roi.width(), ht = roi.height();
         const std::vector<float> h = detail::height_channel(height, roi, options.exec, "mesh", options.scale);
@@ -158,8 +157,7 @@ bool displaced_mesh(Mesh& mesh, const OIIO::ImageBuf& height, const Tessellation
 bool mesh(OIIO::ImageBuf& dst, const OIIO::ImageBuf& height, const MeshOptions& options)
 {
     try {
-        if (const std::string problem = validate(options); !problem.empty())
-            throw std::invalid_argument(problem);
+        detail::require_valid(options);
         Mesh m;
         const std::string ext = std::filesystem::path(options.out).extension().string();
         const bool gltf = ext == ".gltf" || ext == ".glb" || ext == ".GLTF" || ext == ".GLB";

@@ -256,8 +256,7 @@ ImageBuf preview(const ImageBuf& normals, const ImageBuf& height, const PreviewO
 bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, const PreviewOptions& o)
 {
     try {
-        if (const std::string problem = validate(o); !problem.empty())
-            throw std::invalid_argument(problem);
+        detail::require_valid(o);
         const ROI roi = detail::resolve_roi(normals, {});
         const ROI hroi = detail::resolve_roi(height, {});
         const int w = roi.width(), ht = roi.height();

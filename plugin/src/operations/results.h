@@ -5,10 +5,13 @@
 #include <OpenImageIO/imagebuf.h>
 
 #include <exception>
+#include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "relief/options.h"
+#include "relief/validate.h"
 #include "slope_stage.h"
 
 namespace relief::detail {
@@ -46,6 +49,15 @@ OIIO::ImageBuf first_form(SecondForm&& second_form)
 
 // dst becomes an image of `spec` (its channels float) holding `pixels`.
 void set_result(OIIO::ImageBuf& dst, const OIIO::ImageSpec& spec, const float* pixels);
+
+// Throws std::invalid_argument in validate(options)'s words when `options`
+// break a rule: the first thing each operation does.
+template <class Options>
+void require_valid(const Options& options)
+{
+    if (std::string problem = validate(options); !problem.empty())
+        throw std::invalid_argument(std::move(problem));
+}
 
 // Records a failed operation in dst and geterror(); returns false.
 bool fail(OIIO::ImageBuf& dst, const char* operation, const std::exception& e);

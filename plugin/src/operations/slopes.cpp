@@ -23,8 +23,7 @@ ImageBuf slopes(const ImageBuf& normals, const SlopeOptions& options, ROI roi, i
 bool slopes(ImageBuf& dst, const ImageBuf& normals, const SlopeOptions& options, ROI roi, int /*nthreads*/)
 {
     try {
-        if (const std::string problem = validate(options); !problem.empty())
-            throw std::invalid_argument(problem);
+        detail::require_valid(options);
         roi = detail::resolve_roi(normals, roi);
         auto derived = detail::derive_slopes(normals, roi, options.normals, options.exec);
         std::vector<float> g(std::size_t(roi.width()) * roi.height() * 2);
