@@ -19,6 +19,20 @@ inline int relief_wrap(int v, int n)
     return v < 0 ? v + n : v;
 }
 
+// The work-item's cell (*i, *r) of a grid `columns` wide and `rows` tall,
+// one item a cell in row-major order, and its index r * columns + i; -1
+// for the items past the grid's end (the host rounds the global size up to
+// a whole work-group).
+inline int relief_grid_cell(int columns, int rows, int* i, int* r)
+{
+    int gid = get_global_id(0);
+    if (gid >= columns * rows)
+        return -1;
+    *i = gid % columns;
+    *r = gid / columns;
+    return gid;
+}
+
 // The type long sums accumulate in: double where the device has fp64 (the
 // host then builds the program with -DRELIEF_FP64), else float (the kernels
 // compensate where float alone is too coarse).

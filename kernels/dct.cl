@@ -25,19 +25,17 @@ inline int dct_source(int m, int n)
 // the transform reads it.
 __kernel void dct_reorder(__global const float* x, int n0, int n1, int stride, __global float* v)
 {
-    int gid = get_global_id(0);
-    if (gid >= stride * n1)
+    int m0, m1, gid = relief_grid_cell(stride, n1, &m0, &m1);
+    if (gid < 0)
         return;
-    int m0 = gid % stride, m1 = gid / stride;
     v[gid] = m0 < n0 ? x[dct_source(m1, n1) * n0 + dct_source(m0, n0)] : 0.0f;
 }
 
 __kernel void dct_unreorder(__global const float* v, int n0, int n1, int stride, __global float* x)
 {
-    int gid = get_global_id(0);
-    if (gid >= n0 * n1)
+    int m0, m1, gid = relief_grid_cell(n0, n1, &m0, &m1);
+    if (gid < 0)
         return;
-    int m0 = gid % n0, m1 = gid / n0;
     x[dct_source(m1, n1) * n0 + dct_source(m0, n0)] = v[m1 * stride + m0];
 }
 
@@ -60,10 +58,9 @@ inline float re_rotated(float c, float s, float2 z)
 
 __kernel void dct_forward_post(__global const float2* V, int n0, int n1, __global float* X)
 {
-    int gid = get_global_id(0);
-    if (gid >= n0 * n1)
+    int k0, k1, gid = relief_grid_cell(n0, n1, &k0, &k1);
+    if (gid < 0)
         return;
-    int k0 = gid % n0, k1 = gid / n0;
     // Twiddle angles in units of pi: a0 = k0 / 2n0, a1 = k1 / 2n1.
     float a0 = (float)k0 / (2.0f * n0), a1 = (float)k1 / (2.0f * n1);
     float2 p = dct_spectrum(V, k0, k1, n0, n1);
@@ -80,10 +77,9 @@ inline float dct_coefficient(__global const float* X, int k0, int k1, int n0, in
 __kernel void dct_inverse_pre(__global const float* X, int n0, int n1, __global float2* V)
 {
     int columns = n0 / 2 + 1;
-    int gid = get_global_id(0);
-    if (gid >= columns * n1)
+    int k0, k1, gid = relief_grid_cell(columns, n1, &k0, &k1);
+    if (gid < 0)
         return;
-    int k0 = gid % columns, k1 = gid / columns;
     int m0 = k0 > 0 ? n0 - k0 : n0, m1 = k1 > 0 ? n1 - k1 : n1;
     float re = dct_coefficient(X, k0, k1, n0, n1) - dct_coefficient(X, m0, m1, n0, n1);
     float im = -(dct_coefficient(X, m0, k1, n0, n1) + dct_coefficient(X, k0, m1, n0, n1));

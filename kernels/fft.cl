@@ -5,10 +5,9 @@
 
 __kernel void fft_transpose(__global const float2* in, int rows, int columns, __global float2* out)
 {
-    int gid = get_global_id(0);
-    if (gid >= rows * columns)
+    int c, r, gid = relief_grid_cell(columns, rows, &c, &r);
+    if (gid < 0)
         return;
-    int c = gid % columns, r = gid / columns;
     out[(size_t)c * rows + r] = in[gid];
 }
 
@@ -20,30 +19,27 @@ __kernel void fft_transpose(__global const float2* in, int rows, int columns, __
 // ignores, only add imaginary parts there). `stride`: floats a real row.
 __kernel void fft_widen(__global const float* in, int n0, int n1, int stride, __global float2* wide)
 {
-    int gid = get_global_id(0);
-    if (gid >= n0 * n1)
+    int i, r, gid = relief_grid_cell(n0, n1, &i, &r);
+    if (gid < 0)
         return;
-    int i = gid % n0, r = gid / n0;
     wide[gid] = (float2)(in[(size_t)r * stride + i], 0.0f);
 }
 
 __kernel void fft_narrow(__global const float2* wide, int n0, int n1, __global float2* spectrum)
 {
     int columns = n0 / 2 + 1;
-    int gid = get_global_id(0);
-    if (gid >= columns * n1)
+    int k, r, gid = relief_grid_cell(columns, n1, &k, &r);
+    if (gid < 0)
         return;
-    int k = gid % columns, r = gid / columns;
     spectrum[gid] = wide[(size_t)r * n0 + k];
 }
 
 __kernel void fft_hermitian(__global const float2* spectrum, int n0, int n1, __global float2* wide)
 {
     int columns = n0 / 2 + 1;
-    int gid = get_global_id(0);
-    if (gid >= n0 * n1)
+    int k, r, gid = relief_grid_cell(n0, n1, &k, &r);
+    if (gid < 0)
         return;
-    int k = gid % n0, r = gid / n0;
     if (k < columns) {
         wide[gid] = spectrum[(size_t)r * columns + k];
     } else {
@@ -54,9 +50,8 @@ __kernel void fft_hermitian(__global const float2* spectrum, int n0, int n1, __g
 
 __kernel void fft_real_part(__global const float2* wide, int n0, int n1, int stride, __global float* out)
 {
-    int gid = get_global_id(0);
-    if (gid >= stride * n1)
+    int i, r, gid = relief_grid_cell(stride, n1, &i, &r);
+    if (gid < 0)
         return;
-    int i = gid % stride, r = gid / stride;
     out[gid] = i < n0 ? wide[(size_t)r * n0 + i].x : 0.0f;
 }

@@ -3,6 +3,7 @@
 // there (a fresh clone of the project does not have ../shared).
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -10,12 +11,30 @@
 
 #include "relief/relief.h"
 #include "support/images.h"
+#include "support/run_cli.h"
 
 namespace fs = std::filesystem;
 using OIIO::TypeDesc;
 namespace test = relief::test;
 
 namespace {
+
+// The shared data sets' folders (../shared/data/*), or none, with the test
+// marked skipped, where that folder is absent (as in CI).
+std::vector<fs::path> shared_sets()
+{
+    const fs::path root(RELIEF_SHARED_DATA);
+    if (!fs::is_directory(root)) {
+        test::mark_skipped("../shared/data is absent");
+        return {};
+    }
+    std::vector<fs::path> sets;
+    for (const auto& entry : fs::directory_iterator(root))
+        if (entry.is_directory())
+            sets.push_back(entry.path());
+    std::sort(sets.begin(), sets.end());
+    return sets;
+}
 
 std::vector<double> channel0(const OIIO::ImageBuf& img)
 {
@@ -134,22 +153,14 @@ TEST_CASE("real sample: Poisson heights match the author's height map", "[real][
 
 TEST_CASE("shared data set: auto finds every map's convention", "[real][shared]")
 {
-    const fs::path root(RELIEF_SHARED_DATA);
-    if (!fs::is_directory(root)) {
-        test::mark_skipped("../shared/data is absent");
-        return;
-    }
     int checked = 0;
-    for (const auto& entry : fs::directory_iterator(root)) {
-        if (!fs::exists(entry.path() / "meta.json"))
+    for (const fs::path& set : shared_sets()) {
+        if (!fs::exists(set / "meta.json"))
             continue;
-        std::ifstream in(entry.path() / "meta.json");
-        std::stringstream ss;
-        ss << in.rdbuf();
-        const std::string meta = ss.str();
+        const std::string meta = test::slurp(set / "meta.json");
         const std::string want = meta.find("\"green\": \"Y+") != std::string::npos ? "opengl" : "directx";
-        INFO(entry.path().filename().string());
-        CHECK(convention_of(read(entry.path() / "normal.png")) == want);
+        INFO(set.filename().string());
+        CHECK(convention_of(read(set / "normal.png")) == want);
         ++checked;
     }
     CHECK(checked >= 13);
@@ -159,17 +170,9 @@ TEST_CASE("shared data set: boundary=auto agrees with the maps' tiling", "[real]
 {
     // provenance.txt says "tiling: yes", "no" or "approximately" (judged by
     // eye and by height-map metrics); the approximate ones may go either way.
-    const fs::path root(RELIEF_SHARED_DATA);
-    if (!fs::is_directory(root)) {
-        test::mark_skipped("../shared/data is absent");
-        return;
-    }
     int checked = 0;
-    for (const auto& entry : fs::directory_iterator(root)) {
-        std::ifstream in(entry.path() / "provenance.txt");
-        std::stringstream ss;
-        ss << in.rdbuf();
-        const std::string text = ss.str();
+    for (const fs::path& set : shared_sets()) {
+        const std::string text = test::slurp(set / "provenance.txt");
         const std::size_t at = text.find("tiling: ");
         if (at == std::string::npos)
             continue;
@@ -182,8 +185,8 @@ TEST_CASE("shared data set: boundary=auto agrees with the maps' tiling", "[real]
             if (m.rfind("boundary: ", 0) == 0)
                 said = m;
         };
-        auto h = relief::height(read(entry.path() / "normal.png"), o);
-        INFO(entry.path().filename().string() << ": " << label << "; " << said);
+        auto h = relief::height(read(set / "normal.png"), o);
+        INFO(set.filename().string() << ": " << label << "; " << said);
         REQUIRE_FALSE(h.has_error());
         CHECK(said.rfind(label == "yes" ? "boundary: periodic" : "boundary: free", 0) == 0);
         ++checked;
