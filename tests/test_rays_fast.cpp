@@ -34,6 +34,25 @@ struct Run {
     bool by_fft = true;
 };
 
+// A map size and the ray settings the kernels under test share.
+struct Case {
+    int w, h, rays;
+    double radius, phase;
+    bool periodic;
+};
+
+// Case c's settings, by the fast kernel or the reference one.
+Run run_of(const Case& c, bool fast)
+{
+    Run r;
+    r.rays = c.rays;
+    r.radius = c.radius;
+    r.phase = c.phase;
+    r.periodic = c.periodic;
+    r.fast = fast;
+    return r;
+}
+
 std::vector<float> run_rays(const std::vector<float>& g, int w, int h, const Run& r)
 {
     auto ctx = host::ComputeContext::acquire("auto");
@@ -146,11 +165,6 @@ TEST_CASE("rational directions by continued fractions equal the exhaustive searc
 
 TEST_CASE("reference kernel with rational directions equals the golden model", "[rays][fast]")
 {
-    struct Case {
-        int w, h, rays;
-        double radius, phase;
-        bool periodic;
-    };
     const Case cases[] = {
         {37, 29, 8, 5.0, 0.5, true},    {37, 29, 16, 23.7, 0.5, true},  // longer than the texture: wraps
         {37, 29, 12, 9.5, 0.25, false}, {24, 24, 8, 11.0, 0.0, true},   // (1, 1): through corners
@@ -164,12 +178,7 @@ TEST_CASE("reference kernel with rational directions equals the golden model", "
         reference::RaySettings s{c.rays, c.radius, c.phase, c.periodic};
         s.rational = true;
         auto ref = reference::rays(g, c.w, c.h, s);
-        Run r;
-        r.rays = c.rays;
-        r.radius = c.radius;
-        r.phase = c.phase;
-        r.periodic = c.periodic;
-        r.fast = false;
+        const Run r = run_of(c, false);
         auto got = run_rays(gf, c.w, c.h, r);
         double scale = 0;
         for (double v : ref)
@@ -180,11 +189,6 @@ TEST_CASE("reference kernel with rational directions equals the golden model", "
 
 TEST_CASE("fast kernel equals the reference kernel for the same directions", "[rays][fast]")
 {
-    struct Case {
-        int w, h, rays;
-        double radius, phase;
-        bool periodic;
-    };
     const Case cases[] = {
         {37, 29, 8, 5.0, 0.5, true},
         {37, 29, 16, 23.7, 0.5, true},   // K > cycle length for some directions
@@ -218,14 +222,9 @@ TEST_CASE("fast kernel equals the reference kernel for the same directions", "[r
                      << (c.periodic ? " periodic" : " clip") << (by_fft ? " fft" : "")
                      << (force_float ? " float" : " fp64"));
             auto g = rough_slopes(c.w, c.h, 5u + c.rays);
-            Run r;
-            r.rays = c.rays;
-            r.radius = c.radius;
-            r.phase = c.phase;
-            r.periodic = c.periodic;
+            Run r = run_of(c, false);
             r.force_float = force_float;
             r.by_fft = by_fft;
-            r.fast = false;
             auto ref = run_rays(g, c.w, c.h, r);
             r.fast = true;
             auto got = run_rays(g, c.w, c.h, r);
