@@ -84,6 +84,18 @@ double peak_rss_bytes()
     return double(u.ru_maxrss) * 1024.0;  // Linux reports KiB
 }
 
+// Four rays of `radius` texels: the long chains the stress cases walk.
+host::RayParams few_long_rays(double radius, double phase, host::DirectionSet directions, bool force_float)
+{
+    host::RayParams p;
+    p.rays = 4;
+    p.radius = radius;
+    p.phase = phase;
+    p.directions = directions;
+    p.force_float = force_float;
+    return p;
+}
+
 }  // namespace
 
 TEST_CASE("stress: awkward sizes and fields equal the golden models, finite and bounded", "[stress]")
@@ -188,13 +200,8 @@ TEST_CASE("stress: 16K-long chains, fast kernel against the golden model in doub
             const bool force_float = variant == 1;
             if ((variant == 0 && !ctx->fp64()) || (variant == 2 && !periodic))
                 continue;
-            host::RayParams p;
-            p.rays = 4;
-            p.radius = 256;
-            p.phase = 0.0;
-            p.directions = host::DirectionSet::Rational;
+            host::RayParams p = few_long_rays(256, 0.0, host::DirectionSet::Rational, force_float);
             p.boundary = periodic ? host::RayBoundary::Periodic : host::RayBoundary::Clip;
-            p.force_float = force_float;
             p.periodic_by_fft = variant == 2;
             std::vector<float> got(std::size_t(w) * h);
             host::integrate_rays_fast(*ctx, slopes, p, got.data());
@@ -321,12 +328,7 @@ TEST_CASE("stress: 65536-texel rays, reference kernel against the golden model i
     for (bool force_float : {false, true}) {
         if (!force_float && !ctx->fp64())
             continue;
-        host::RayParams p;
-        p.rays = 4;
-        p.radius = 65536.0;
-        p.phase = 0.5;
-        p.directions = host::DirectionSet::Exact;
-        p.force_float = force_float;
+        const host::RayParams p = few_long_rays(65536.0, 0.5, host::DirectionSet::Exact, force_float);
         std::vector<float> got(std::size_t(w) * h);
         host::integrate_rays_reference(*ctx, slopes, p, got.data());
         double worst = 0;
