@@ -92,21 +92,7 @@ inline int correct_node(int i, int j, int nx, int ny)
     return relief_wrap(j, ny) * nx + relief_wrap(i, nx);
 }
 
-// The work-group's sum of `value`, in a fixed order (deterministic), into
-// partial[group].
-inline void correct_group_sum(energy_t value, local energy_t* scratch, global energy_t* partial)
-{
-    const int lid = get_local_id(0);
-    scratch[lid] = value;
-    barrier(CLK_LOCAL_MEM_FENCE);
-    for (int s = get_local_size(0) / 2; s > 0; s >>= 1) {
-        if (lid < s)
-            scratch[lid] += scratch[lid + s];
-        barrier(CLK_LOCAL_MEM_FENCE);
-    }
-    if (lid == 0)
-        partial[get_group_id(0)] = scratch[0];
-}
+RELIEF_DEFINE_GROUP_SUM(correct_group_sum, energy_t)
 
 // Total energy: the triangles each node owns plus its fixation term, summed
 // per work-group in a fixed order (deterministic), one partial per group.

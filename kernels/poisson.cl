@@ -32,10 +32,9 @@ inline float2 texel_slope(__global const float2* slopes, int width, int i, int j
 __kernel void poisson_split(__global const float2* slopes, int width, int n0, int n1, int transposed,
                             int stride, int alternate, __global float* gx, __global float* gy)
 {
-    int gid = get_global_id(0);
-    if (gid >= stride * n1)
+    int i, j, gid = relief_grid_cell(stride, n1, &i, &j);
+    if (gid < 0)
         return;
-    int i = gid % stride, j = gid / stride;
     if (i >= n0) {
         gx[gid] = 0.0f;
         gy[gid] = 0.0f;
@@ -60,10 +59,9 @@ __kernel void poisson_periodic_divide(__global float2* gx, __global const float2
                                       float sigma)
 {
     int columns = n0 / 2 + 1;
-    int gid = get_global_id(0);
-    if (gid >= columns * n1)
+    int kx, ky, gid = relief_grid_cell(columns, n1, &kx, &ky);
+    if (gid < 0)
         return;
-    int kx = gid % columns, ky = gid / columns;
     int sy = ky < (n1 + 1) / 2 ? ky : ky - n1;  // signed frequency
     int nyquist = (2 * kx == n0) || (n1 > 1 && 2 * ky == n1);
     float wx = 2.0f * M_PI_F * kx / n0, wy = 2.0f * M_PI_F * sy / n1;
@@ -91,10 +89,9 @@ inline float free_coefficient(float b, float c, int k, int l, int n0, int n1, fl
 __kernel void poisson_free_divide(__global float* dx, __global const float* dy, int n0, int n1, float sigma)
 {
     int pairs = n0 / 2 + 1;
-    int gid = get_global_id(0);
-    if (gid >= pairs * n1)
+    int k, l, gid = relief_grid_cell(pairs, n1, &k, &l);
+    if (gid < 0)
         return;
-    int k = gid % pairs, l = gid / pairs;
     float c = l > 0 ? dy[(n1 - l) * n0 + k] : 0.0f;
     if (k == 0) {
         dx[l * n0] = free_coefficient(0.0f, c, 0, l, n0, n1, sigma);
@@ -111,10 +108,9 @@ __kernel void poisson_free_divide(__global float* dx, __global const float* dy, 
 __kernel void poisson_gather(__global const float* grid, int stride, int n0, int n1, int width,
                              int transposed, __global float* height)
 {
-    int gid = get_global_id(0);
-    if (gid >= n0 * n1)
+    int i, j, gid = relief_grid_cell(n0, n1, &i, &j);
+    if (gid < 0)
         return;
-    int i = gid % n0, j = gid / n0;
     float v = grid[j * stride + i];
     if (transposed)
         height[i * width + j] = v;

@@ -45,10 +45,9 @@ __kernel void weighted_edges(__global const float2* sg, __global const float* we
                              __global const float* delta, int width, int height, int periodic, float eps,
                              int unit, __global float2* c, __global float2* t)
 {
-    int p = get_global_id(0);
-    if (p >= width * height)
+    int x, y, p = relief_grid_cell(width, height, &x, &y);
+    if (p < 0)
         return;
-    int x = p % width, y = p / width;
     float2 cc = (float2)(0.0f), tt = (float2)(0.0f);
     int xr = right_of(x, width, periodic), yd = right_of(y, height, periodic);
     if (xr >= 0 && xr != x) {
@@ -73,10 +72,9 @@ inline int left_of(int x, int width, int periodic)
 __kernel void weighted_rhs(__global const float2* c, __global const float2* t, int width, int height,
                            int periodic, __global float* b)
 {
-    int p = get_global_id(0);
-    if (p >= width * height)
+    int x, y, p = relief_grid_cell(width, height, &x, &y);
+    if (p < 0)
         return;
-    int x = p % width, y = p / width;
     float v = -(c[p].x * t[p].x + c[p].y * t[p].y);
     int xl = left_of(x, width, periodic), yu = left_of(y, height, periodic);
     if (xl >= 0 && xl != x) {
@@ -93,10 +91,9 @@ __kernel void weighted_rhs(__global const float2* c, __global const float2* t, i
 __kernel void weighted_apply(__global const float* h, __global const float2* c, int width, int height,
                              int periodic, __global float* out)
 {
-    int p = get_global_id(0);
-    if (p >= width * height)
+    int x, y, p = relief_grid_cell(width, height, &x, &y);
+    if (p < 0)
         return;
-    int x = p % width, y = p / width;
     float hp = h[p], v = 0.0f;
     int xr = right_of(x, width, periodic), yd = right_of(y, height, periodic);
     int xl = left_of(x, width, periodic), yu = left_of(y, height, periodic);
@@ -115,19 +112,13 @@ __kernel void weighted_apply(__global const float* h, __global const float2* c, 
 // host chose from the device's limits, with `s` one float per work-item
 // (the host adds the partials in a fixed order, in double: deterministic
 // whatever the device's threads).
+RELIEF_DEFINE_GROUP_SUM(weighted_group_sum, float)
+
 __kernel void weighted_dot(__global const float* a, __global const float* b, int n, __global float* partial,
                            __local float* s)
 {
-    int i = get_global_id(0), l = get_local_id(0);
-    s[l] = i < n ? a[i] * b[i] : 0.0f;
-    barrier(CLK_LOCAL_MEM_FENCE);
-    for (int span = get_local_size(0) / 2; span > 0; span >>= 1) {
-        if (l < span)
-            s[l] += s[l + span];
-        barrier(CLK_LOCAL_MEM_FENCE);
-    }
-    if (l == 0)
-        partial[get_group_id(0)] = s[0];
+    int i = get_global_id(0);
+    weighted_group_sum(i < n ? a[i] * b[i] : 0.0f, s, partial);
 }
 
 // y = y + alpha * x
@@ -150,10 +141,9 @@ __kernel void weighted_xpby(__global float* p, __global const float* z, float be
 // float of the grid and sets the padding to 0, as the transform reads it.
 __kernel void weighted_to_grid(__global const float* v, int n0, int n1, int stride, __global float* grid)
 {
-    int g = get_global_id(0);
-    if (g >= stride * n1)
+    int i, j, g = relief_grid_cell(stride, n1, &i, &j);
+    if (g < 0)
         return;
-    int i = g % stride, j = g / stride;
     grid[g] = i < n0 ? v[j * n0 + i] : 0.0f;
 }
 
@@ -171,10 +161,9 @@ __kernel void weighted_from_grid(__global const float* grid, int n0, int n1, int
 __kernel void weighted_laplace_divide(__global float* grid, int n0, int n1, int periodic)
 {
     int columns = periodic ? n0 / 2 + 1 : n0;
-    int gid = get_global_id(0);
-    if (gid >= columns * n1)
+    int k, l, gid = relief_grid_cell(columns, n1, &k, &l);
+    if (gid < 0)
         return;
-    int k = gid % columns, l = gid / columns;
     // Half angles in units of pi: w/2 = pi k / n0 (periodic), pi k / 2n0 (free).
     float hk = periodic ? (float)k / n0 : (float)k / (2.0f * n0);
     float hl = periodic ? (float)l / n1 : (float)l / (2.0f * n1);
