@@ -169,6 +169,18 @@ inline int nonzero_sums(float4 f)
     return f.x != 0.0f || f.y != 0.0f || f.z != 0.0f;
 }
 
+// Adds texel sums f as the window's m-th term.
+inline void window_add(Window* win, float4 f, acc_t m)
+{
+    win->s0 += f.x;
+    win->s1 += m * f.x;
+    win->s2 += m * m * f.x;
+    win->u0 += f.y;
+    win->u1 += m * f.y;
+    win->v0 += f.z;
+    win->nonzero += nonzero_sums(f);
+}
+
 // The window of up to `k_max` whole periods starting at (x, y), summed afresh.
 inline Window window_from_scratch(__global const float4* sums, int width, int height, int periodic,
                                   int step_x, int step_y, int x, int y, int k_max)
@@ -179,14 +191,7 @@ inline Window window_from_scratch(__global const float4* sums, int width, int he
         if (!periodic && !inside(qx + step_x, qy + step_y, width, height))
             break;
         float4 f = sums[texel_index(qx, qy, width, height, periodic)];
-        acc_t mm = (acc_t)m;
-        win.s0 += f.x;
-        win.s1 += mm * f.x;
-        win.s2 += mm * mm * f.x;
-        win.u0 += f.y;
-        win.u1 += mm * f.y;
-        win.v0 += f.z;
-        win.nonzero += nonzero_sums(f);
+        window_add(&win, f, (acc_t)m);
         win.count = m + 1;
     }
     return win;
@@ -327,14 +332,7 @@ inline void chain_step(Chain* c, const ChainArgs* g)
     win.nonzero -= nonzero_sums(f0);
     win.count -= win.count > 0;
     if (k_whole > 0 && next_whole) {
-        const acc_t m = K - 1.0;
-        win.s0 += next.x;
-        win.s1 += m * next.x;
-        win.s2 += m * m * next.x;
-        win.u0 += next.y;
-        win.u1 += m * next.y;
-        win.v0 += next.z;
-        win.nonzero += nonzero_sums(next);
+        window_add(&win, next, K - 1.0);
         win.count += 1;
     }
     // A window over flat texels sums to exactly zero, not to the rounding
