@@ -41,25 +41,6 @@ inline int relief_grid_cell(int columns, int rows, int* i, int* r)
 typedef double relief_acc_t;
 #else
 typedef float relief_acc_t;
-// Defines `void name(T value, local T* scratch, global T* partial)`: the
-// work-group's sum of `value` by halving (a power-of-two group size), in a
-// fixed order whatever the device (deterministic), into
-// partial[group]. `scratch` holds one T per work-item.
-#define RELIEF_DEFINE_GROUP_SUM(name, T)                                                                     \
-    inline void name(T value, local T* scratch, global T* partial)                                           \
-    {                                                                                                        \
-        const int lid = get_local_id(0);                                                                     \
-        scratch[lid] = value;                                                                                \
-        barrier(CLK_LOCAL_MEM_FENCE);                                                                        \
-        for (int s = get_local_size(0) / 2; s > 0; s >>= 1) {                                                \
-            if (lid < s)                                                                                     \
-                scratch[lid] += scratch[lid + s];                                                            \
-            barrier(CLK_LOCAL_MEM_FENCE);                                                                    \
-        }                                                                                                    \
-        if (lid == 0)                                                                                        \
-            partial[get_group_id(0)] = scratch[0];                                                           \
-    }
-
 #endif
 
 // Defines `T name(T x, int n)`: x^n for a whole n >= 0 by squaring, the
