@@ -14,6 +14,7 @@
 
 #include "command_line.h"
 #include "relief/relief.h"
+#include "relief/relief_c.h"
 #include "support/images.h"
 
 using namespace relief;
@@ -399,6 +400,85 @@ TEST_CASE("operations: run_operation checks its inputs and takes the execution g
     exec.on_message = [&](Severity, const std::string& m) { said += m + "\n"; };
     REQUIRE(run_operation(out, call, {&n}, exec));
     CHECK(said.find("boundary:") != std::string::npos);
+}
+
+TEST_CASE("C ABI: a result carries every relief:* attribute of the API's result, and reads back as input",
+          "[operations][abi]")
+{
+    const int w = 24, h = 20;
+    std::vector<float> normals = wavy_normals(w, h);
+    std::vector<float> texture(std::size_t(w) * h * 3);
+    for (std::size_t i = 0; i < texture.size(); ++i)
+        texture[i] = float((i * 37) % 101) / 100.0f;
+    // The relief:* attributes of an API result, as the C ABI writes them.
+    const auto attributes = [](const ImageBuf& img) {
+        std::string text;
+        for (const auto& p : img.spec().extra_attribs)
+            if (p.name().string().rfind("relief:", 0) == 0)
+                text += p.name().string() + "=" + p.get_string() + "\n";
+        return text;
+    };
+    // op(modifiers) through the API and through relief_run, on the same
+    // pixels and (C) metadata: the same pixels and attributes.
+    const auto both = [&](const std::string& op, const std::string& mods, std::vector<const ImageBuf*> api_in,
+                          std::vector<relief_image> c_in) {
+        INFO(op << " " << mods);
+        OperationCall call;
+        REQUIRE(parse_modifiers(call, op, mods));
+        ImageBuf expected;
+        REQUIRE(run_operation(expected, call, api_in));
+        relief_image got{};
+        REQUIRE(relief_run(op.c_str(), mods.c_str(), c_in.data(), int(c_in.size()), &got) == RELIEF_OK);
+        CHECK(got.width == expected.spec().width);
+        CHECK(got.height == expected.spec().height);
+        CHECK(got.channels == expected.spec().nchannels);
+        const std::vector<float> px(static_cast<const float*>(got.pixels),
+                                    static_cast<const float*>(got.pixels) +
+                                        std::size_t(got.width) * got.height * got.channels);
+        CHECK(px == test::pixels(expected));
+        const std::string text = got.metadata ? got.metadata : "(null)";
+        CHECK(text == attributes(expected));
+        return std::make_pair(got, expected);
+    };
+    const ImageBuf n = test::image(w, h, 3, normals);
+    const relief_image cn = {w, h, 3, RELIEF_FLOAT, normals.data(), nullptr};
+
+    auto [ch, height] = both("height", "normal=opengl:boundary=free", {&n}, {cn});
+    // height says how it was made: method, parameters, convention, unit
+    for (const char* key :
+         {"relief:method=", "relief:parameters=", "relief:normal_convention=", "relief:height_unit="})
+        CHECK(("\n" + std::string(ch.metadata)).find(std::string("\n") + key) != std::string::npos);
+    relief_image_free(&ch);
+    for (const char* mods : {"normal=directx:method=rays:rays=8:radius=8", "normal=opengl:highpass=4"}) {
+        auto [c, a] = both("height", mods, {&n}, {cn});
+        relief_image_free(&c);
+    }
+    auto [cs, slopes] = both("slopes", "normal=opengl", {&n}, {cn});
+    relief_image_free(&cs);
+
+    // correct's scale=auto reads the height's metadata: the C side gets it
+    // from the text it was given, the API from the image.
+    std::vector<float> hp = test::pixels(height);
+    relief_image chin = {w, h, 1, RELIEF_FLOAT, hp.data(), nullptr};
+    const std::string meta = attributes(height);
+    chin.metadata = const_cast<char*>(meta.c_str());
+    auto [coff, off] = both("correct", "levels=1:iterations=3", {&height}, {chin});
+    CHECK(std::string(coff.metadata).find("relief:scale=") != std::string::npos);
+    relief_image_free(&coff);
+    for (const char* op : {"normals", "tessellation"}) {
+        auto [c, a] = both(op, "", {&height}, {chin});
+        relief_image_free(&c);
+    }
+    auto [cp, sheet] = both("preview", "normal=opengl", {&n, &height}, {cn, chin});
+    relief_image_free(&cp);
+
+    const ImageBuf tex = test::image(w, h, 3, texture);
+    std::vector<float> op = test::pixels(off);
+    std::string off_meta = attributes(off);
+    relief_image ctex = {w, h, 3, RELIEF_FLOAT, texture.data(), nullptr},
+                 coffin = {w, h, 2, RELIEF_FLOAT, op.data(), off_meta.data()};
+    auto [cb, baked] = both("bake", "kind=data", {&tex, &off}, {ctex, coffin});
+    relief_image_free(&cb);
 }
 
 TEST_CASE("prepare: set-up ahead, beside a running height, changes nothing but the time",

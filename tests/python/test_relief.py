@@ -191,6 +191,160 @@ class Table(unittest.TestCase):
                 np.testing.assert_array_equal(relief.height(n, normal="opengl", **{m["name"]: m["default"]}), base)
 
 
+class Keywords(unittest.TestCase):
+    """Every keyword of every operation reaches the engine: a value other
+    than the default gives what the command line gives for the same
+    modifier (pixels and relief:* metadata), and changes the result where it
+    should. A modifier added to the table without a case here fails."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        t = cls.tmp.name
+        y, x = np.mgrid[0:20, 0:24]
+        nx = 0.5 * np.sin(2 * np.pi * x / 12) * np.cos(2 * np.pi * y / 20)
+        ny = 0.4 * np.cos(2 * np.pi * y / 20 * 3) + 0.2 * (x > 12)
+        n = np.stack([nx, ny, np.sqrt(np.clip(1 - nx**2 - ny**2, 0.05, 1))], -1)
+        n8 = np.round((n * 0.5 + 0.5) * 255).astype(np.uint8)
+        alpha = np.where((x - 12) ** 2 + (y - 10) ** 2 < 30, 255, 40).astype(np.uint8)
+        relief.write(os.path.join(t, "n.png"), n8, type="uint8")
+        relief.write(os.path.join(t, "na.png"), np.dstack([n8, alpha]), type="uint8")
+        relief.write(os.path.join(t, "w.png"), alpha, type="uint8")
+        relief.write(os.path.join(t, "nf.exr"), (n * 0.5 + 0.5).astype(np.float32))
+        rng = np.random.default_rng(3)
+        relief.write(os.path.join(t, "t.png"), rng.integers(0, 256, (20, 24, 3)).astype(np.uint8), type="uint8")
+        relief.write(os.path.join(t, "env.png"), rng.integers(0, 256, (8, 16, 3)).astype(np.uint8), type="uint8")
+        h = relief.height(relief.read(os.path.join(t, "n.png")), normal="opengl", boundary="periodic")
+        relief.write(os.path.join(t, "h.exr"), h)
+        relief.write(os.path.join(t, "off.exr"), relief.correct(h, levels=1, iterations=3))
+        y, x = np.mgrid[0:32, 0:32]
+        hills = 3 * np.sin(2 * np.pi * x / 32) * np.cos(4 * np.pi * y / 32) + (x > 20)
+        relief.write(os.path.join(t, "hills.exr"), hills.astype(np.float32))
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    # (operation, input files, keywords, the result differs from the defaults';
+    # None: refused alike). hills.exr has no relief metadata, so its
+    # corrections name a scale (the case of scale itself changes it).
+    CASES = [
+        ("slopes", ["n.png"], {"normal": "directx"}, True),
+        ("slopes", ["n.png"], {"max_angle": 30}, True),
+        ("slopes", ["nf.exr"], {"range": "unsigned"}, True),
+        ("height", ["n.png"], {"normal": "directx"}, True),
+        ("height", ["n.png"], {"max_angle": 20}, True),
+        ("height", ["nf.exr"], {"range": "unsigned"}, True),
+        ("height", ["n.png"], {"method": "rays"}, True),
+        ("height", ["n.png"], {"boundary": "free"}, True),
+        ("height", ["n.png"], {"method": "rays", "boundary": "clip"}, True),
+        ("height", ["n.png"], {"highpass": 4}, True),
+        ("height", ["na.png"], {"mask": "alpha"}, True),
+        ("height", ["n.png"], {"mask": "w.png"}, True),
+        ("height", ["n.png"], {"method": "rays", "impl": "reference"}, True),
+        ("height", ["n.png"], {"method": "rays", "rays": 8}, True),
+        ("height", ["n.png"], {"method": "rays", "radius": 4}, True),
+        ("height", ["n.png"], {"method": "rays", "phase": 0.25}, True),
+        ("height", ["n.png"], {"method": "rays", "impl": "reference", "directions": "exact"}, True),
+        ("height", ["n.png"], {"method": "rays", "skip": False}, True),
+        ("correct", ["hills.exr"], {"scale": 0.3}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05, "theta": 3}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05, "nodes": "center"}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05, "boundary": "periodic"}, True),  # auto: fixed
+        ("correct", ["hills.exr"], {"scale": 0.05, "fix": "height:0:1"}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05, "fix": "w.png"}, None),  # sizes differ: refused alike
+        ("correct", ["h.exr"], {"fix": "w.png"}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05, "iterations": 2}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05, "tolerance": 0.1}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05, "levels": 1}, True),
+        ("correct", ["h.exr"], {"threshold": 0.5}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05, "skip": False}, False),  # skipping is exact
+        ("correct", ["hills.exr"], {"scale": 0.05, "search": "golden"}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05, "relax": 1.2}, True),
+        ("bake", ["t.png", "off.exr"], {"filter": "bicubic"}, True),
+        ("bake", ["t.png", "off.exr"], {"colorspace": "linear"}, True),
+        ("bake", ["t.png", "off.exr"], {"kind": "data"}, True),
+        ("bake", ["t.png", "off.exr"], {"wrap": "clamp"}, True),
+        ("normals", ["h.exr"], {"normal": "directx"}, True),
+        ("normals", ["h.exr"], {"scale": 2}, True),
+        ("normals", ["h.exr"], {"boundary": "free"}, True),
+        ("tessellation", ["h.exr"], {"patch": 8}, True),
+        ("tessellation", ["h.exr"], {"error": 0.1}, True),
+        ("tessellation", ["h.exr"], {"scale": 3}, True),
+        ("preview", ["n.png", "h.exr"], {"normal": "directx"}, True),
+        ("preview", ["n.png", "h.exr"], {"max_angle": 30}, True),
+        ("preview", ["nf.exr", "h.exr"], {"range": "unsigned"}, True),
+        ("preview", ["n.png", "h.exr"], {"light": "90,30"}, True),
+        ("preview", ["n.png", "h.exr"], {"env": "env.png"}, True),
+        ("preview", ["n.png", "h.exr"], {"boundary": "free"}, True),
+    ]
+
+    def files(self, names):
+        return [os.path.join(self.tmp.name, n) for n in names]
+
+    def named(self, kw):  # file names as the same absolute path both ways
+        return {k: os.path.join(self.tmp.name, v) if str(v).endswith(".png") else v for k, v in kw.items()}
+
+    def python_run(self, op, files, kw):
+        return getattr(relief, op)(*[relief.read(f) for f in files], **self.named(kw))
+
+    def cli_run(self, op, files, kw):
+        mods = "".join(f":{k}={relief._text(k, v)}" for k, v in self.named(kw).items())
+        out = os.path.join(self.tmp.name, "cli.exr")
+        r = subprocess.run([CLI, *files, f"--{op}{mods}", "-d", "float", "-o", out], capture_output=True,
+                           text=True, cwd=self.tmp.name)
+        return r, relief.read(out) if r.returncode == 0 else None
+
+    def test_every_keyword_gives_what_the_command_line_gives(self):
+        covered = set()
+        for op, names, kw, changes in self.CASES:
+            covered.update((op, k) for k in kw if not (names == ["hills.exr"] and k == "scale" and kw[k] == 0.05))
+            with self.subTest(op=op, kw=kw):
+                files = self.files(names)
+                r, expected = self.cli_run(op, files, kw)
+                if changes is None:
+                    self.assertNotEqual(r.returncode, 0)
+                    with self.assertRaises((ValueError, RuntimeError)):
+                        self.python_run(op, files, kw)
+                    continue
+                self.assertEqual(r.returncode, 0, r.stderr)
+                got = self.python_run(op, files, kw)
+                np.testing.assert_array_equal(got, expected)
+                self.assertEqual({k: v for k, v in got.metadata.items() if k.startswith("relief:")},
+                                 {k: v for k, v in expected.metadata.items() if k.startswith("relief:")})
+                base = self.python_run(op, files, {"scale": 0.05} if names == ["hills.exr"] else {})
+                same = base.shape == got.shape and np.array_equal(base, got)
+                self.assertEqual(not same, changes, "the keyword changed nothing" if changes else "")
+        for op in relief.operations():
+            for m in op["modifiers"]:
+                if op["name"] != "mesh":  # mesh: test_mesh_keywords_reach_the_file
+                    self.assertIn((op["name"], m["name"]), covered)
+
+    def test_mesh_keywords_reach_the_file(self):
+        h = relief.read(os.path.join(self.tmp.name, "h.exr"))
+        files = {}
+        for kw in ({}, {"patch": 8}, {"error": 0.1}, {"scale": 3}):
+            with self.subTest(kw=kw):
+                mine = os.path.join(self.tmp.name, "py.obj")
+                relief.mesh(h, out=mine, **kw)
+                theirs = os.path.join(self.tmp.name, "cli.obj")
+                mods = "".join(f":{k}={v}" for k, v in kw.items())
+                cli(os.path.join(self.tmp.name, "h.exr"), f"--mesh:out={theirs}{mods}")
+                with open(mine, "rb") as a, open(theirs, "rb") as b:
+                    files[str(kw)] = a.read()
+                    # the command line's first line adds the digest --update reads
+                    self.assertEqual(files[str(kw)].split(b"\n", 1)[1], b.read().split(b"\n", 1)[1])
+        self.assertEqual(len(set(files.values())), 4)
+
+    def test_the_device_keyword_reaches_the_engine(self):
+        n = relief.read(os.path.join(self.tmp.name, "n.png"))
+        np.testing.assert_array_equal(relief.height(n, device="cpu"), relief.height(n))
+        for op, inputs in (("height", [n]), ("slopes", [n])):
+            with self.assertRaises(RuntimeError) as e:
+                getattr(relief, op)(*inputs, device="9:9")
+            self.assertIn("9:9", str(e.exception))
+
+
 class Threads(unittest.TestCase):
     def test_the_gil_is_released_during_device_work(self):
         n = np.full((1024, 1024, 3), 128, np.uint8)
