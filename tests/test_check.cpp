@@ -846,6 +846,76 @@ TEST_CASE("preview: a height's own normals light as the height does, and the lig
     CHECK(panel_mean(from_left, 2, 0, pw, ph, 0) < 0.4);
 }
 
+TEST_CASE("preview: each panel is the map's size at the sheet's scale, in its own cell", "[check][preview]")
+{
+    // A flat map makes every panel one colour, so each can be found and
+    // measured: pw x ph, the same size in every cell, cells in a grid with
+    // equal margins, each panel's edges against the background. The panel
+    // size follows the rule of the sheet: the map's own resolution, scaled
+    // into 344..1024 texels wide (and at most 2048 tall when enlarged).
+    struct Case {
+        int w, h, pw, ph;
+    } cases[] = {{400, 200, 400, 200}, {2048, 1024, 1024, 512}, {100, 300, 344, 1032}, {20, 1000, 41, 2048}};
+    for (const Case& c : cases) {
+        INFO(c.w << "x" << c.h);
+        std::vector<float> up(std::size_t(c.w) * c.h * 3, 0.0f);
+        for (std::size_t i = 2; i < up.size(); i += 3)
+            up[i] = 1.0f;
+        const OIIO::ImageBuf normals = test::image(c.w, c.h, 3, up);
+        const OIIO::ImageBuf flat =
+            test::image(c.w, c.h, 1, std::vector<float>(std::size_t(c.w) * c.h, 0.0f));
+        PreviewOptions o;
+        o.normals.convention = NormalConvention::OpenGL;
+        const OIIO::ImageBuf sheet = relief::preview(normals, flat, o);
+        REQUIRE_FALSE(sheet.has_error());
+        const int W = sheet.spec().width, H = sheet.spec().height;
+        const std::vector<float> px = test::pixels(sheet);
+        const auto at = [&](int x, int y) {
+            const float* p = &px[3 * (std::size_t(y) * W + x)];
+            return std::array<float, 3>{p[0], p[1], p[2]};
+        };
+        const auto background = at(0, 0);
+        const int cw = std::max(c.pw, 344);
+        REQUIRE((W - 3 * cw) % 4 == 0);
+        const int margin = (W - 3 * cw) / 4;
+        CHECK(margin > 0);
+        // One colour over [x0, x0 + pw) of row y, other than the background.
+        const auto panel_row = [&](int x0, int y) {
+            const auto first = at(x0, y);
+            if (first == background)
+                return false;
+            for (int x = x0; x < x0 + c.pw; ++x)
+                if (at(x, y) != first)
+                    return false;
+            return true;
+        };
+        std::array<int, 2> top{};
+        for (int row = 0; row < 2; ++row)
+            for (int col = 0; col < (row == 0 ? 3 : 2); ++col) {
+                INFO("panel " << col << "," << row);
+                const int x0 = margin + col * (cw + margin);
+                int y0 = row == 0 ? 0 : top[0] + c.ph;
+                while (y0 < H && !panel_row(x0, y0))
+                    ++y0;
+                REQUIRE(y0 + c.ph <= H);
+                if (col == 0)
+                    top[std::size_t(row)] = y0;
+                CHECK(y0 == top[std::size_t(row)]);  // a row's panels line up
+                const auto colour = at(x0, y0);
+                int uniform_rows = 0;
+                for (int y = y0; y < y0 + c.ph; ++y)
+                    uniform_rows += panel_row(x0, y) && at(x0, y) == colour;
+                CHECK(uniform_rows == c.ph);
+                CHECK(at(x0 - 1, y0) == background);  // its left, right and lower edges
+                CHECK(at(x0 + c.pw, y0 + c.ph - 1) == background);
+                CHECK(at(x0 + c.pw / 2, y0 + c.ph) != colour);
+            }
+        // Two rows of cells with equal margins: H = 2 (row pitch) + margin.
+        CHECK(H == 2 * (top[1] - top[0]) + margin);
+        CHECK(top[1] - top[0] >= std::max(c.ph, 100) + margin);
+    }
+}
+
 TEST_CASE("preview: refuses mismatched sizes, bad lights and environments", "[check][preview][errors]")
 {
     const fs::path d = test::scratch("check_preview_errors");
