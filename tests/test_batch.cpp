@@ -6,8 +6,10 @@
 #include <OpenImageIO/imagebufalgo.h>
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <set>
 #include <sstream>
 
@@ -133,7 +135,9 @@ TEST_CASE("batch: jobs run in one process, a failed job alone fails, the log say
         f << kDem << " --slopes:normal=directx -o " << (d / "s4.exr").string() << "\n";
     }
     const fs::path log = d / "log.jsonl";
+    const auto started = std::chrono::steady_clock::now();
     auto r = run_cli("--device auto --batch '" + m.string() + "' --log '" + log.string() + "'");
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     INFO(r.err);
     CHECK(r.rc == 1);
     CHECK(r.err.find("job 2 (" + m.string() + ":4): error: cannot read") != std::string::npos);
@@ -170,6 +174,27 @@ TEST_CASE("batch: jobs run in one process, a failed job alone fails, the log say
     CHECK(lines[3].find("\"status\": \"failed\"") != std::string::npos);
     CHECK(lines[4].find("\"status\": \"ok\"") != std::string::npos);
     CHECK(lines[4].find("\"message\": \"\"}") != std::string::npos);
+    // Every record has every field, in order, each of its JSON type; the
+    // times are each job's own, in seconds, and add up to at most the batch's.
+    const std::regex record(
+        R"re(\{"job": (\d+), "line": (\d+), "args": \[(".*")\], "inputs": \[(".*")?\], )re"
+        R"re("outputs": \[(".*")?\], "status": "(ok|failed|skipped)", "seconds": (\d+\.\d{3}), )re"
+        R"re("message": "(.*)"\})re");
+    double total = 0.0;
+    for (std::size_t i = 0; i < lines.size(); ++i) {
+        INFO(lines[i]);
+        std::smatch f;
+        REQUIRE(std::regex_match(lines[i], f, record));
+        CHECK(std::stoi(f[1]) == int(i));
+        CHECK(std::stoi(f[2]) == int(i) + 2);  // the manifest's line, after its comment
+        CHECK(f[6].str() == (i == 2 || i == 3 ? "failed" : "ok"));
+        CHECK(f[8].str().empty() == (f[6].str() == "ok"));
+        total += std::stod(f[7]);
+    }
+    CHECK(total > 0.0);
+    CHECK(total <= wall);
+    CHECK(lines[1].find("\"inputs\": [\"" + kDem + "\"], \"outputs\": [\"" + (d / "h1.exr").string() +
+                        "\"]") != std::string::npos);
 
     // all jobs fine: exit 0
     std::ofstream(d / "good.txt") << kDem << " --slopes -o " << (d / "g.exr").string() << "\n";

@@ -909,6 +909,18 @@ TEST_CASE("preview: each panel is the map's size at the sheet's scale, in its ow
                 CHECK(at(x0 - 1, y0) == background);  // its left, right and lower edges
                 CHECK(at(x0 + c.pw, y0 + c.ph - 1) == background);
                 CHECK(at(x0 + c.pw / 2, y0 + c.ph) != colour);
+                if (row == 1) {  // d and e: a colour bar under the panel, as wide as the cell
+                    int bar = y0 + c.ph;
+                    while (bar < H && at(x0, bar) == background)
+                        ++bar;
+                    REQUIRE(bar < H);
+                    int coloured = 0;
+                    for (int x = x0; x < x0 + cw; ++x)
+                        coloured += at(x, bar + 2) != background;
+                    CHECK(coloured == cw);
+                    CHECK(at(x0 + cw, bar + 2) == background);
+                    CHECK(at(x0, bar + 2) != at(x0 + cw - 1, bar + 2));  // a ramp, not one colour
+                }
             }
         // Two rows of cells with equal margins: H = 2 (row pitch) + margin.
         CHECK(H == 2 * (top[1] - top[0]) + margin);
