@@ -43,10 +43,9 @@ Bytes machine_available()
     return pages > 0 && page > 0 ? Bytes(pages) * Bytes(page) : kUnlimited;
 }
 
-// What the cgroups (v2) this process is in still allow: for its own group
-// and each one above it that has a limit, the limit less what the group
-// uses, not counting file pages the kernel can take back (inactive_file).
-Bytes cgroup_available()
+}  // namespace
+
+Bytes cgroup_available(const fs::path& proc_cgroup, const fs::path& root)
 {
     auto number = [](const fs::path& p) -> Bytes {
         std::ifstream f(p);
@@ -66,12 +65,11 @@ Bytes cgroup_available()
     };
     std::string own;  // "0::/user.slice/..." in /proc/self/cgroup
     {
-        std::ifstream f("/proc/self/cgroup");
+        std::ifstream f(proc_cgroup);
         for (std::string line; std::getline(f, line);)
             if (line.rfind("0::", 0) == 0)
                 own = line.substr(3);
     }
-    const fs::path root = "/sys/fs/cgroup";
     Bytes available = kUnlimited;
     fs::path dir = (root / fs::path(own).relative_path()).lexically_normal();
     for (int depth = 0; depth < 64; ++depth) {
@@ -89,11 +87,9 @@ Bytes cgroup_available()
     return available;
 }
 
-}  // namespace
-
 Bytes host_memory_available()
 {
-    Bytes a = std::min(machine_available(), cgroup_available());
+    Bytes a = std::min(machine_available(), cgroup_available("/proc/self/cgroup", "/sys/fs/cgroup"));
     if (const Bytes limit = limit_from_environment())
         a = std::min(a, limit);
     return a;

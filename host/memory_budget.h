@@ -5,6 +5,7 @@
 // failing part way (or being killed by the kernel's OOM killer) with files
 // half made. No OpenCL types here: the plugin includes it.
 #include <cstdint>
+#include <filesystem>
 #include <string>
 
 namespace relief::host {
@@ -19,6 +20,13 @@ using Bytes = std::uint64_t;
 // which a farm sets to share a node between jobs. Throws Error for a
 // malformed $RELIEF_MEMORY_LIMIT.
 Bytes host_memory_available();
+
+// What the cgroups (v2) named in `proc_cgroup` (/proc/self/cgroup) allow
+// under `root` (/sys/fs/cgroup): for the process's own group and each one
+// above it that has a limit (memory.max), the limit less what the group
+// uses (memory.current), not counting the file pages the kernel can take
+// back (memory.stat's inactive_file). Unlimited without any limit.
+Bytes cgroup_available(const std::filesystem::path& proc_cgroup, const std::filesystem::path& root);
 
 // "12.3 GB" (decimal units, as memory is sold and `free -h` is read).
 std::string format_bytes(Bytes b);

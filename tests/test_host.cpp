@@ -16,6 +16,7 @@
 #include "correct_stage.h"
 #include "environment.h"
 #include "errors.h"
+#include "memory_budget.h"
 #include "plan_cache.h"
 #include "slope_stage.h"
 #include "support/run_cli.h"
@@ -333,4 +334,43 @@ TEST_CASE("environment sizes: K, M, G and T in either case are powers of 1024, a
     }
     ::unsetenv(name);
     CHECK(size_from_environment(name) == 0);
+}
+
+TEST_CASE("memory: a cgroup's limit less its use, the tightest of the group and the groups above it",
+          "[host]")
+{
+    namespace fs = std::filesystem;
+    const fs::path d = fs::path(RELIEF_TEST_TMP) / "cgroups";
+    fs::remove_all(d);
+    const fs::path sys = d / "sys";
+    const auto put = [](const fs::path& p, const std::string& text) {
+        fs::create_directories(p.parent_path());
+        std::ofstream(p) << text;
+    };
+    const fs::path proc = d / "cgroup";
+    put(proc, "12:cpu,cpuacct:/elsewhere\n0::/farm/job7\n");
+    // job7: 1000000 - (400000 - 100000 reclaimable) = 700000 left
+    put(sys / "farm/job7/memory.max", "1000000\n");
+    put(sys / "farm/job7/memory.current", "400000\n");
+    put(sys / "farm/job7/memory.stat", "anon 290000\ninactive_file 100000\nactive_file 10000\n");
+    // farm, above it: 900000 - 850000 = 50000 left, the tighter
+    put(sys / "farm/memory.max", "900000\n");
+    put(sys / "farm/memory.current", "850000\n");
+    CHECK(cgroup_available(proc, sys) == 50000);
+    put(sys / "farm/memory.max", "max\n");
+    CHECK(cgroup_available(proc, sys) == 700000);
+    put(sys / "farm/job7/memory.current", "1200000\n");  // over its limit: nothing left
+    CHECK(cgroup_available(proc, sys) == 0);
+    // no limit anywhere, the root group, or no cgroup v2 line: unlimited
+    const Bytes unlimited = ~Bytes(0);
+    put(sys / "farm/job7/memory.max", "max\n");
+    CHECK(cgroup_available(proc, sys) == unlimited);
+    put(proc, "0::/\n");
+    CHECK(cgroup_available(proc, sys) == unlimited);
+    put(proc, "4:memory:/farm/job7\n");
+    CHECK(cgroup_available(proc, sys) == unlimited);
+    // the walk stops at the root it was given: a limit above it is not this tree's
+    put(proc, "0::/farm/job7\n");
+    put(d / "memory.max", "1\n");
+    CHECK(cgroup_available(proc, sys) == unlimited);
 }
