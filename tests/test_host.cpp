@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "binary_cache.h"
@@ -18,6 +19,7 @@
 #include "errors.h"
 #include "memory_budget.h"
 #include "plan_cache.h"
+#include "setup_times.h"
 #include "slope_stage.h"
 #include "support/run_cli.h"
 
@@ -373,4 +375,38 @@ TEST_CASE("memory: a cgroup's limit less its use, the tightest of the group and 
     put(proc, "0::/farm/job7\n");
     put(d / "memory.max", "1\n");
     CHECK(cgroup_available(proc, sys) == unlimited);
+}
+
+TEST_CASE("setup times: a nested timer's time is its own kind's, not its parent's too; ahead is apart",
+          "[host]")
+{
+    using std::chrono::milliseconds;
+    const auto delta = [](const SetupTimes& a, const SetupTimes& b) {
+        return SetupTimes{b.device - a.device, b.programs - a.programs, b.plans - a.plans,
+                          b.prepared - a.prepared};
+    };
+    const SetupTimes t0 = setup_times();
+    {
+        SetupTimer plan(SetupTimer::Kind::Plans);
+        std::this_thread::sleep_for(milliseconds(10));
+        {
+            SetupTimer build(SetupTimer::Kind::Programs);
+            std::this_thread::sleep_for(milliseconds(300));
+        }
+    }
+    const SetupTimes d = delta(t0, setup_times());
+    CHECK(d.programs >= 0.3);
+    CHECK(d.plans >= 0.01);
+    CHECK(d.plans < d.programs / 2);  // not 0.31: the build inside is the build's
+    CHECK(d.device == 0.0);
+    CHECK(d.prepared == 0.0);
+    const SetupTimes t1 = setup_times();
+    std::thread([] {
+        Ahead ahead;
+        SetupTimer device(SetupTimer::Kind::Device);
+        std::this_thread::sleep_for(milliseconds(20));
+    }).join();
+    const SetupTimes a = delta(t1, setup_times());
+    CHECK(a.prepared >= 0.02);
+    CHECK(a.device == 0.0);
 }
