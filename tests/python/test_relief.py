@@ -225,58 +225,59 @@ class Keywords(unittest.TestCase):
     def tearDownClass(cls):
         cls.tmp.cleanup()
 
-    # (operation, input files, keywords, the result differs from the defaults';
-    # None: refused alike). hills.exr has no relief metadata, so its
-    # corrections name a scale (the case of scale itself changes it).
+    # (operation, input files, context, keywords, the result differs from
+    # the context's alone; None: refused alike). The context (method=rays
+    # for the rays' own keywords; a scale for hills.exr, which has no relief
+    # metadata) is given to both runs and to the default's.
     CASES = [
-        ("slopes", ["n.png"], {"normal": "directx"}, True),
-        ("slopes", ["n.png"], {"max_angle": 30}, True),
-        ("slopes", ["nf.exr"], {"range": "unsigned"}, True),
-        ("height", ["n.png"], {"normal": "directx"}, True),
-        ("height", ["n.png"], {"max_angle": 20}, True),
-        ("height", ["nf.exr"], {"range": "unsigned"}, True),
-        ("height", ["n.png"], {"method": "rays"}, True),
-        ("height", ["n.png"], {"boundary": "free"}, True),
-        ("height", ["n.png"], {"method": "rays", "boundary": "clip"}, True),
-        ("height", ["n.png"], {"highpass": 4}, True),
-        ("height", ["na.png"], {"mask": "alpha"}, True),
-        ("height", ["n.png"], {"mask": "w.png"}, True),
-        ("height", ["n.png"], {"method": "rays", "impl": "reference"}, True),
-        ("height", ["n.png"], {"method": "rays", "rays": 8}, True),
-        ("height", ["n.png"], {"method": "rays", "radius": 4}, True),
-        ("height", ["n.png"], {"method": "rays", "phase": 0.25}, True),
-        ("height", ["n.png"], {"method": "rays", "impl": "reference", "directions": "exact"}, True),
-        ("height", ["n.png"], {"method": "rays", "skip": False}, True),
-        ("correct", ["hills.exr"], {"scale": 0.3}, True),
-        ("correct", ["hills.exr"], {"scale": 0.05, "theta": 3}, True),
-        ("correct", ["hills.exr"], {"scale": 0.05, "nodes": "center"}, True),
-        ("correct", ["hills.exr"], {"scale": 0.05, "boundary": "periodic"}, True),  # auto: fixed
-        ("correct", ["hills.exr"], {"scale": 0.05, "fix": "height:0:1"}, True),
-        ("correct", ["hills.exr"], {"scale": 0.05, "fix": "w.png"}, None),  # sizes differ: refused alike
-        ("correct", ["h.exr"], {"fix": "w.png"}, True),
-        ("correct", ["hills.exr"], {"scale": 0.05, "iterations": 2}, True),
-        ("correct", ["hills.exr"], {"scale": 0.05, "tolerance": 0.1}, True),
-        ("correct", ["hills.exr"], {"scale": 0.05, "levels": 1}, True),
-        ("correct", ["h.exr"], {"threshold": 0.5}, True),
-        ("correct", ["hills.exr"], {"scale": 0.05, "skip": False}, False),  # skipping is exact
-        ("correct", ["hills.exr"], {"scale": 0.05, "search": "golden"}, True),
-        ("correct", ["hills.exr"], {"scale": 0.05, "relax": 1.2}, True),
-        ("bake", ["t.png", "off.exr"], {"filter": "bicubic"}, True),
-        ("bake", ["t.png", "off.exr"], {"colorspace": "linear"}, True),
-        ("bake", ["t.png", "off.exr"], {"kind": "data"}, True),
-        ("bake", ["t.png", "off.exr"], {"wrap": "clamp"}, True),
-        ("normals", ["h.exr"], {"normal": "directx"}, True),
-        ("normals", ["h.exr"], {"scale": 2}, True),
-        ("normals", ["h.exr"], {"boundary": "free"}, True),
-        ("tessellation", ["h.exr"], {"patch": 8}, True),
-        ("tessellation", ["h.exr"], {"error": 0.1}, True),
-        ("tessellation", ["h.exr"], {"scale": 3}, True),
-        ("preview", ["n.png", "h.exr"], {"normal": "directx"}, True),
-        ("preview", ["n.png", "h.exr"], {"max_angle": 30}, True),
-        ("preview", ["nf.exr", "h.exr"], {"range": "unsigned"}, True),
-        ("preview", ["n.png", "h.exr"], {"light": "90,30"}, True),
-        ("preview", ["n.png", "h.exr"], {"env": "env.png"}, True),
-        ("preview", ["n.png", "h.exr"], {"boundary": "free"}, True),
+        ("slopes", ["n.png"], {}, {"normal": "directx"}, True),
+        ("slopes", ["n.png"], {}, {"max_angle": 30}, True),
+        ("slopes", ["nf.exr"], {}, {"range": "unsigned"}, True),
+        ("height", ["n.png"], {}, {"normal": "directx"}, True),
+        ("height", ["n.png"], {}, {"max_angle": 20}, True),
+        ("height", ["nf.exr"], {}, {"range": "unsigned"}, True),
+        ("height", ["n.png"], {}, {"method": "rays"}, True),
+        ("height", ["n.png"], {}, {"boundary": "free"}, True),
+        ("height", ["n.png"], {"method": "rays"}, {"boundary": "clip"}, True),
+        ("height", ["n.png"], {}, {"highpass": 4}, True),
+        ("height", ["na.png"], {}, {"mask": "alpha"}, True),
+        ("height", ["n.png"], {}, {"mask": "w.png"}, True),
+        ("height", ["n.png"], {"method": "rays"}, {"impl": "reference"}, True),
+        ("height", ["n.png"], {"method": "rays"}, {"rays": 8}, True),
+        ("height", ["n.png"], {"method": "rays"}, {"radius": 4}, True),
+        ("height", ["n.png"], {"method": "rays"}, {"phase": 0.25}, True),
+        ("height", ["n.png"], {"method": "rays", "impl": "reference"}, {"directions": "exact"}, True),
+        ("height", ["n.png"], {"method": "rays"}, {"skip": False}, False),  # skipping is exact
+        ("correct", ["h.exr"], {}, {"scale": 0.3}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05}, {"theta": 3}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05}, {"nodes": "center"}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05}, {"boundary": "periodic"}, True),  # auto: fixed
+        ("correct", ["hills.exr"], {"scale": 0.05}, {"fix": "height:0:1"}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05}, {"fix": "w.png"}, None),  # sizes differ: refused alike
+        ("correct", ["h.exr"], {}, {"fix": "w.png"}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05}, {"iterations": 2}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05}, {"tolerance": 0.1}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05}, {"levels": 1}, True),
+        ("correct", ["h.exr"], {}, {"threshold": 0.5}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05}, {"skip": False}, False),  # skipping is exact
+        ("correct", ["hills.exr"], {"scale": 0.05}, {"search": "golden"}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05}, {"relax": 1.2}, True),
+        ("bake", ["t.png", "off.exr"], {}, {"filter": "bicubic"}, True),
+        ("bake", ["t.png", "off.exr"], {}, {"colorspace": "linear"}, True),
+        ("bake", ["t.png", "off.exr"], {}, {"kind": "data"}, True),
+        ("bake", ["t.png", "off.exr"], {}, {"wrap": "clamp"}, True),
+        ("normals", ["h.exr"], {}, {"normal": "directx"}, True),
+        ("normals", ["h.exr"], {}, {"scale": 2}, True),
+        ("normals", ["h.exr"], {}, {"boundary": "free"}, True),
+        ("tessellation", ["h.exr"], {}, {"patch": 8}, True),
+        ("tessellation", ["h.exr"], {}, {"error": 0.1}, True),
+        ("tessellation", ["h.exr"], {}, {"scale": 3}, True),
+        ("preview", ["n.png", "h.exr"], {}, {"normal": "directx"}, True),
+        ("preview", ["n.png", "h.exr"], {}, {"max_angle": 30}, True),
+        ("preview", ["nf.exr", "h.exr"], {}, {"range": "unsigned"}, True),
+        ("preview", ["n.png", "h.exr"], {}, {"light": "90,30"}, True),
+        ("preview", ["n.png", "h.exr"], {}, {"env": "env.png"}, True),
+        ("preview", ["n.png", "h.exr"], {}, {"boundary": "free"}, True),
     ]
 
     def files(self, names):
@@ -289,7 +290,9 @@ class Keywords(unittest.TestCase):
         return getattr(relief, op)(*[relief.read(f) for f in files], **self.named(kw))
 
     def cli_run(self, op, files, kw):
-        mods = "".join(f":{k}={relief._text(k, v)}" for k, v in self.named(kw).items())
+        # the command line's text written here, not by the package's own conversion
+        text = {True: "on", False: "off"}
+        mods = "".join(f":{k}={text.get(v, v) if isinstance(v, bool) else v}" for k, v in self.named(kw).items())
         out = os.path.join(self.tmp.name, "cli.exr")
         r = subprocess.run([CLI, *files, f"--{op}{mods}", "-d", "float", "-o", out], capture_output=True,
                            text=True, cwd=self.tmp.name)
@@ -297,8 +300,9 @@ class Keywords(unittest.TestCase):
 
     def test_every_keyword_gives_what_the_command_line_gives(self):
         covered, bases = set(), {}
-        for op, names, kw, changes in self.CASES:
-            covered.update((op, k) for k in kw if not (names == ["hills.exr"] and k == "scale" and kw[k] == 0.05))
+        for op, names, context, own, changes in self.CASES:
+            covered.update((op, k) for k in own)
+            kw = {**context, **own}
             with self.subTest(op=op, kw=kw):
                 files = self.files(names)
                 r, expected = self.cli_run(op, files, kw)
@@ -312,16 +316,24 @@ class Keywords(unittest.TestCase):
                 np.testing.assert_array_equal(got, expected)
                 self.assertEqual({k: v for k, v in got.metadata.items() if k.startswith("relief:")},
                                  {k: v for k, v in expected.metadata.items() if k.startswith("relief:")})
-                key = (op, tuple(names))
+                key = (op, tuple(names), tuple(context.items()))
                 if key not in bases:
-                    bases[key] = self.python_run(op, files, {"scale": 0.05} if names == ["hills.exr"] else {})
-                base = bases[key]
-                same = base.shape == got.shape and np.array_equal(base, got)
+                    bases[key] = self.python_run(op, files, context)
+                same = bases[key].shape == got.shape and np.array_equal(bases[key], got)
                 self.assertEqual(not same, changes, "the keyword changed nothing" if changes else "")
         for op in relief.operations():
             for m in op["modifiers"]:
                 if op["name"] != "mesh":  # mesh: test_mesh_keywords_reach_the_file
                     self.assertIn((op["name"], m["name"]), covered)
+
+    def test_keyword_values_become_the_command_line_text(self):
+        # skip= is exact either way, so on/off shows in no result: the text itself
+        self.assertEqual([relief._text("skip", v) for v in (True, False, np.True_, np.False_)],
+                         ["on", "off", "on", "off"])
+        self.assertEqual([relief._text("k", v) for v in (8, 0.25, np.float32(0.5), np.int64(3), "a b")],
+                         ["8", "0.25", "0.5", "3", "a b"])
+        import pathlib
+        self.assertEqual(relief._text("mask", pathlib.Path("/maps/w.png")), "/maps/w.png")
 
     def test_mesh_keywords_reach_the_file(self):
         h = relief.read(os.path.join(self.tmp.name, "h.exr"))
