@@ -291,6 +291,55 @@ TEST_CASE("options: mask=alpha and mask images weight the solve with their chann
     }
 }
 
+TEST_CASE("options: a mask's weights count in the memory a Poisson height is refused for",
+          "[options][mask][memory]")
+{
+    // The smallest RELIEF_MEMORY_LIMIT a height runs under (bisected to
+    // 1 KiB) is its estimated need. A mask makes the solve the weighted
+    // one, whose buffers (weights, the conjugate-gradient vectors, the
+    // spectral start) the estimate must hold on top of the plain solve's;
+    // on this CPU device the buffers are host memory. Measured: 16 bytes a
+    // texel without a mask, 84 with one.
+    const int n = 256;
+    std::vector<double> g(2 * std::size_t(n) * n);
+    for (std::size_t i = 0; i < g.size(); ++i)
+        g[i] = 0.2 * std::sin(0.05 * double(i));
+    const ImageBuf normals = test::normal_image(g, n, n, test::Green::OpenGL, TypeDesc::FLOAT);
+    const ImageBuf weights = test::image(n, n, 1, std::vector<float>(std::size_t(n) * n, 0.5f));
+    const auto smallest_limit = [&](const HeightOptions& o) {
+        const auto runs = [&](std::uint64_t limit) {
+            ::setenv("RELIEF_MEMORY_LIMIT", std::to_string(limit).c_str(), 1);
+            ImageBuf out;
+            const bool ok = relief::height(out, normals, o);
+            if (!ok)
+                CHECK(geterror().find("RELIEF_MEMORY_LIMIT") != std::string::npos);
+            return ok;
+        };
+        std::uint64_t lo = 1024, hi = std::uint64_t(1) << 30;
+        REQUIRE_FALSE(runs(lo));
+        REQUIRE(runs(hi));
+        while (hi - lo > 1024) {
+            const std::uint64_t mid = lo + (hi - lo) / 2;
+            (runs(mid) ? hi : lo) = mid;
+        }
+        ::unsetenv("RELIEF_MEMORY_LIMIT");
+        return double(hi);
+    };
+    for (Boundary b : {Boundary::Periodic, Boundary::Free}) {
+        INFO((b == Boundary::Periodic ? "periodic" : "free"));
+        HeightOptions plain;
+        plain.method = HeightMethod::Poisson;
+        plain.boundary = b;
+        plain.normals.convention = NormalConvention::OpenGL;
+        HeightOptions masked = plain;
+        masked.mask = &weights;
+        const double texels = double(n) * n, without = smallest_limit(plain), with = smallest_limit(masked);
+        std::printf("memory for a %dx%d Poisson height: %.1f bytes a texel, %.1f with a mask\n", n, n,
+                    without / texels, with / texels);
+        CHECK(with - without >= 32.0 * texels);
+    }
+}
+
 TEST_CASE("options: an all-ones mask changes nothing, one texel less does", "[options][mask]")
 {
     const auto g = tiling_slopes(kW, kH, 6);
