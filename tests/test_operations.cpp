@@ -556,6 +556,13 @@ TEST_CASE("operations: what a front end asks of a call, answered by the table wi
           describe(call("height", "method=rays:rays=16").height));
     CHECK_FALSE(describe(call("height", "")).empty());
     CHECK(describe(call("slopes", "")).empty());
+    // and the parameters a height records: a mask is said, by its kind
+    HeightOptions alpha, image;
+    alpha.mask_alpha = true;
+    image.mask = &weights;
+    CHECK(describe(alpha) == "method=auto boundary=auto highpass=0 mask=alpha");
+    CHECK(describe(image) == "method=auto boundary=auto highpass=0 mask=image");
+    CHECK(describe(HeightOptions{}) == "method=auto boundary=auto highpass=0");
     // reports: the two operations that have one, under their own names
     V reporting;
     for (const OperationInfo& op : operations())
