@@ -519,6 +519,46 @@ TEST_CASE("mesh: stitched sides between a flat half and waves, scale and odd siz
     }
 }
 
+TEST_CASE("mesh: vertex normals are the surface's unit normals, texture coordinates the vertex's place",
+          "[check][mesh]")
+{
+    // A tilted plane, h = a x + b y texels, scaled by S: away from the
+    // borders (where the height clamps) every vertex's normal is
+    // (-S a, -S b, 1) / |.| whatever the tessellation.
+    const int w = 40, ht = 30;
+    const double a = 0.3, b = -0.2, S = 2.0;
+    std::vector<float> h(std::size_t(w) * ht);
+    for (int y = 0; y < ht; ++y)
+        for (int x = 0; x < w; ++x)
+            h[std::size_t(y) * w + x] = float(a * x + b * y);
+    TessellationOptions o;
+    o.patch = 8;
+    o.scale = float(S);
+    Mesh m;
+    REQUIRE(displaced_mesh(m, test::image(w, ht, 1, h), o));
+    const std::size_t vertices = m.positions.size() / 3;
+    REQUIRE(m.normals.size() == 3 * vertices);
+    REQUIRE(m.texcoords.size() == 2 * vertices);
+    const double len = std::sqrt(S * a * S * a + S * b * S * b + 1.0);
+    int interior = 0;
+    for (std::size_t i = 0; i < vertices; ++i) {
+        const float* p = &m.positions[3 * i];
+        const float* n = &m.normals[3 * i];
+        INFO("vertex (" << p[0] << ", " << p[1] << ")");
+        CHECK(std::sqrt(double(n[0]) * n[0] + double(n[1]) * n[1] + double(n[2]) * n[2]) ==
+              Approx(1.0).margin(1e-6));
+        CHECK(m.texcoords[2 * i] == Approx(p[0] / w).margin(1e-6));
+        CHECK(m.texcoords[2 * i + 1] == Approx(1.0 - p[1] / ht).margin(1e-6));
+        if (p[0] >= 1.5 && p[0] <= w - 1.5 && p[1] >= 1.5 && p[1] <= ht - 1.5) {
+            ++interior;
+            CHECK(n[0] == Approx(-S * a / len).margin(1e-5));
+            CHECK(n[1] == Approx(-S * b / len).margin(1e-5));
+            CHECK(n[2] == Approx(1.0 / len).margin(1e-5));
+        }
+    }
+    CHECK(interior > 0);
+}
+
 TEST_CASE("mesh: bad out= values are refused before anything runs, failures leave no file",
           "[check][mesh][cli][errors]")
 {
