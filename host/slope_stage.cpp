@@ -43,17 +43,6 @@ void measure_curl(ComputeContext::Impl& cl_, const cl::Buffer& slopes, int w, in
 
 }  // namespace
 
-DeviceSlopes derive_slopes(ComputeContext& ctx, const float* normals, const SlopeParams& p, SlopeStats& stats)
-{
-    const std::size_t row = std::size_t(p.width) * std::size_t(std::max(p.channels, 0));
-    return derive_slopes(
-        ctx,
-        [&](int first, int count, float* out) {
-            std::copy(normals + std::size_t(first) * row, normals + std::size_t(first + count) * row, out);
-        },
-        p, stats);
-}
-
 DeviceSlopes derive_slopes(ComputeContext& ctx, const NormalRows& rows, const SlopeParams& p,
                            SlopeStats& stats)
 {

@@ -39,12 +39,8 @@ struct SlopeStats {
 // Below this ratio of the two curl norms the choice is a guess (docs/design.md §3).
 constexpr double kAmbiguousCurlRatio = 1.15;
 
-// Decodes `normals` (width*height*channels floats, as read from the image)
-// and derives the slope field on the device.
-DeviceSlopes derive_slopes(ComputeContext& ctx, const float* normals, const SlopeParams& params,
-                           SlopeStats& stats);
-
-// The same, with the decoded map supplied a band of rows at a time:
+// Derives the slope field on the device from the decoded normal map
+// (width*height*channels floats), supplied a band of rows at a time:
 // `rows(first_row, row_count, out)` writes row_count*width*channels floats.
 // Only one band is ever held, so a map kept in its file's type (a byte per
 // channel) is never widened to floats as a whole.
