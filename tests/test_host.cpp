@@ -377,8 +377,9 @@ TEST_CASE("memory: a cgroup's limit less its use, the tightest of the group and 
     CHECK(cgroup_available(proc, sys) == unlimited);
 }
 
-TEST_CASE("setup times: a nested timer's time is its own kind's, not its parent's too; ahead is apart",
-          "[host]")
+TEST_CASE(
+    "setup times: a nested timer's time is its own kind's, not its parent's too, and ahead time is apart",
+    "[host]")
 {
     using std::chrono::milliseconds;
     const auto delta = [](const SetupTimes& a, const SetupTimes& b) {
