@@ -30,4 +30,13 @@ done
 for kind in "becomes '" "the constant" "is negated" "is dropped" "are swapped"; do
   grep -qh "^# .*$kind" "$out"/a/*.patch || { echo "no mutant of the kind '$kind' in 150"; exit 1; }
 done
+# A mutant near a file's end applies too (its context stops at the last line).
+tiny=$out/tiny
+mkdir -p "$tiny/cli"
+printf 'int f(int a)\n{\n    return a + 1;\n}\nint g(int a) { return a * 2; }\n' >"$tiny/cli/end.cpp"
+git -C "$tiny" init -q
+(cd "$tiny" && /usr/bin/python3 "$src/scripts/mutate-random" "$out/tiny-mutants" 4 1)
+for p in "$out"/tiny-mutants/*.patch; do
+  git -C "$tiny" apply --check "$p" || { echo "a mutant of the last lines does not apply: $p"; cat "$p"; exit 1; }
+done
 echo "150 random mutants apply, one line each, drawn again the same by the same seed"
