@@ -257,6 +257,24 @@ TEST_CASE("normals: auto takes the boundary the height was integrated with", "[c
     CHECK(test::max_abs_diff(f, p) > 0.1);
 }
 
+TEST_CASE("normals: auto on a height one texel wide or tall is free (a seam needs two texels)", "[check]")
+{
+    // Period 3 along the long axis: its seam alone would pass as periodic.
+    for (const auto& [w, ht] : {std::pair<int, int>{12, 1}, {1, 12}}) {
+        INFO(w << "x" << ht);
+        std::vector<float> h(std::size_t(w) * ht);
+        for (std::size_t i = 0; i < h.size(); ++i)
+            h[i] = 0.25f * float(i % 3);
+        const OIIO::ImageBuf img = test::image(w, ht, 1, h);
+        NormalsOptions free_o, periodic_o, auto_o;
+        free_o.boundary = Boundary::Free;
+        periodic_o.boundary = Boundary::Periodic;
+        const auto f = test::pixels(relief::normals(img, free_o));
+        CHECK(test::max_abs_diff(test::pixels(relief::normals(img, auto_o)), f) == 0.0);
+        CHECK(test::max_abs_diff(test::pixels(relief::normals(img, periodic_o)), f) > 0.01);
+    }
+}
+
 TEST_CASE("normals: refuses NaN heights and directx/opengl only", "[check]")
 {
     std::vector<float> h(16, 0.0f);

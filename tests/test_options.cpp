@@ -292,40 +292,51 @@ TEST_CASE("options: mask=alpha and mask images weight the solve with their chann
     }
 }
 
-TEST_CASE("options: a mask's weights count in the memory a Poisson height is refused for",
-          "[options][mask][memory]")
+namespace {
+
+// The smallest RELIEF_MEMORY_LIMIT a height runs under, bisected to 1 KiB:
+// its estimated need.
+double smallest_memory_limit(const ImageBuf& normals, const HeightOptions& o)
 {
-    // The smallest RELIEF_MEMORY_LIMIT a height runs under (bisected to
-    // 1 KiB) is its estimated need. A mask makes the solve the weighted
-    // one, whose buffers (weights, the conjugate-gradient vectors, the
-    // spectral start) the estimate must hold on top of the plain solve's;
-    // on this CPU device the buffers are host memory. Measured: 16 bytes a
-    // texel without a mask, 84 with one.
-    const int n = 256;
+    const auto runs = [&](std::uint64_t limit) {
+        ::setenv("RELIEF_MEMORY_LIMIT", std::to_string(limit).c_str(), 1);
+        ImageBuf out;
+        const bool ok = relief::height(out, normals, o);
+        if (!ok)
+            CHECK(geterror().find("RELIEF_MEMORY_LIMIT") != std::string::npos);
+        return ok;
+    };
+    std::uint64_t lo = 1024, hi = std::uint64_t(1) << 30;
+    REQUIRE_FALSE(runs(lo));
+    REQUIRE(runs(hi));
+    while (hi - lo > 1024) {
+        const std::uint64_t mid = lo + (hi - lo) / 2;
+        (runs(mid) ? hi : lo) = mid;
+    }
+    ::unsetenv("RELIEF_MEMORY_LIMIT");
+    return double(hi);
+}
+
+ImageBuf memory_test_normals(int n)
+{
     std::vector<double> g(2 * std::size_t(n) * n);
     for (std::size_t i = 0; i < g.size(); ++i)
         g[i] = 0.2 * std::sin(0.05 * double(i));
-    const ImageBuf normals = test::normal_image(g, n, n, test::Green::OpenGL, TypeDesc::FLOAT);
+    return test::normal_image(g, n, n, test::Green::OpenGL, TypeDesc::FLOAT);
+}
+
+}  // namespace
+
+TEST_CASE("options: a mask's weights count in the memory a Poisson height is refused for",
+          "[options][mask][memory]")
+{
+    // A mask makes the solve the weighted one, whose buffers (weights, the
+    // conjugate-gradient vectors, the spectral start) the estimate must hold
+    // on top of the plain solve's; on this CPU device the buffers are host
+    // memory. Measured: 16 bytes a texel without a mask, 84 with one.
+    const int n = 256;
+    const ImageBuf normals = memory_test_normals(n);
     const ImageBuf weights = test::image(n, n, 1, std::vector<float>(std::size_t(n) * n, 0.5f));
-    const auto smallest_limit = [&](const HeightOptions& o) {
-        const auto runs = [&](std::uint64_t limit) {
-            ::setenv("RELIEF_MEMORY_LIMIT", std::to_string(limit).c_str(), 1);
-            ImageBuf out;
-            const bool ok = relief::height(out, normals, o);
-            if (!ok)
-                CHECK(geterror().find("RELIEF_MEMORY_LIMIT") != std::string::npos);
-            return ok;
-        };
-        std::uint64_t lo = 1024, hi = std::uint64_t(1) << 30;
-        REQUIRE_FALSE(runs(lo));
-        REQUIRE(runs(hi));
-        while (hi - lo > 1024) {
-            const std::uint64_t mid = lo + (hi - lo) / 2;
-            (runs(mid) ? hi : lo) = mid;
-        }
-        ::unsetenv("RELIEF_MEMORY_LIMIT");
-        return double(hi);
-    };
     for (Boundary b : {Boundary::Periodic, Boundary::Free}) {
         INFO((b == Boundary::Periodic ? "periodic" : "free"));
         HeightOptions plain;
@@ -334,13 +345,42 @@ TEST_CASE("options: a mask's weights count in the memory a Poisson height is ref
         plain.normals.convention = NormalConvention::OpenGL;
         HeightOptions masked = plain;
         masked.mask = &weights;
-        const double texels = double(n) * n, without = smallest_limit(plain), with = smallest_limit(masked);
+        const double texels = double(n) * n, without = smallest_memory_limit(normals, plain),
+                     with = smallest_memory_limit(normals, masked);
         std::printf("memory for a %dx%d Poisson height: %.1f bytes a texel, %.1f with a mask\n", n, n,
                     without / texels, with / texels);
         // (on a device of its own only the host's part counts: the weights and the start)
         const bool unified = host::device_memory(*host::ComputeContext::acquire("auto")).host_unified;
         CHECK(with - without >= (unified ? 32.0 : 8.0) * texels - 2048.0);  // (bisected to 1 KiB)
     }
+}
+
+TEST_CASE("options: clipped rays count their chains' buffers in the memory they are refused for",
+          "[options][rays][memory]")
+{
+    // Periodic rays are one FFT convolution (four grids, about 16 bytes a
+    // texel); clipped rays walk chains, whose sums, tails, accumulators and
+    // output hold 36 bytes a texel beside the slopes. On a device whose
+    // buffers are host memory both count in RELIEF_MEMORY_LIMIT. Measured:
+    // 16 bytes a texel periodic, 52 clipped.
+    const bool unified = host::device_memory(*host::ComputeContext::acquire("auto")).host_unified;
+    if (!unified) {
+        WARN("the device's buffers are not host memory: RELIEF_MEMORY_LIMIT does not hold them");
+        return;
+    }
+    const int n = 256;
+    const ImageBuf normals = memory_test_normals(n);
+    HeightOptions periodic;
+    periodic.method = HeightMethod::Rays;
+    periodic.boundary = Boundary::Periodic;
+    periodic.normals.convention = NormalConvention::OpenGL;
+    HeightOptions clipped = periodic;
+    clipped.boundary = Boundary::Free;
+    const double texels = double(n) * n, fft = smallest_memory_limit(normals, periodic),
+                 chains = smallest_memory_limit(normals, clipped);
+    std::printf("memory for %dx%d rays: %.1f bytes a texel periodic, %.1f clipped\n", n, n, fft / texels,
+                chains / texels);
+    CHECK(chains - fft >= (36.0 - 17.0) * texels - 2048.0);  // (bisected to 1 KiB)
 }
 
 TEST_CASE("options: an all-ones mask changes nothing, one texel less does", "[options][mask]")
