@@ -21,8 +21,8 @@ std::size_t texels(int w, int ht)
 
 }  // namespace
 
-void height_normals(ComputeContext& ctx, const float* h, int w, int ht, bool periodic, float scale,
-                    bool directx, float* out)
+void height_normals(ComputeContext& ctx, const float* h, int w, int ht, bool periodic_x, bool periodic_y,
+                    float scale, bool directx, float* out)
 {
     const std::size_t n = texels(w, ht);
     auto& c = ctx.impl();
@@ -32,7 +32,7 @@ void height_normals(ComputeContext& ctx, const float* h, int w, int ht, bool per
             c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * n, "the normals", h);
         cl::Buffer normals = c.buffer(CL_MEM_WRITE_ONLY, 3 * sizeof(float) * n, "the normals");
         cl::Kernel k(c.program("check.cl"), "height_normals");
-        set_args(k, in, cl_int(w), cl_int(ht), cl_int(periodic), cl_float(scale),
+        set_args(k, in, cl_int(w), cl_int(ht), cl_int(periodic_x), cl_int(periodic_y), cl_float(scale),
                  cl_float(directx ? 1.0f : -1.0f), normals);
         c.launch(k, n);
         c.queue.enqueueReadBuffer(normals, CL_TRUE, 0, 3 * sizeof(float) * n, out);
@@ -41,8 +41,8 @@ void height_normals(ComputeContext& ctx, const float* h, int w, int ht, bool per
     }
 }
 
-RoundTrip round_trip(ComputeContext& ctx, const DeviceSlopes& slopes, const float* h, bool periodic,
-                     bool keep_angles)
+RoundTrip round_trip(ComputeContext& ctx, const DeviceSlopes& slopes, const float* h, bool periodic_x,
+                     bool periodic_y, bool keep_angles)
 {
     const int w = slopes.width(), ht = slopes.height();
     const std::size_t n = texels(w, ht);
@@ -56,7 +56,8 @@ RoundTrip round_trip(ComputeContext& ctx, const DeviceSlopes& slopes, const floa
             cl::Buffer a = c.buffer(CL_MEM_WRITE_ONLY, sizeof(float) * n, "the round trip");
             cl::Buffer r = c.buffer(CL_MEM_WRITE_ONLY, 2 * sizeof(float) * n, "the round trip");
             cl::Kernel k(c.program("check.cl"), "round_trip");
-            set_args(k, slopes.impl().buffer, in, cl_int(w), cl_int(ht), cl_int(periodic), a, r);
+            set_args(k, slopes.impl().buffer, in, cl_int(w), cl_int(ht), cl_int(periodic_x),
+                     cl_int(periodic_y), a, r);
             c.launch(k, n);
             c.queue.enqueueReadBuffer(a, CL_TRUE, 0, sizeof(float) * n, angle.data());
             c.queue.enqueueReadBuffer(r, CL_TRUE, 0, 2 * sizeof(float) * n, residual.data());

@@ -12,10 +12,11 @@
 namespace relief::host {
 
 // h: w*ht heights (texels). out: 3 floats per texel, the unit normal of
-// scale*h by central differences (one-sided at the edges unless periodic),
-// its row component stored as -n_y (OpenGL) or +n_y (DirectX).
-void height_normals(ComputeContext& ctx, const float* h, int w, int ht, bool periodic, float scale,
-                    bool directx, float* out);
+// scale*h by central differences (wrapping along a periodic axis, one-sided
+// at the edges of a free one), its row component stored as -n_y (OpenGL) or
+// +n_y (DirectX).
+void height_normals(ComputeContext& ctx, const float* h, int w, int ht, bool periodic_x, bool periodic_y,
+                    float scale, bool directx, float* out);
 
 struct RoundTrip {
     double mean_deg = 0.0, p95_deg = 0.0, max_deg = 0.0;  // angle between the normals
@@ -26,8 +27,8 @@ struct RoundTrip {
 // The height h (w*ht, the size of `slopes`) against the slopes it came from,
 // with the differences of height_normals(). Sums in double on the host, in
 // texel order: the same bits whatever the device's thread count.
-RoundTrip round_trip(ComputeContext& ctx, const DeviceSlopes& slopes, const float* h, bool periodic,
-                     bool keep_angles = false);
+RoundTrip round_trip(ComputeContext& ctx, const DeviceSlopes& slopes, const float* h, bool periodic_x,
+                     bool periodic_y, bool keep_angles = false);
 
 constexpr int kMaxTessellationLevel = 64;
 

@@ -50,4 +50,46 @@ void DctPlan::inverse(cl::Buffer& buffer)
     launch(unreorder_, n0_ * n1_);
 }
 
+FourierCosinePlan::FourierCosinePlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1,
+                                     const DctPlan::FftOf& fft_of)
+    : c_(c), n0_(n0), n1_(n1),
+      work_(c.buffer(CL_MEM_READ_WRITE, sizeof(float) * FftPlan::row_stride(n0) * n1, "the DCT")),
+      fft_(fft_of(work_))
+{
+    cl::Program& prog = c.program("dct.cl");
+    reorder_ = cl::Kernel(prog, "dct_axis1_reorder");
+    unreorder_ = cl::Kernel(prog, "dct_axis1_unreorder");
+    post_ = cl::Kernel(prog, "dct_axis1_forward_post");
+    pre_ = cl::Kernel(prog, "dct_axis1_inverse_pre");
+    const cl_int stride = cl_int(FftPlan::row_stride(n0)), columns = cl_int(n0 / 2 + 1);
+    for (cl::Kernel* k : {&reorder_, &unreorder_}) {
+        k->setArg(1, stride);
+        k->setArg(2, cl_int(n1));
+    }
+    reorder_.setArg(3, work_);
+    unreorder_.setArg(0, work_);
+    set_args(post_, work_, columns, cl_int(n1));
+    pre_.setArg(1, columns);
+    pre_.setArg(2, cl_int(n1));
+    pre_.setArg(3, work_);
+}
+
+void FourierCosinePlan::forward(cl::Buffer& buffer)
+{
+    reorder_.setArg(0, buffer);
+    c_.launch(reorder_, FftPlan::row_stride(n0_) * n1_);
+    fft_->forward(work_);
+    post_.setArg(3, buffer);
+    c_.launch(post_, (n0_ / 2 + 1) * n1_);
+}
+
+void FourierCosinePlan::inverse(cl::Buffer& buffer)
+{
+    pre_.setArg(0, buffer);
+    c_.launch(pre_, (n0_ / 2 + 1) * n1_);
+    fft_->inverse(work_);
+    unreorder_.setArg(3, buffer);
+    c_.launch(unreorder_, FftPlan::row_stride(n0_) * n1_);
+}
+
 }  // namespace relief::host

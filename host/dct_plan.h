@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 // 2-D (or 1-D) DCT-II and its inverse on the device, by one real FFT of the
-// same size (FftPlan) and the reordering kernels of kernels/dct.cl. VkFFT
+// same size (FftPlan) and the reordering kernels of kernels/dct.cl; and the
+// FFT along one axis with the DCT-II along the other, the same way. VkFFT
 // 1.2.26's own DCT segfaulted at sizes such as 64x3001 and refuses shapes
 // that need more than one pass on GPUs (error 3004); FftPlan avoids both.
 // Included only by host/*.cpp.
@@ -36,6 +37,28 @@ private:
     std::size_t n0_, n1_;
     cl::Buffer work_;               // the R2C grid
     std::shared_ptr<FftPlan> fft_;  // from fft_of: the context's plan of this size
+    cl::Kernel reorder_, unreorder_, post_, pre_;
+};
+
+// The transform of a map periodic along axis 0 and free along axis 1: the
+// real FFT along axis 0 and the DCT-II along axis 1 (kernels/dct.cl's
+// dct_axis1_*), by one real 2-D FFT of the same size.
+class FourierCosinePlan {
+public:
+    FourierCosinePlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, const DctPlan::FftOf& fft_of);
+
+    // In place on an R2C grid (rows of FftPlan::row_stride(n0) floats):
+    // forward gives the unnormalised X[k0,k1] = sum_x sum_y x e^{-2 pi i k0 x/n0}
+    // cos(pi k1 (2y+1)/2n1) for k0 <= n0/2, as n0/2 + 1 complex values a row;
+    // inverse(forward(x)) == x.
+    void forward(cl::Buffer& buffer);
+    void inverse(cl::Buffer& buffer);
+
+private:
+    ComputeContext::Impl& c_;
+    std::size_t n0_, n1_;
+    cl::Buffer work_;  // the reordered grid and its spectrum
+    std::shared_ptr<FftPlan> fft_;
     cl::Kernel reorder_, unreorder_, post_, pre_;
 };
 

@@ -396,19 +396,13 @@ void FftPlan::inverse(cl::Buffer& buffer)
 }
 
 float* read_real_result(ComputeContext::Impl& c, cl::Buffer& grid, cl::Buffer& spare, std::size_t stride,
-                        int w, int h, const std::function<float*()>& sink)
+                        int w, int h, bool transposed, const std::function<float*()>& sink)
 {
     const std::size_t n = std::size_t(w) * std::size_t(h);
-    if (w == 1) {  // one column: gathered out of the transform's row
+    if (transposed) {  // gathered out of the grid's rows, which are columns
         cl::Kernel gather(c.program("poisson.cl"), "poisson_gather");
-        int a = 0;
-        gather.setArg(a++, grid);
-        gather.setArg(a++, cl_int(stride));
-        gather.setArg(a++, cl_int(h));  // n0: the transform ran along y
-        gather.setArg(a++, cl_int(1));  // n1
-        gather.setArg(a++, cl_int(w));
-        gather.setArg(a++, cl_int(1));  // transposed
-        gather.setArg(a++, spare);
+        // (n0 = h: the grid's axis 0 is y)
+        set_args(gather, grid, cl_int(stride), cl_int(h), cl_int(w), cl_int(w), cl_int(1), spare);
         c.launch(gather, n);
         float* out = sink();
         c.queue.enqueueReadBuffer(spare, CL_TRUE, 0, sizeof(float) * n, out);

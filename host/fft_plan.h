@@ -53,11 +53,12 @@ private:
 };
 
 // The real w x h result of an inverse transform, read out of `grid` (rows
-// `stride` floats apart) into the memory `sink` gives. A one-texel-wide map
-// (a 1-D transform along y, in one row) is gathered through `spare` (at
-// least w * h floats); otherwise `spare` is freed before `sink` is called.
-// The caller holds c.mutex.
+// `stride` floats apart) into the memory `sink` gives. A `transposed` grid
+// (h x w: a one-texel-wide map, a 1-D transform along y in one row; or a
+// map whose periodic axis is y) is gathered through `spare` (at least w * h
+// floats); otherwise `spare` is freed before `sink` is called. The caller
+// holds c.mutex.
 float* read_real_result(ComputeContext::Impl& c, cl::Buffer& grid, cl::Buffer& spare, std::size_t stride,
-                        int w, int h, const std::function<float*()>& sink);
+                        int w, int h, bool transposed, const std::function<float*()>& sink);
 
 }  // namespace relief::host

@@ -91,13 +91,28 @@ void prepare_height(ComputeContext& ctx, int width, int height)
     c.program("poisson.cl");
 }
 
-SpectralPlan::SpectralPlan(ComputeContext::Impl& c, bool periodic, std::size_t n0, std::size_t n1,
+SpectralPlan::SpectralPlan(ComputeContext::Impl& c, SpectralKind kind, std::size_t n0, std::size_t n1,
                            cl::Buffer& grid)
 {
-    if (periodic)
-        fft_ = c.plans->fft(c, n0, n1, grid);
-    else
-        dct_ = c.plans->dct(c, n0, n1);
+    switch (kind) {
+    case SpectralKind::Fourier: fft_ = c.plans->fft(c, n0, n1, grid); break;
+    case SpectralKind::Cosine: dct_ = c.plans->dct(c, n0, n1); break;
+    case SpectralKind::FourierCosine:
+        // Not cached itself (its FFT is): a work grid and four kernels.
+        mixed_ = std::make_shared<FourierCosinePlan>(
+            c, n0, n1, [&](cl::Buffer& work) { return c.plans->fft(c, n0, n1, work); });
+        break;
+    }
+}
+
+void SpectralPlan::forward(cl::Buffer& b) const
+{
+    fft_ ? fft_->forward(b) : dct_ ? dct_->forward(b) : mixed_->forward(b);
+}
+
+void SpectralPlan::inverse(cl::Buffer& b) const
+{
+    fft_ ? fft_->inverse(b) : dct_ ? dct_->inverse(b) : mixed_->inverse(b);
 }
 
 }  // namespace relief::host

@@ -57,18 +57,32 @@ private:
     std::list<Entry> entries_;  // most recently used first
 };
 
-// The transform a boundary takes, from the cache: the FFT of a periodic map,
-// the DCT (its even extension) of a free one, behind one forward/inverse.
+// The transform the boundaries take: along a periodic axis the Fourier
+// series, along a free one the cosine series (its even extension).
+enum class SpectralKind {
+    Fourier,        // periodic on both axes: FftPlan, half spectrum in place
+    Cosine,         // free on both: DctPlan, on a dense n0 x n1 grid
+    FourierCosine,  // periodic along axis 0, free along axis 1: FourierCosinePlan
+};
+
+// The kind's plan behind one forward/inverse, the transforms from the cache.
 class SpectralPlan {
 public:
     // `grid`: as PlanCache::fft() takes it (unused for the DCT).
-    SpectralPlan(ComputeContext::Impl& c, bool periodic, std::size_t n0, std::size_t n1, cl::Buffer& grid);
-    void forward(cl::Buffer& b) const { fft_ ? fft_->forward(b) : dct_->forward(b); }
-    void inverse(cl::Buffer& b) const { fft_ ? fft_->inverse(b) : dct_->inverse(b); }
+    SpectralPlan(ComputeContext::Impl& c, SpectralKind kind, std::size_t n0, std::size_t n1,
+                 cl::Buffer& grid);
+    void forward(cl::Buffer& b) const;
+    void inverse(cl::Buffer& b) const;
+    // Floats per row of the grid the plan works on.
+    static std::size_t row_stride(SpectralKind kind, std::size_t n0)
+    {
+        return kind == SpectralKind::Cosine ? n0 : FftPlan::row_stride(n0);
+    }
 
 private:
     std::shared_ptr<FftPlan> fft_;
     std::shared_ptr<DctPlan> dct_;
+    std::shared_ptr<FourierCosinePlan> mixed_;
 };
 
 }  // namespace relief::host

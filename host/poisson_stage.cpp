@@ -26,6 +26,35 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
 
 namespace {
 
+// How a w x h map lies on the transforms' n0 x n1 grid. A one-texel-wide map
+// is solved transposed (a 1-D transform along axis 0), and so is a map free
+// along x and periodic along y: the periodic axis is axis 0, the real FFT's.
+struct Layout {
+    bool free_x, free_y, transposed;
+    int n0, n1;
+    SpectralKind kind;
+    std::size_t stride;  // floats per row of the grid
+};
+
+Layout layout(int w, int h, const PoissonParams& p)
+{
+    Layout l{};
+    l.free_x = p.boundary_x == PoissonBoundary::Free;
+    l.free_y = p.boundary_y == PoissonBoundary::Free;
+    if (w == 1)
+        l.free_x = l.free_y;
+    else if (h == 1)
+        l.free_y = l.free_x;
+    l.transposed = w == 1 || (l.free_x && !l.free_y);
+    l.n0 = l.transposed ? h : w;
+    l.n1 = l.transposed ? w : h;
+    l.kind = l.free_x != l.free_y ? SpectralKind::FourierCosine
+             : l.free_x           ? SpectralKind::Cosine
+                                  : SpectralKind::Fourier;
+    l.stride = SpectralPlan::row_stride(l.kind, std::size_t(l.n0));
+    return l;
+}
+
 // Both forms: `consume` lets go of `slopes` once split into the grids.
 void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const PoissonParams& p,
              const HeightSink& sink, PoissonReport* report)
@@ -37,18 +66,17 @@ void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const Pois
         sink()[0] = 0.0f;
         return;
     }
+    const Layout l = layout(w, h, p);
+    expects(!p.weights || l.free_x == l.free_y, "PoissonParams: weights with one boundary for both axes");
     if (p.weights) {
         expects(p.highpass == 0.0, "PoissonParams: no highpass with weights");
         integrate_poisson_weighted(ctx, slopes, p, sink(), report);
         return;
     }
-    // A one-texel-wide texture is solved transposed: a 1-D transform.
-    const bool transposed = w == 1;
-    const int n0 = transposed ? h : w, n1 = transposed ? 1 : h;
+    const int n0 = l.n0, n1 = l.n1;
     if (const std::string why = FftPlan::unsupported(n0, n1); !why.empty())
         throw Error("least squares: " + why);  // before anything is made
-    const bool periodic = p.boundary == PoissonBoundary::Periodic;
-    const std::size_t stride = periodic ? FftPlan::row_stride(n0) : std::size_t(n0);
+    const std::size_t stride = l.stride;
     const std::size_t bytes = sizeof(float) * stride * n1;
     const float sigma = float(highpass_sigma(p.highpass));
 
@@ -66,9 +94,10 @@ void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const Pois
         split.setArg(a++, cl_int(w));
         split.setArg(a++, cl_int(n0));
         split.setArg(a++, cl_int(n1));
-        split.setArg(a++, cl_int(transposed));
+        split.setArg(a++, cl_int(l.transposed));
         split.setArg(a++, cl_int(stride));
-        split.setArg(a++, cl_int(!periodic));
+        split.setArg(a++, cl_int(l.transposed ? l.free_y : l.free_x));
+        split.setArg(a++, cl_int(l.transposed ? l.free_x : l.free_y));
         split.setArg(a++, gx);
         split.setArg(a++, gy);
         c.launch(split, stride * std::size_t(n1));
@@ -78,19 +107,21 @@ void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const Pois
         }
         // The plans' own buffers are made after the slopes are gone.
         std::optional<SpectralPlan> plan;
-        plan.emplace(c, periodic, n0, n1, gx);
+        plan.emplace(c, l.kind, n0, n1, gx);
         plan->forward(gx);
         plan->forward(gy);
 
         // In place on gx's spectrum (the free kernel pairs k with n0 - k).
-        cl::Kernel divide(prog, periodic ? "poisson_periodic_divide" : "poisson_free_divide");
+        cl::Kernel divide(prog, l.kind == SpectralKind::Fourier  ? "poisson_periodic_divide"
+                                : l.kind == SpectralKind::Cosine ? "poisson_free_divide"
+                                                                 : "poisson_mixed_divide");
         set_args(divide, gx, gy, cl_int(n0), cl_int(n1), sigma);
         c.launch(divide, std::size_t(n0 / 2 + 1) * n1);
         plan->inverse(gx);
         divide = cl::Kernel();
         plan.reset();
 
-        height_out = read_real_result(c, gx, gy, stride, w, h, sink);
+        height_out = read_real_result(c, gx, gy, stride, w, h, l.transposed, sink);
     } catch (const cl::Error& e) {
         throw opencl_error("Poisson", e);
     }
@@ -120,12 +151,11 @@ std::uint64_t poisson_device_bytes(int w, int h, const PoissonParams& p, bool sl
     const std::uint64_t n = std::uint64_t(w) * std::uint64_t(h), slopes = 8 * n;
     if (p.weights)  // conjugate gradients: masked slopes, edges, CG vectors (poisson_weighted.cpp)
         return slopes + 16 * sizeof(float) * n;
-    const bool periodic = p.boundary == PoissonBoundary::Periodic;
-    const std::uint64_t grid =
-        sizeof(float) * (periodic ? FftPlan::row_stride(std::size_t(w)) : std::size_t(w)) * std::uint64_t(h);
-    // gx, gy and the transposed spectrum (the DCT adds its reordered copy);
+    const Layout l = layout(w, h, p);
+    const std::uint64_t grid = sizeof(float) * l.stride * std::uint64_t(l.n1);
+    // gx, gy and the transposed spectrum (a DCT adds its reordered copy);
     // taken, the slopes are gone before the transforms' buffers are made
-    const std::uint64_t grids = (periodic ? 3 : 4) * grid;
+    const std::uint64_t grids = (l.kind == SpectralKind::Fourier ? 3 : 4) * grid;
     return slopes_taken ? std::max(slopes + 2 * grid, grids) : slopes + grids;
 }
 

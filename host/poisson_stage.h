@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Stage 2, least-squares (Poisson) integration (docs/design.md §4.4):
-// slopes -> height, by Frankot–Chellappa projection with FFTs (periodic) or
-// DCTs (free) on the device.
+// slopes -> height, by Frankot–Chellappa projection with FFTs along the
+// periodic axes and DCTs along the free ones, on the device.
 #include <cstdint>
 
 #include "compute_context.h"
@@ -13,7 +13,9 @@ namespace relief::host {
 enum class PoissonBoundary { Periodic, Free };
 
 struct PoissonParams {
-    PoissonBoundary boundary = PoissonBoundary::Periodic;
+    // Along x (the map wraps from its right edge to its left) and y. An
+    // axis one texel long has no boundary: it takes the other axis's.
+    PoissonBoundary boundary_x = PoissonBoundary::Periodic, boundary_y = PoissonBoundary::Periodic;
     // Relief balance: removes structure larger than this many texels (the
     // solution minus its Gaussian blur with sigma = highpass*sqrt(2 ln 2)/(2 pi),
     // which halves the amplitude at wavelength `highpass`). 0 = off.
@@ -21,7 +23,7 @@ struct PoissonParams {
     // Per-texel confidence weights in [0, 1] (width*height, 0 = excluded),
     // or null. With weights the solve is the weighted discrete least squares
     // of poisson_weighted.cl by conjugate gradients; highpass is then not
-    // available.
+    // available, nor are boundaries that differ between the axes.
     const float* weights = nullptr;
     double tolerance = 1e-5;  // CG: stop at |r| <= tolerance * |b|
     int max_iterations = 500;

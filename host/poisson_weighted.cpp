@@ -32,7 +32,8 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
     const std::size_t n = std::size_t(w) * h;
     for (std::size_t i = 0; i < n; ++i)
         expects(p.weights[i] >= 0.0f && p.weights[i] <= 1.0f, "PoissonParams: weights in [0, 1]");
-    const bool periodic = p.boundary == PoissonBoundary::Periodic;
+    // (one boundary for both axes; of a one-texel-wide map, y's)
+    const bool periodic = (w == 1 ? p.boundary_y : p.boundary_x) == PoissonBoundary::Periodic;
     // The Laplacian of a one-texel-wide texture is the same path graph
     // whichever way round; the transforms want it along axis 0.
     const int n0 = w == 1 ? h : w, n1 = w == 1 ? 1 : h;
@@ -79,7 +80,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
         const std::size_t groups = (n + dot_group - 1) / dot_group;
         cl::Buffer partial = buffer(sizeof(float) * groups);
         cl::Buffer grid = buffer(sizeof(float) * stride * n1);
-        const SpectralPlan plan(c, periodic, n0, n1, grid);
+        const SpectralPlan plan(c, periodic ? SpectralKind::Fourier : SpectralKind::Cosine, n0, n1, grid);
         auto run = [&](cl::Kernel& k, std::size_t items = 0) { c.launch(k, items ? items : n); };
 
         cl::Kernel edges(prog, "weighted_edges");

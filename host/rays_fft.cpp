@@ -89,7 +89,7 @@ void fft_ray_sums(ComputeContext::Impl& c, DeviceSlopes& slopes, bool consume, c
 
         cl::Kernel split(spectral, "poisson_split");
         set_args(split, slopes.impl().buffer, cl_int(w), cl_int(n0), cl_int(n1), cl_int(transposed),
-                 cl_int(stride), cl_int(0), gx, gy);
+                 cl_int(stride), cl_int(0), cl_int(0), gx, gy);
         c.launch(split, stride * std::size_t(n1));
         if (consume) {
             split = cl::Kernel();  // the kernel holds its arguments too
@@ -134,7 +134,7 @@ void fft_ray_sums(ComputeContext::Impl& c, DeviceSlopes& slopes, bool consume, c
         kernel_grid = cl::Buffer();
         plan.reset();
 
-        read_real_result(c, gx, gy, stride, w, h, sink);
+        read_real_result(c, gx, gy, stride, w, h, transposed, sink);
         if (progress)
             progress(1.0);
     } catch (const cl::Error& e) {

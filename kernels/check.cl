@@ -4,8 +4,8 @@
 // per-patch tessellation levels.
 //
 // Heights are in texel units. Differences are central, (h[x+1] - h[x-1])/2,
-// wrapping when the map tiles; at the edges of a map that does not tile they
-// are one-sided (h[1] - h[0], h[n-1] - h[n-2]), and 0 across a single texel.
+// wrapping along an axis the map tiles along; at the edges across which it
+// does not tile they are one-sided (h[1] - h[0], h[n-1] - h[n-2]), and 0 across a single texel.
 
 inline float check_difference(global const float* h, int row, int stride, int i, int n, int periodic)
 {
@@ -21,22 +21,23 @@ inline float check_difference(global const float* h, int row, int stride, int i,
 }
 
 // The height's slope (gx, gy) at texel (i, j), in texels per texel.
-inline float2 check_gradient(global const float* h, int w, int ht, int i, int j, int periodic)
+inline float2 check_gradient(global const float* h, int w, int ht, int i, int j, int periodic_x,
+                             int periodic_y)
 {
-    return (float2)(check_difference(h, j * w, 1, i, w, periodic),
-                    check_difference(h, i, w, j, ht, periodic));
+    return (float2)(check_difference(h, j * w, 1, i, w, periodic_x),
+                    check_difference(h, i, w, j, ht, periodic_y));
 }
 
 // height -> unit normals, 3 floats per texel: n = normalize(-s gx, -s gy, 1)
 // in the image frame, its row component times `row_sign` (-1: OpenGL's
 // G = -n_y, +1: DirectX's G = +n_y).
-kernel void height_normals(global const float* h, int w, int ht, int periodic, float scale, float row_sign,
-                           global float* out)
+kernel void height_normals(global const float* h, int w, int ht, int periodic_x, int periodic_y, float scale,
+                           float row_sign, global float* out)
 {
     const int gid = get_global_id(0);
     if (gid >= w * ht)
         return;
-    const float2 g = scale * check_gradient(h, w, ht, gid % w, gid / w, periodic);
+    const float2 g = scale * check_gradient(h, w, ht, gid % w, gid / w, periodic_x, periodic_y);
     const float3 n = normalize((float3)(-g.x, -g.y, 1.0f));
     out[3 * (size_t)gid + 0] = n.x;
     out[3 * (size_t)gid + 1] = row_sign * n.y;
@@ -46,14 +47,14 @@ kernel void height_normals(global const float* h, int w, int ht, int periodic, f
 // The round trip of a height against the slopes g it was integrated from:
 // per texel the angle (degrees) between the normals (-g, 1) and (-grad h, 1),
 // and (|g - grad h|^2, |g|^2) for the residual share.
-kernel void round_trip(global const float2* g, global const float* h, int w, int ht, int periodic,
-                       global float* angle, global float2* residual)
+kernel void round_trip(global const float2* g, global const float* h, int w, int ht, int periodic_x,
+                       int periodic_y, global float* angle, global float2* residual)
 {
     const int gid = get_global_id(0);
     if (gid >= w * ht)
         return;
     const float2 gi = g[gid];
-    const float2 gh = check_gradient(h, w, ht, gid % w, gid / w, periodic);
+    const float2 gh = check_gradient(h, w, ht, gid % w, gid / w, periodic_x, periodic_y);
     const float3 a = (float3)(-gi.x, -gi.y, 1.0f), b = (float3)(-gh.x, -gh.y, 1.0f);
     // atan2 of |a x b| and a.b keeps small angles accurate (acos does not).
     angle[gid] = degrees(atan2(length(cross(a, b)), dot(a, b)));

@@ -87,3 +87,55 @@ __kernel void dct_inverse_pre(__global const float* X, int n0, int n1, __global 
     float c = cospi(a), s = sinpi(a);
     V[gid] = (float2)(c * re - s * im, s * re + c * im);
 }
+
+// Along axis 1 only, for a map periodic along axis 0 and free along axis 1:
+// the grid is an R2C grid (rows of `stride` floats) whose rows are reordered
+// as above, and the 2-D R2C then gives, for each k0 <= n0/2, the DFT V along
+// axis 1 of the reordered column of x's axis-0 spectrum U. Since the
+// relation below is linear in V it holds for that complex column as for a
+// real one:
+//   X[k0,k1] = (e^{-i a1} V[k0,k1] + e^{i a1} V[k0,n1-k1]) / 2,
+//   V[k0,k1] = e^{i a1} (X[k0,k1] - i X[k0,n1-k1]),  X = 0 at index n1,
+// with X[k0,k1] = sum_y U[k0,y] cos(pi k1 (2y+1) / 2n1). One work-item per
+// float of the grid (reorder) or complex value of the half spectrum.
+__kernel void dct_axis1_reorder(__global const float* x, int stride, int n1, __global float* v)
+{
+    int m0, m1, gid = relief_grid_cell(stride, n1, &m0, &m1);
+    if (gid < 0)
+        return;
+    v[gid] = x[dct_source(m1, n1) * stride + m0];
+}
+
+__kernel void dct_axis1_unreorder(__global const float* v, int stride, int n1, __global float* x)
+{
+    int m0, m1, gid = relief_grid_cell(stride, n1, &m0, &m1);
+    if (gid < 0)
+        return;
+    x[dct_source(m1, n1) * stride + m0] = v[gid];
+}
+
+// (c + i s) * z
+inline float2 rotated(float c, float s, float2 z)
+{
+    return (float2)(c * z.x - s * z.y, s * z.x + c * z.y);
+}
+
+__kernel void dct_axis1_forward_post(__global const float2* V, int columns, int n1, __global float2* X)
+{
+    int k0, k1, gid = relief_grid_cell(columns, n1, &k0, &k1);
+    if (gid < 0)
+        return;
+    float a = (float)k1 / (2.0f * n1), c = cospi(a), s = sinpi(a);
+    float2 p = V[gid], q = V[((n1 - k1) % n1) * columns + k0];
+    X[gid] = 0.5f * (rotated(c, -s, p) + rotated(c, s, q));
+}
+
+__kernel void dct_axis1_inverse_pre(__global const float2* X, int columns, int n1, __global float2* V)
+{
+    int k0, k1, gid = relief_grid_cell(columns, n1, &k0, &k1);
+    if (gid < 0)
+        return;
+    float2 p = X[gid], q = k1 > 0 ? X[(n1 - k1) * columns + k0] : (float2)(0.0f, 0.0f);
+    float a = (float)k1 / (2.0f * n1);
+    V[gid] = rotated(cospi(a), sinpi(a), (float2)(p.x + q.y, p.y - q.x));  // p - i q
+}

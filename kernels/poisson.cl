@@ -15,6 +15,11 @@
 //           (-1)^x gx read at k' = n0 - k, since
 //           sin(wk (x+1/2)) = (-1)^x cos(w_{n0-k} (x+1/2)).
 //           a_kl = -(wk Bkl + wl Ckl) / (wk^2 + wl^2).
+// mixed:    periodic along axis 0, free along axis 1 (the grid is transposed
+//           when the map is periodic along y and free along x):
+//           h = sum of a_kl exp(i wk x) cos(wl (y+1/2)), wk = 2 pi k / n0,
+//           wl = pi l / n1; gx is in the same basis, gy a sine series in y
+//           read as above; a_kl = (-i wk Gkl - wl Ckl) / (wk^2 + wl^2).
 // Nyquist terms (a derivative with no sign) and the mean are dropped.
 // highpass: the solution is multiplied by 1 - exp(-|w|^2 sigma^2 / 2), i.e.
 // a Gaussian blur of itself is subtracted.
@@ -30,7 +35,8 @@ inline float2 texel_slope(__global const float2* slopes, int width, int i, int j
 // past n0 (the R2C rows' last one or two) is set to 0, as the transform
 // reads it.
 __kernel void poisson_split(__global const float2* slopes, int width, int n0, int n1, int transposed,
-                            int stride, int alternate, __global float* gx, __global float* gy)
+                            int stride, int alternate0, int alternate1, __global float* gx,
+                            __global float* gy)
 {
     int i, j, gid = relief_grid_cell(stride, n1, &i, &j);
     if (gid < 0)
@@ -41,10 +47,11 @@ __kernel void poisson_split(__global const float2* slopes, int width, int n0, in
         return;
     }
     float2 g = texel_slope(slopes, width, i, j, transposed);
-    if (alternate) {  // free: the (-1)^x and (-1)^y of the sine series
-        g.x = (i & 1) ? -g.x : g.x;
-        g.y = (j & 1) ? -g.y : g.y;
-    }
+    // a free axis: the (-1)^x or (-1)^y of the sine series along it
+    if (alternate0 && (i & 1))
+        g.x = -g.x;
+    if (alternate1 && (j & 1))
+        g.y = -g.y;
     gx[j * stride + i] = g.x;
     gy[j * stride + i] = g.y;
 }
@@ -103,6 +110,28 @@ __kernel void poisson_free_divide(__global float* dx, __global const float* dy, 
     dx[l * n0 + k] = free_coefficient(b, c, k, l, n0, n1, sigma);
     if (m != k)
         dx[l * n0 + m] = free_coefficient(bm, cm, m, l, n0, n1, sigma);
+}
+
+// In place on gx's spectrum from host/dct_plan's FourierCosinePlan: n0/2 + 1
+// complex values per row; gy's sine coefficient of row l is its cosine
+// coefficient of row n1 - l.
+__kernel void poisson_mixed_divide(__global float2* gx, __global const float2* gy, int n0, int n1,
+                                   float sigma)
+{
+    int columns = n0 / 2 + 1;
+    int k, l, gid = relief_grid_cell(columns, n1, &k, &l);
+    if (gid < 0)
+        return;
+    float wk = 2.0f * M_PI_F * k / n0, wl = M_PI_F * l / n1;
+    float w2 = wk * wk + wl * wl;
+    if (2 * k == n0 || w2 == 0.0f) {
+        gx[gid] = (float2)(0.0f, 0.0f);
+        return;
+    }
+    float2 g = gx[gid], c = l > 0 ? gy[(n1 - l) * columns + k] : (float2)(0.0f, 0.0f);
+    float scale = highpass_gain(w2, sigma) / w2;
+    // -i wk g - wl c
+    gx[gid] = (float2)(wk * g.y - wl * c.x, -wk * g.x - wl * c.y) * scale;
 }
 
 __kernel void poisson_gather(__global const float* grid, int stride, int n0, int n1, int width,

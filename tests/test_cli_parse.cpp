@@ -170,6 +170,13 @@ TEST_CASE("parse: every --height modifier lands in its field", "[cli][parse]")
     CHECK(h("boundary=auto").boundary == Boundary::Auto);
     CHECK(h("method=rays:boundary=clip").boundary == Boundary::Free);
     CHECK(h("method=rays:boundary=periodic").boundary == Boundary::Periodic);
+    // one per axis, x first
+    CHECK(h("boundary=periodic,free").boundary == Boundaries{Boundary::Periodic, Boundary::Free});
+    CHECK(h("boundary=free,periodic").boundary == Boundaries{Boundary::Free, Boundary::Periodic});
+    CHECK(step_of("--normals:boundary=periodic,free").normals.boundary ==
+          Boundaries{Boundary::Periodic, Boundary::Free});
+    CHECK(step_of("--preview:boundary=free,periodic").preview.boundary ==
+          Boundaries{Boundary::Free, Boundary::Periodic});
     CHECK(h("highpass=16").highpass == 16.0f);
     CHECK(h("highpass=16").method == HeightMethod::Auto);
     CHECK(h("mask=alpha").mask_alpha);

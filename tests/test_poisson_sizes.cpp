@@ -73,7 +73,7 @@ std::vector<float> solve(const std::vector<float>& slopes, int w, int h, bool pe
     auto ctx = host::ComputeContext::acquire("auto");
     auto s = host::upload_slopes(*ctx, slopes.data(), w, h);
     host::PoissonParams p;
-    p.boundary = periodic ? host::PoissonBoundary::Periodic : host::PoissonBoundary::Free;
+    p.boundary_x = p.boundary_y = periodic ? host::PoissonBoundary::Periodic : host::PoissonBoundary::Free;
     p.weights = weights ? weights->data() : nullptr;
     p.tolerance = 1e-6;
     std::vector<float> out(std::size_t(w) * h);

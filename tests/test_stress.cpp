@@ -142,7 +142,7 @@ TEST_CASE("stress: awkward sizes and fields equal the golden models, finite and 
                 std::vector<double> golden;
                 if (o.method == HeightMethod::Poisson) {
                     reference::PoissonSettings ps;
-                    ps.periodic = periodic;
+                    ps.periodic_x = ps.periodic_y = periodic;
                     golden = reference::poisson(golden_slopes, s.w, s.h, ps);
                 } else {
                     reference::RaySettings rs{o.rays, o.radius, o.phase, periodic};

@@ -70,34 +70,25 @@ std::vector<double> periodic_fc(const std::vector<double>& gx, const std::vector
 
 std::vector<double> poisson(const std::vector<double>& g, int w, int h, const PoissonSettings& s)
 {
-    std::vector<double> out;
-    if (s.periodic) {
-        std::vector<double> gx(std::size_t(w) * h), gy(gx.size());
-        for (std::size_t i = 0; i < gx.size(); ++i) {
-            gx[i] = g[2 * i];
-            gy[i] = g[2 * i + 1];
+    // Even extension of the height across a free axis: gx is odd across
+    // the vertical edges and even across the horizontal ones; gy the other
+    // way round. An axis of one texel stays one texel (nothing to integrate
+    // along it).
+    const int W = s.periodic_x || w == 1 ? w : 2 * w, H = s.periodic_y || h == 1 ? h : 2 * h;
+    std::vector<double> gx(std::size_t(W) * H), gy(gx.size());
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            const bool fx = x >= w, fy = y >= h;
+            const int sx = fx ? W - 1 - x : x, sy = fy ? H - 1 - y : y;
+            const std::size_t src = std::size_t(sy) * w + sx, dst = std::size_t(y) * W + x;
+            gx[dst] = (fx ? -1.0 : 1.0) * g[2 * src];
+            gy[dst] = (fy ? -1.0 : 1.0) * g[2 * src + 1];
         }
-        out = periodic_fc(gx, gy, w, h, s.highpass_sigma);
-    } else {
-        // Even extension of the height: gx is odd across the vertical edges
-        // and even across the horizontal ones; gy the other way round.
-        const int W = 2 * w, H = 2 * h;
-        std::vector<double> gx(std::size_t(W) * H), gy(gx.size());
-        for (int y = 0; y < H; ++y)
-            for (int x = 0; x < W; ++x) {
-                const bool fx = x >= w, fy = y >= h;
-                const int sx = fx ? W - 1 - x : x, sy = fy ? H - 1 - y : y;
-                const std::size_t src = std::size_t(sy) * w + sx, dst = std::size_t(y) * W + x;
-                gx[dst] = (fx ? -1.0 : 1.0) * g[2 * src];
-                gy[dst] = (fy ? -1.0 : 1.0) * g[2 * src + 1];
-            }
-        // Dimensions of size 1 stay size 1 (nothing to integrate along them).
-        std::vector<double> ext = periodic_fc(gx, gy, W, H, s.highpass_sigma);
-        out.resize(std::size_t(w) * h);
-        for (int y = 0; y < h; ++y)
-            for (int x = 0; x < w; ++x)
-                out[std::size_t(y) * w + x] = ext[std::size_t(y) * W + x];
-    }
+    const std::vector<double> ext = periodic_fc(gx, gy, W, H, s.highpass_sigma);
+    std::vector<double> out(std::size_t(w) * h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            out[std::size_t(y) * w + x] = ext[std::size_t(y) * W + x];
     subtract_mean(out);
     return out;
 }
@@ -192,7 +183,7 @@ std::vector<double> poisson_weighted(const std::vector<double>& g, int w, int h,
         sg[2 * i + 1] = s * g[2 * i + 1];
     }
     PoissonSettings settings;
-    settings.periodic = periodic;
+    settings.periodic_x = settings.periodic_y = periodic;
     const std::vector<double> spectral = poisson(sg, w, h, settings);
     const std::vector<double> discrete = discrete_ls(sg, w, h, wt, {}, periodic, eps, true);
     std::vector<double> delta(n);

@@ -3,16 +3,16 @@
 // Golden model of least-squares integration (docs/design.md §4.4): Frankot–
 // Chellappa projection in double with plain separable DFTs (O(N^3), for
 // small test fields). Free boundaries integrate the even (mirror) extension
-// of the texture on a 2W x 2H torus and crop it, which is what the device's
-// DCT formulation computes in a quarter of the work. Nyquist frequencies and
-// the mean are dropped.
+// of the texture across them (2W along a free x, 2H along a free y) on a
+// torus and crop it, which is what the device's DCT formulation computes in
+// a fraction of the work. Nyquist frequencies and the mean are dropped.
 #include <vector>
 
 namespace relief::reference {
 
 struct PoissonSettings {
-    bool periodic = true;
-    double highpass_sigma = 0.0;  // Gaussian sigma of the relief balance, 0 = off
+    bool periodic_x = true, periodic_y = true;  // per axis: periodic or free
+    double highpass_sigma = 0.0;                // Gaussian sigma of the relief balance, 0 = off
 };
 
 // slopes: gx, gy per texel (row-major). Returns the zero-mean height.

@@ -17,10 +17,10 @@ struct NormalsOptions {
     // (G = +n_y, Y-). Auto is not accepted here: a file has one convention.
     NormalConvention convention = NormalConvention::OpenGL;
     float scale = 1.0f;  // the height in texels is multiplied by this first
-    // Periodic: differences wrap; Free: one-sided at the edges. Auto: the
-    // boundary the height was integrated with (relief:parameters), else
-    // periodic when the height is continuous across the wrap seams.
-    Boundary boundary = Boundary::Auto;
+    // Per axis, periodic: differences wrap; free: one-sided at the edges.
+    // Auto: the boundary the height was integrated with (relief:parameters),
+    // else periodic when the height is continuous across the wrap seams.
+    Boundaries boundary = Boundary::Auto;
     Execution exec;
 };
 

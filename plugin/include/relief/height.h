@@ -24,6 +24,21 @@ enum class RayDirections { Rational, Exact };
 // edges, Neumann). Auto: periodic when the slopes are as continuous across
 // the wrap seams as inside the texture, else free; the choice is reported.
 enum class Boundary { Auto, Periodic, Free };
+// A boundary for each axis: x (does the map wrap from its right edge to its
+// left?) and y (from its bottom edge to its top?), for maps that tile along
+// one axis only, such as trim sheets. One value sets both axes:
+// `o.boundary = Boundary::Free`, and compared with one value, both axes
+// must have it.
+struct Boundaries {
+    Boundary x = Boundary::Auto, y = Boundary::Auto;
+    constexpr Boundaries(Boundary both = Boundary::Auto) : x(both), y(both) {}
+    constexpr Boundaries(Boundary along_x, Boundary along_y) : x(along_x), y(along_y) {}
+    friend constexpr bool operator==(const Boundaries& a, const Boundaries& b)
+    {
+        return a.x == b.x && a.y == b.y;
+    }
+    friend constexpr bool operator!=(const Boundaries& a, const Boundaries& b) { return !(a == b); }
+};
 
 // What height() chose and how well its result reproduces the normals it
 // came from (the round trip). Filled when HeightOptions::report is set, at
@@ -31,7 +46,9 @@ enum class Boundary { Auto, Periodic, Free };
 struct HeightReport {
     std::string method;             // "poisson" or "rays"
     std::string normal_convention;  // "opengl" or "directx", as decoded
-    std::string boundary;           // "periodic", "free" (poisson) or "clip" (rays)
+    // "periodic", "free" (poisson) or "clip" (rays); x's and y's, comma
+    // separated, where they differ ("periodic,free": x periodic, y free)
+    std::string boundary;
     int width = 0, height = 0;
     // The angle (degrees) between the decoded input normals (after the
     // grazing clamp) and the normals re-derived from the height with
@@ -50,7 +67,8 @@ struct HeightReport {
 struct HeightOptions {
     NormalDecoding normals;
     HeightMethod method = HeightMethod::Auto;
-    Boundary boundary = Boundary::Auto;
+    // Least squares takes one per axis; rays one for both (periodic or clip).
+    Boundaries boundary = Boundary::Auto;
     // Radial ray integration (method=rays).
     RayImpl impl = RayImpl::Fast;
     int rays = 32;         // J, number of ray directions (1..4096)

@@ -25,8 +25,8 @@ struct PreviewOptions {
     // Empty: a procedural sky.
     std::string env;
     // Of the height's differences (as normals()): Auto takes the height's
-    // relief:parameters, else the seam test.
-    Boundary boundary = Boundary::Auto;
+    // relief:parameters, else the seam test. Per axis.
+    Boundaries boundary = Boundary::Auto;
     Execution exec;
 };
 

@@ -31,12 +31,12 @@ bool normals(ImageBuf& dst, const ImageBuf& height, const NormalsOptions& option
         const int w = roi.width(), ht = roi.height();
         const std::vector<float> h =
             detail::height_channel(height, roi, options.exec, "normals", options.scale);
-        const bool periodic =
-            detail::height_is_periodic(height, h, w, ht, options.boundary, options.exec, "normals");
+        const detail::Wrap wrap =
+            detail::height_wrap(height, h, w, ht, options.boundary, options.exec, "normals");
         auto ctx = host::ComputeContext::acquire(options.exec.device);
         std::vector<float> n(3 * h.size());
         const bool directx = options.convention == NormalConvention::DirectX;
-        host::height_normals(*ctx, h.data(), w, ht, periodic, options.scale, directx, n.data());
+        host::height_normals(*ctx, h.data(), w, ht, wrap.x, wrap.y, options.scale, directx, n.data());
 
         OIIO::ImageSpec spec(w, ht, 3, TypeDesc::FLOAT);
         spec.x = roi.xbegin;
@@ -46,7 +46,7 @@ bool normals(ImageBuf& dst, const ImageBuf& height, const NormalsOptions& option
         spec.attribute("relief:normal_convention", directx ? "directx" : "opengl");
         spec.attribute("relief:parameters", std::string("normal=") + (directx ? "directx" : "opengl") +
                                                 " scale=" + detail::format_double("%.9g", options.scale) +
-                                                " boundary=" + (periodic ? "periodic" : "free"));
+                                                " boundary=" + detail::wrap_name(wrap));
         detail::set_result(dst, spec, n.data());
         return true;
     } catch (const std::exception& e) {

@@ -41,25 +41,57 @@ const char* name(Boundary b, bool rays)
     return "?";
 }
 
-// Resolves boundary=auto from the slopes' seams, and says why.
-Boundary choose_boundary(const HeightOptions& o, const detail::DerivedSlopes& d, bool rays)
+// One word when both axes have it, else x's and y's: "periodic,free".
+std::string name(Boundaries b, bool rays)
 {
-    if (o.boundary != Boundary::Auto)
+    return b.x == b.y ? name(b.x, rays) : std::string(name(b.x, rays)) + "," + name(b.y, rays);
+}
+
+// The boundaries an estimate has to cover: an axis left to auto may take
+// either.
+std::vector<Boundaries> candidates(Boundaries b)
+{
+    std::vector<Boundaries> all;
+    for (Boundary x : {Boundary::Periodic, Boundary::Free})
+        for (Boundary y : {Boundary::Periodic, Boundary::Free})
+            if ((b.x == Boundary::Auto || b.x == x) && (b.y == Boundary::Auto || b.y == y))
+                all.push_back({x, y});
+    return all;
+}
+
+// Resolves boundary=auto from the slopes' seams, and says why. With both
+// axes on auto one rule decides both: periodic when both tile; an axis
+// alone on auto takes its own verdict.
+Boundaries choose_boundary(const HeightOptions& o, const detail::DerivedSlopes& d, bool rays)
+{
+    if (o.boundary.x != Boundary::Auto && o.boundary.y != Boundary::Auto)
         return o.boundary;
     const int w = d.slopes.width(), h = d.slopes.height();
     host::TilingEvidence e;
     host::with_slopes_on_host(*d.context, d.slopes,
                               [&](const float* g) { e = host::tiling_evidence(g, w, h); });
-    const Boundary b = e.tiles ? Boundary::Periodic : Boundary::Free;
+    const auto verdict = [](bool tiles) { return tiles ? Boundary::Periodic : Boundary::Free; };
+    Boundaries b = o.boundary;
+    if (b.x == Boundary::Auto && b.y == Boundary::Auto)
+        b = verdict(e.tiles);
+    else if (b.x == Boundary::Auto)
+        b.x = verdict(e.x.tiles);
+    else
+        b.y = verdict(e.y.tiles);
     auto axis = [](const char* name, const host::AxisEvidence& a) {
         return std::string(name) + " " + detail::format_double("%.2f", a.seam) + " vs " +
                detail::format_double("%.2f", a.adjacent) + (a.tiles ? " (tiles)" : " (does not tile)");
     };
     detail::say(o.exec, Severity::Notice,
-                std::string("boundary: ") + name(b, rays) +
+                "boundary: " + name(b, rays) +
                     " (slope correlation across the wrap seam vs between neighbours: " + axis("x", e.x) +
                     ", " + axis("y", e.y) + ")");
     return b;
+}
+
+host::PoissonBoundary poisson_boundary(Boundary b)
+{
+    return b == Boundary::Free ? host::PoissonBoundary::Free : host::PoissonBoundary::Periodic;
 }
 
 // The weights of a mask (empty when it is all ones: nothing to weight).
@@ -109,9 +141,7 @@ void check_memory(const HeightOptions& o, int w, int h, bool slopes_made)
     const auto ctx = host::ComputeContext::acquire(o.exec.device);
     const std::uint64_t n = std::uint64_t(w) * std::uint64_t(h);
     const bool taken = o.report == nullptr;  // the round trip needs the slopes after
-    std::vector<Boundary> boundaries{o.boundary};
-    if (o.boundary == Boundary::Auto)
-        boundaries = {Boundary::Periodic, Boundary::Free};
+    const std::vector<Boundaries> boundaries = candidates(o.boundary);
     // The result is taken when the transforms keep only their output grid
     // (and the slopes, if kept); the other stages take it first.
     std::uint64_t device = UINT64_MAX, at_result = 0, host_bytes = 4 * n;
@@ -123,23 +153,26 @@ void check_memory(const HeightOptions& o, int w, int h, bool slopes_made)
     };
     const std::uint64_t grid = 4 * std::uint64_t(w / 2 + 1) * 2 * std::uint64_t(h);
     const std::uint64_t kept_slopes = taken ? 0 : 8 * n;
-    for (Boundary b : boundaries) {
+    for (Boundaries b : boundaries) {
         if (o.method == HeightMethod::Rays && o.impl == RayImpl::Fast) {
+            if (b.x != b.y)
+                continue;  // (rays take one boundary for both axes)
             host::RayParams p;
-            p.boundary = b == Boundary::Free ? host::RayBoundary::Clip : host::RayBoundary::Periodic;
+            p.boundary = b.x == Boundary::Free ? host::RayBoundary::Clip : host::RayBoundary::Periodic;
             const std::uint64_t peak = host::rays_fast_device_bytes(w, h, p, taken);
-            consider(peak, b == Boundary::Free ? peak : grid + kept_slopes);
+            consider(peak, b.x == Boundary::Free ? peak : grid + kept_slopes);
         } else if (o.method == HeightMethod::Rays) {
             consider(12 * n, 12 * n);  // slopes and sums
         } else {
             host::PoissonParams p;
             p.weights = o.mask || o.mask_alpha ? &kOneWeight : nullptr;
-            p.boundary = b == Boundary::Free ? host::PoissonBoundary::Free : host::PoissonBoundary::Periodic;
+            p.boundary_x = poisson_boundary(b.x);
+            p.boundary_y = poisson_boundary(b.y);
             const std::uint64_t peak = host::poisson_device_bytes(w, h, p, taken);
             consider(peak, p.weights ? peak : grid + kept_slopes);
         }
     }
-    if (o.method == HeightMethod::Rays && o.impl == RayImpl::Fast && o.boundary == Boundary::Free)
+    if (o.method == HeightMethod::Rays && o.impl == RayImpl::Fast && o.boundary.x == Boundary::Free)
         host_bytes += 4 * n;  // the convolution's values inside the band
     if (o.method != HeightMethod::Rays && (o.mask || o.mask_alpha))
         host_bytes += 8 * n;  // the weights, and the spectral start
@@ -205,7 +238,7 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
         if (options.method == HeightMethod::Auto)
             detail::say(options.exec, Severity::Info, "method: poisson (the default; method=rays for rays)");
         chosen.boundary = choose_boundary(chosen, derived, rays);
-        if (options.boundary == Boundary::Auto)
+        if (chosen.boundary != options.boundary)
             check_memory(chosen, roi.width(), roi.height(), true);
 
         // The result's memory is taken when the stage has it ready, after
@@ -226,8 +259,9 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
             p.phase = chosen.phase;
             p.directions = chosen.directions == RayDirections::Rational ? host::DirectionSet::Rational
                                                                         : host::DirectionSet::Exact;
+            // (validate() gives rays one boundary for both axes)
             p.boundary =
-                chosen.boundary == Boundary::Free ? host::RayBoundary::Clip : host::RayBoundary::Periodic;
+                chosen.boundary.x == Boundary::Free ? host::RayBoundary::Clip : host::RayBoundary::Periodic;
             p.skip_flat = chosen.skip_flat;
             host::RayReport report;
             if (chosen.impl == RayImpl::Fast)
@@ -244,8 +278,8 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
                                 " texels (zero slopes within the radius)");
         } else {
             host::PoissonParams p;
-            p.boundary = chosen.boundary == Boundary::Free ? host::PoissonBoundary::Free
-                                                           : host::PoissonBoundary::Periodic;
+            p.boundary_x = poisson_boundary(chosen.boundary.x);
+            p.boundary_y = poisson_boundary(chosen.boundary.y);
             p.highpass = chosen.highpass;
             std::vector<float> weights;
             if (chosen.mask || chosen.mask_alpha) {
@@ -264,9 +298,9 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
                                 detail::format_double("%.2g", report.residual));
         }
         if (HeightReport* r = options.report) {
-            const bool periodic = chosen.boundary == Boundary::Periodic;
             const host::RoundTrip t = host::round_trip(
-                *derived.context, derived.slopes, static_cast<const float*>(result.localpixels()), periodic);
+                *derived.context, derived.slopes, static_cast<const float*>(result.localpixels()),
+                chosen.boundary.x == Boundary::Periodic, chosen.boundary.y == Boundary::Periodic);
             r->method = rays ? "rays" : "poisson";
             r->normal_convention = detail::convention_name(derived.stats.chosen);
             r->boundary = name(chosen.boundary, rays);

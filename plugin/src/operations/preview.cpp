@@ -266,7 +266,7 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
                                      std::to_string(hroi.height()) +
                                      "; give the height made from these normals");
         const std::vector<float> h = detail::height_channel(height, hroi, o.exec, "preview");
-        const bool periodic = detail::height_is_periodic(height, h, w, ht, o.boundary, o.exec, "preview");
+        const detail::Wrap wrap = detail::height_wrap(height, h, w, ht, o.boundary, o.exec, "preview");
         const SphericalHarmonics sh = o.env.empty() ? sky_harmonics() : [&] {
             ImageBuf env;
             if (!read_image(env, o.env))
@@ -280,8 +280,8 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         const std::size_t n = std::size_t(w) * ht;
         std::vector<float> g(2 * n), nh(3 * n);
         host::read_slopes(*d.context, d.slopes, g.data());
-        host::height_normals(*d.context, h.data(), w, ht, periodic, 1.0f, true, nh.data());
-        const host::RoundTrip trip = host::round_trip(*d.context, d.slopes, h.data(), periodic, true);
+        host::height_normals(*d.context, h.data(), w, ht, wrap.x, wrap.y, 1.0f, true, nh.data());
+        const host::RoundTrip trip = host::round_trip(*d.context, d.slopes, h.data(), wrap.x, wrap.y, true);
 
         // Lighting: white key light plus the environment's diffuse light,
         // normalised so that an upward surface receives 1 from it.
@@ -313,8 +313,8 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         // Emboss: the height one texel toward the light minus the height.
         const double lx = std::cos(az), ly = -std::sin(az);
         auto at = [&](int i, int j) {
-            i = periodic ? (i % w + w) % w : std::clamp(i, 0, w - 1);
-            j = periodic ? (j % ht + ht) % ht : std::clamp(j, 0, ht - 1);
+            i = wrap.x ? (i % w + w) % w : std::clamp(i, 0, w - 1);
+            j = wrap.y ? (j % ht + ht) % ht : std::clamp(j, 0, ht - 1);
             return double(h[std::size_t(j) * w + i]);
         };
         std::vector<float> diff(n);
@@ -377,7 +377,7 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
             "light: azimuth " + detail::format_double("%g", o.azimuth) + ", elevation " +
                 detail::format_double("%g", o.elevation) + " deg",
             std::string("environment: ") + (o.env.empty() ? "procedural sky" : o.env),
-            std::string("normals: ") + convention + "; boundary " + (periodic ? "periodic" : "free"),
+            std::string("normals: ") + convention + "; boundary " + detail::wrap_name(wrap),
             "round trip, angular error (deg):",
             "  mean " + detail::format_double("%.3g", trip.mean_deg) + ", p95 " +
                 detail::format_double("%.3g", trip.p95_deg) + ", max " +

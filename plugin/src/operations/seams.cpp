@@ -69,26 +69,66 @@ bool seams_continuous(const std::vector<float>& h, int w, int ht, double& ratio_
     return ratio_x <= 2.0 && ratio_y <= 2.0;
 }
 
-bool height_is_periodic(const OIIO::ImageBuf& height, const std::vector<float>& h, int w, int ht,
-                        Boundary requested, const Execution& exec, const std::string& operation)
+std::string wrap_name(Wrap wrap)
 {
-    if (requested != Boundary::Auto)
-        return requested == Boundary::Periodic;
-    const std::string parameters = height.spec().get_string_attribute("relief:parameters");
-    for (const char* b : {"periodic", "free", "clip"})
-        if (parameters.find(std::string("boundary=") + b) != std::string::npos) {
-            say(exec, Severity::Info,
-                operation + ": boundary " + (b[0] == 'p' ? "periodic" : "free") +
-                    " (the height was integrated with boundary=" + b + ")");
-            return b[0] == 'p';
-        }
+    const auto word = [](bool periodic) { return periodic ? "periodic" : "free"; };
+    return wrap.x == wrap.y ? word(wrap.x) : std::string(word(wrap.x)) + "," + word(wrap.y);
+}
+
+namespace {
+
+// The boundary relief:parameters records ("boundary=periodic",
+// "boundary=free,periodic", rays' "clip"); false when it records none.
+bool recorded_wrap(const std::string& parameters, Wrap& wrap, std::string& text)
+{
+    const std::string key = "boundary=";
+    std::size_t at = parameters.find(key);
+    while (at != std::string::npos && at > 0 && parameters[at - 1] != ' ')
+        at = parameters.find(key, at + 1);  // a whole word, not "xboundary="
+    if (at == std::string::npos)
+        return false;
+    const std::size_t begin = at + key.size();
+    text = parameters.substr(begin, parameters.find(' ', begin) - begin);
+    const std::size_t comma = text.find(',');
+    const std::string x = text.substr(0, comma), y = comma == std::string::npos ? x : text.substr(comma + 1);
+    const auto known = [](const std::string& b) { return b == "periodic" || b == "free" || b == "clip"; };
+    if (!known(x) || !known(y))
+        return false;
+    wrap = {x == "periodic", y == "periodic"};
+    return true;
+}
+
+}  // namespace
+
+Wrap height_wrap(const OIIO::ImageBuf& height, const std::vector<float>& h, int w, int ht,
+                 Boundaries requested, const Execution& exec, const std::string& operation)
+{
+    Wrap wrap{requested.x == Boundary::Periodic, requested.y == Boundary::Periodic};
+    if (requested.x != Boundary::Auto && requested.y != Boundary::Auto)
+        return wrap;
+    Wrap found;
+    std::string recorded;
+    if (recorded_wrap(height.spec().get_string_attribute("relief:parameters"), found, recorded)) {
+        if (requested.x == Boundary::Auto)
+            wrap.x = found.x;
+        if (requested.y == Boundary::Auto)
+            wrap.y = found.y;
+        say(exec, Severity::Info,
+            operation + ": boundary " + wrap_name(wrap) +
+                " (the height was integrated with boundary=" + recorded + ")");
+        return wrap;
+    }
     double rx = 0.0, ry = 0.0;
-    const bool periodic = w > 1 && ht > 1 && seams_continuous(h, w, ht, rx, ry);
+    const bool both = w > 1 && ht > 1 && seams_continuous(h, w, ht, rx, ry);
+    if (requested.x == Boundary::Auto)
+        wrap.x = requested.y == Boundary::Auto ? both : w > 1 && ht > 1 && rx <= 2.0;
+    if (requested.y == Boundary::Auto)
+        wrap.y = requested.x == Boundary::Auto ? both : w > 1 && ht > 1 && ry <= 2.0;
     say(exec, Severity::Notice,
-        operation + ": boundary " + (periodic ? "periodic" : "free") +
+        operation + ": boundary " + wrap_name(wrap) +
             " (height jump across the wrap seam / mean jump between neighbours: x " +
             format_double("%.2f", rx) + ", y " + format_double("%.2f", ry) + "; periodic when both <= 2)");
-    return periodic;
+    return wrap;
 }
 
 }  // namespace relief::detail

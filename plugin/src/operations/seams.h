@@ -28,11 +28,20 @@ std::vector<float> height_channel(const OIIO::ImageBuf& height, OIIO::ROI roi, c
 // at most twice the mean jump between neighbours; the two ratios are returned.
 bool seams_continuous(const std::vector<float>& h, int w, int ht, double& ratio_x, double& ratio_y);
 
-// The boundary a check applies to `height` (its pixels h, w x ht):
-// `requested` unless Auto; then the boundary relief:parameters records (the
-// one the height was integrated with), else the seam test. Says which, and
-// why, as `operation`'s Notice.
-bool height_is_periodic(const OIIO::ImageBuf& height, const std::vector<float>& h, int w, int ht,
-                        Boundary requested, const Execution& exec, const std::string& operation);
+// Whether a height wraps along x and along y.
+struct Wrap {
+    bool x = false, y = false;
+};
+
+// The boundary a check applies to `height` (its pixels h, w x ht), per
+// axis: `requested` unless Auto; then the boundary relief:parameters
+// records (the one the height was integrated with), else the seam test
+// (both axes periodic or both free when both are Auto, else the axis's own
+// ratio). Says which, and why, as `operation`'s Notice.
+Wrap height_wrap(const OIIO::ImageBuf& height, const std::vector<float>& h, int w, int ht,
+                 Boundaries requested, const Execution& exec, const std::string& operation);
+
+// "periodic", "free", or x's and y's where they differ: "periodic,free".
+std::string wrap_name(Wrap wrap);
 
 }  // namespace relief::detail

@@ -53,7 +53,8 @@ std::string validate(const HeightOptions& o)
 {
     if (std::string p =
             first({decoding_problem(o.normals), choice_problem("method", o.method, 3, "auto|rays|poisson"),
-                   choice_problem("boundary", o.boundary, 3, "auto|periodic|free"),
+                   choice_problem("boundary", o.boundary.x, 3, "auto|periodic|free"),
+                   choice_problem("boundary", o.boundary.y, 3, "auto|periodic|free"),
                    choice_problem("impl", o.impl, 2, "fast|reference"),
                    choice_problem("directions", o.directions, 2, "rational|exact"),
                    range_problem(limits::highpass, o.highpass), range_problem(limits::rays, o.rays),
@@ -68,6 +69,11 @@ std::string validate(const HeightOptions& o)
         return "highpass applies to method=poisson, not to rays";
     if (rays && masked)
         return "a mask applies to method=poisson, not to rays";
+    if (rays && o.boundary.x != o.boundary.y)
+        return "rays take one boundary for both axes (periodic, clip or auto); a boundary per axis "
+               "needs method=poisson";
+    if (masked && o.boundary.x != o.boundary.y)
+        return "a mask cannot be combined with a boundary per axis yet";
     if (o.mask && o.mask_alpha)
         return "give a mask image or mask_alpha, not both";
     if (masked && o.highpass > 0.0f)
@@ -113,7 +119,8 @@ std::string validate(const NormalsOptions& o)
     if (o.convention == NormalConvention::Auto)
         return detail::not_one_of("normal", "auto", "opengl|directx");
     return first({choice_problem("normal", o.convention, 3, "opengl|directx"),
-                  choice_problem("boundary", o.boundary, 3, "auto|periodic|free"),
+                  choice_problem("boundary", o.boundary.x, 3, "auto|periodic|free"),
+                  choice_problem("boundary", o.boundary.y, 3, "auto|periodic|free"),
                   range_problem(limits::surface_scale, o.scale)});
 }
 
@@ -130,8 +137,9 @@ std::string validate(const MeshOptions& o)
 
 std::string validate(const PreviewOptions& o)
 {
-    if (std::string p = first(
-            {decoding_problem(o.normals), choice_problem("boundary", o.boundary, 3, "auto|periodic|free")});
+    if (std::string p = first({decoding_problem(o.normals),
+                               choice_problem("boundary", o.boundary.x, 3, "auto|periodic|free"),
+                               choice_problem("boundary", o.boundary.y, 3, "auto|periodic|free")});
         !p.empty())
         return p;
     if (!detail::within(limits::light_azimuth, o.azimuth) ||

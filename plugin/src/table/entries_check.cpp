@@ -39,12 +39,10 @@ Operation normals_operation()
             detail::limits::surface_scale, [n](auto& c) -> auto& { return n(c).scale; }, "S", "",
             "the height (texels) is multiplied by S first"),
         choice(
-            "boundary", [n](auto& c) -> auto& { return n(c).boundary; },
-            std::vector<std::pair<std::string, Boundary>>{
-                {"auto", Boundary::Auto}, {"periodic", Boundary::Periodic}, {"free", Boundary::Free}},
-            "",
-            "periodic: differences wrap; free: one-sided at the edges; auto: the height's own "
-            "(relief:parameters), else periodic when it is continuous across the wrap seams"),
+            "boundary", [n](auto& c) -> auto& { return n(c).boundary; }, kBoundaryWords, "",
+            "periodic: differences wrap; free: one-sided at the edges; X,Y: x's and y's "
+            "(periodic,free); auto: the height's own (relief:parameters), else periodic when it is "
+            "continuous across the wrap seams"),
     };
     op.validate = [](const OperationCall& c) { return relief::validate(c.normals); };
     op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
@@ -180,10 +178,8 @@ Operation preview_operation()
     op.modifiers.push_back(light);
     op.modifiers.push_back(env);
     op.modifiers.push_back(choice(
-        "boundary", [k](auto& c) -> auto& { return k(c).boundary; },
-        std::vector<std::pair<std::string, Boundary>>{
-            {"auto", Boundary::Auto}, {"periodic", Boundary::Periodic}, {"free", Boundary::Free}},
-        "", "of the height's differences, as --normals"));
+        "boundary", [k](auto& c) -> auto& { return k(c).boundary; }, kBoundaryWords, "",
+        "of the height's differences, as --normals"));
     op.validate = [k](const OperationCall& c) { return relief::validate(k(c)); };
     op.run = [k](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
         return relief::preview(dst, *in[0], *in[1], k(c));

@@ -59,15 +59,13 @@ Operation height_operation()
             "poisson: least squares (Frankot-Chellappa); rays: radial ray integration; "
             "auto: poisson, or rays when a ray modifier is given"),
         [h] {
+            std::vector<std::pair<std::string, Boundaries>> words = kBoundaryWords;
+            words.insert(words.begin() + 3, {"clip", Boundary::Free});  // (after "free": free is written)
             Modifier m = choice(
-                "boundary", [h](auto& c) -> auto& { return h(c).boundary; },
-                std::vector<std::pair<std::string, Boundary>>{{"auto", Boundary::Auto},
-                                                              {"periodic", Boundary::Periodic},
-                                                              {"free", Boundary::Free},
-                                                              {"clip", Boundary::Free}},
-                "",
-                "periodic: the texture tiles; free (clip for rays): it does not; auto: "
-                "periodic when the slopes are continuous across the wrap seams");
+                "boundary", [h](auto& c) -> auto& { return h(c).boundary; }, words, "",
+                "periodic: the texture tiles; free (clip for rays): it does not; X,Y: x's and y's, "
+                "for poisson (periodic,free: tiles along x only); auto: periodic when the slopes are "
+                "continuous across the wrap seams");
             // Written as each method takes it: rays refuse "free".
             m.get = [h, get = m.get](const OperationCall& c) {
                 const std::string name = get(c);
@@ -146,7 +144,8 @@ Operation height_operation()
         if (o.method == HeightMethod::Rays && boundary == "free")
             throw std::invalid_argument("rays take boundary=periodic, clip or auto");
         if (o.method != HeightMethod::Rays && boundary == "clip")
-            throw std::invalid_argument("method=poisson takes boundary=periodic, free or auto");
+            throw std::invalid_argument("method=poisson takes boundary=periodic, free, auto or one per axis "
+                                        "(periodic,free)");
     };
     op.validate = [](const OperationCall& c) {
         HeightOptions o = c.height;

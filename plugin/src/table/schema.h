@@ -95,6 +95,15 @@ Modifier choice(const char* name, F field, std::vector<std::pair<std::string, E>
 
 inline const std::vector<std::pair<std::string, bool>> kOnOff = {{"on", true}, {"off", false}};
 
+// boundary=: one word for both axes, or x's and y's ("periodic,free": the
+// map wraps from its right edge to its left, not from its bottom to its top).
+inline const std::vector<std::pair<std::string, Boundaries>> kBoundaryWords = {
+    {"auto", Boundary::Auto},
+    {"periodic", Boundary::Periodic},
+    {"free", Boundary::Free},
+    {"periodic,free", {Boundary::Periodic, Boundary::Free}},
+    {"free,periodic", {Boundary::Free, Boundary::Periodic}}};
+
 // An Integer or Number modifier within `limits` (its zero word, "auto",
 // stands for 0).
 template <class F>
