@@ -23,23 +23,23 @@ double difference(At at, int i, int n, bool periodic)
     return 0.5 * (at(i + 1) - at(i - 1));
 }
 
-void gradient(const std::vector<double>& h, int w, int ht, int i, int j, bool periodic, double& gx,
-              double& gy)
+void gradient(const std::vector<double>& h, int w, int ht, int i, int j, bool periodic_x, bool periodic_y,
+              double& gx, double& gy)
 {
-    gx = difference([&](int k) { return h[std::size_t(j) * w + k]; }, i, w, periodic);
-    gy = difference([&](int k) { return h[std::size_t(k) * w + i]; }, j, ht, periodic);
+    gx = difference([&](int k) { return h[std::size_t(j) * w + k]; }, i, w, periodic_x);
+    gy = difference([&](int k) { return h[std::size_t(k) * w + i]; }, j, ht, periodic_y);
 }
 
 }  // namespace
 
-std::vector<double> height_normals(const std::vector<double>& h, int w, int ht, bool periodic, double scale,
-                                   bool directx)
+std::vector<double> height_normals(const std::vector<double>& h, int w, int ht, bool periodic_x,
+                                   bool periodic_y, double scale, bool directx)
 {
     std::vector<double> n(3 * h.size());
     for (int j = 0; j < ht; ++j)
         for (int i = 0; i < w; ++i) {
             double gx, gy;
-            gradient(h, w, ht, i, j, periodic, gx, gy);
+            gradient(h, w, ht, i, j, periodic_x, periodic_y, gx, gy);
             gx *= scale;
             gy *= scale;
             const double len = std::sqrt(gx * gx + gy * gy + 1.0);
@@ -51,14 +51,15 @@ std::vector<double> height_normals(const std::vector<double>& h, int w, int ht, 
     return n;
 }
 
-RoundTrip round_trip(const std::vector<double>& g, const std::vector<double>& h, int w, int ht, bool periodic)
+RoundTrip round_trip(const std::vector<double>& g, const std::vector<double>& h, int w, int ht,
+                     bool periodic_x, bool periodic_y)
 {
     std::vector<double> angle;
     double misfit = 0.0, energy = 0.0;
     for (int j = 0; j < ht; ++j)
         for (int i = 0; i < w; ++i) {
             double hx, hy;
-            gradient(h, w, ht, i, j, periodic, hx, hy);
+            gradient(h, w, ht, i, j, periodic_x, periodic_y, hx, hy);
             const std::size_t t = std::size_t(j) * w + i;
             const double ax = -g[2 * t], ay = -g[2 * t + 1], bx = -hx, by = -hy;
             const double dot = ax * bx + ay * by + 1.0;

@@ -7,10 +7,16 @@
 namespace relief::reference {
 
 // 3 values per texel: normalize(-s gx, -s gy, 1) with gx, gy by central
-// differences (one-sided at the edges of a free map, wrapping when
-// periodic), the row component as stored (-n_y for OpenGL, +n_y DirectX).
-std::vector<double> height_normals(const std::vector<double>& h, int w, int ht, bool periodic, double scale,
-                                   bool directx);
+// differences (one-sided at the edges across which the map is free,
+// wrapping along a periodic axis), the row component as stored (-n_y for
+// OpenGL, +n_y DirectX).
+std::vector<double> height_normals(const std::vector<double>& h, int w, int ht, bool periodic_x,
+                                   bool periodic_y, double scale, bool directx);
+inline std::vector<double> height_normals(const std::vector<double>& h, int w, int ht, bool periodic,
+                                          double scale, bool directx)
+{
+    return height_normals(h, w, ht, periodic, periodic, scale, directx);
+}
 
 struct RoundTrip {
     double mean = 0.0, p95 = 0.0, max = 0.0;  // degrees
@@ -19,7 +25,12 @@ struct RoundTrip {
 
 // g: 2 values per texel (gx, gy). p95: the nearest-rank 95th percentile.
 RoundTrip round_trip(const std::vector<double>& g, const std::vector<double>& h, int w, int ht,
-                     bool periodic);
+                     bool periodic_x, bool periodic_y);
+inline RoundTrip round_trip(const std::vector<double>& g, const std::vector<double>& h, int w, int ht,
+                            bool periodic)
+{
+    return round_trip(g, h, w, ht, periodic, periodic);
+}
 
 // Per patch (row-major) and level L = 1..64: the largest |surface - s h| at
 // the patch's texel centres, the surface being the patch split into L x L
