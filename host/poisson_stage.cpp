@@ -13,6 +13,7 @@
 #include "field_ops.h"
 #include "opencl_context.h"
 #include "plan_cache.h"
+#include "poisson_layout.h"
 
 namespace relief::host {
 
@@ -26,35 +27,6 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
 
 namespace {
 
-// How a w x h map lies on the transforms' n0 x n1 grid. A one-texel-wide map
-// is solved transposed (a 1-D transform along axis 0), and so is a map free
-// along x and periodic along y: the periodic axis is axis 0, the real FFT's.
-struct Layout {
-    bool free_x, free_y, transposed;
-    int n0, n1;
-    SpectralKind kind;
-    std::size_t stride;  // floats per row of the grid
-};
-
-Layout layout(int w, int h, const PoissonParams& p)
-{
-    Layout l{};
-    l.free_x = p.boundary_x == PoissonBoundary::Free;
-    l.free_y = p.boundary_y == PoissonBoundary::Free;
-    if (w == 1)
-        l.free_x = l.free_y;
-    else if (h == 1)
-        l.free_y = l.free_x;
-    l.transposed = w == 1 || (l.free_x && !l.free_y);
-    l.n0 = l.transposed ? h : w;
-    l.n1 = l.transposed ? w : h;
-    l.kind = l.free_x != l.free_y ? SpectralKind::FourierCosine
-             : l.free_x           ? SpectralKind::Cosine
-                                  : SpectralKind::Fourier;
-    l.stride = SpectralPlan::row_stride(l.kind, std::size_t(l.n0));
-    return l;
-}
-
 // Both forms: `consume` lets go of `slopes` once split into the grids.
 void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const PoissonParams& p,
              const HeightSink& sink, PoissonReport* report)
@@ -66,8 +38,7 @@ void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const Pois
         sink()[0] = 0.0f;
         return;
     }
-    const Layout l = layout(w, h, p);
-    expects(!p.weights || l.free_x == l.free_y, "PoissonParams: weights with one boundary for both axes");
+    const PoissonLayout l = poisson_layout(w, h, p);
     if (p.weights) {
         expects(p.highpass == 0.0, "PoissonParams: no highpass with weights");
         integrate_poisson_weighted(ctx, slopes, p, sink(), report);
@@ -96,8 +67,8 @@ void poisson(ComputeContext& ctx, DeviceSlopes& slopes, bool consume, const Pois
         split.setArg(a++, cl_int(n1));
         split.setArg(a++, cl_int(l.transposed));
         split.setArg(a++, cl_int(stride));
-        split.setArg(a++, cl_int(l.transposed ? l.free_y : l.free_x));
-        split.setArg(a++, cl_int(l.transposed ? l.free_x : l.free_y));
+        split.setArg(a++, cl_int(!l.periodic0()));
+        split.setArg(a++, cl_int(!l.periodic1()));
         split.setArg(a++, gx);
         split.setArg(a++, gy);
         c.launch(split, stride * std::size_t(n1));
@@ -151,7 +122,7 @@ std::uint64_t poisson_device_bytes(int w, int h, const PoissonParams& p, bool sl
     const std::uint64_t n = std::uint64_t(w) * std::uint64_t(h), slopes = 8 * n;
     if (p.weights)  // conjugate gradients: masked slopes, edges, CG vectors (poisson_weighted.cpp)
         return slopes + 16 * sizeof(float) * n;
-    const Layout l = layout(w, h, p);
+    const PoissonLayout l = poisson_layout(w, h, p);
     const std::uint64_t grid = sizeof(float) * l.stride * std::uint64_t(l.n1);
     // gx, gy and the transposed spectrum (a DCT adds its reordered copy);
     // taken, the slopes are gone before the transforms' buffers are made

@@ -23,7 +23,7 @@ struct PoissonParams {
     // Per-texel confidence weights in [0, 1] (width*height, 0 = excluded),
     // or null. With weights the solve is the weighted discrete least squares
     // of poisson_weighted.cl by conjugate gradients; highpass is then not
-    // available, nor are boundaries that differ between the axes.
+    // available.
     const float* weights = nullptr;
     double tolerance = 1e-5;  // CG: stop at |r| <= tolerance * |b|
     int max_iterations = 500;

@@ -14,6 +14,7 @@
 #include "field_ops.h"
 #include "opencl_context.h"
 #include "plan_cache.h"
+#include "poisson_layout.h"
 #include "poisson_stage.h"
 
 namespace relief::host {
@@ -32,12 +33,12 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
     const std::size_t n = std::size_t(w) * h;
     for (std::size_t i = 0; i < n; ++i)
         expects(p.weights[i] >= 0.0f && p.weights[i] <= 1.0f, "PoissonParams: weights in [0, 1]");
-    // (one boundary for both axes; of a one-texel-wide map, y's)
-    const bool periodic = (w == 1 ? p.boundary_y : p.boundary_x) == PoissonBoundary::Periodic;
-    // The Laplacian of a one-texel-wide texture is the same path graph
-    // whichever way round; the transforms want it along axis 0.
-    const int n0 = w == 1 ? h : w, n1 = w == 1 ? 1 : h;
-    const std::size_t stride = periodic ? FftPlan::row_stride(n0) : std::size_t(n0);
+    // The preconditioner's grid is laid out as the unweighted solve's (a
+    // one-texel-wide texture and a periodic y with a free x transposed).
+    const PoissonLayout l = poisson_layout(w, h, p);
+    const int n0 = l.n0, n1 = l.n1;
+    const std::size_t stride = l.stride;
+    const cl_int periodic_x = !l.free_x, periodic_y = !l.free_y;
     auto& c = ctx.impl();
 
     // The masked slopes s g, and their spectral (unmasked-path) solution.
@@ -80,7 +81,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
         const std::size_t groups = (n + dot_group - 1) / dot_group;
         cl::Buffer partial = buffer(sizeof(float) * groups);
         cl::Buffer grid = buffer(sizeof(float) * stride * n1);
-        const SpectralPlan plan(c, periodic ? SpectralKind::Fourier : SpectralKind::Cosine, n0, n1, grid);
+        const SpectralPlan plan(c, l.kind, n0, n1, grid);
         auto run = [&](cl::Kernel& k, std::size_t items = 0) { c.launch(k, items ? items : n); };
 
         cl::Kernel edges(prog, "weighted_edges");
@@ -91,7 +92,8 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
             edges.setArg(a++, z);  // delta, once computed
             edges.setArg(a++, cl_int(w));
             edges.setArg(a++, cl_int(h));
-            edges.setArg(a++, cl_int(periodic));
+            edges.setArg(a++, periodic_x);
+            edges.setArg(a++, periodic_y);
             edges.setArg(a++, kExcludedEdgeWeight);
             edges.setArg(a++, cl_int(unit));
             edges.setArg(a++, edge_c);
@@ -99,13 +101,14 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
             run(edges);
         };
         cl::Kernel rhs(prog, "weighted_rhs");
-        set_args(rhs, edge_c, edge_t, cl_int(w), cl_int(h), cl_int(periodic));
-        rhs.setArg(5, r);  // b
+        set_args(rhs, edge_c, edge_t, cl_int(w), cl_int(h), periodic_x, periodic_y);
+        rhs.setArg(6, r);  // b
         cl::Kernel apply(prog, "weighted_apply");
         apply.setArg(1, edge_c);
         apply.setArg(2, cl_int(w));
         apply.setArg(3, cl_int(h));
-        apply.setArg(4, cl_int(periodic));
+        apply.setArg(4, periodic_x);
+        apply.setArg(5, periodic_y);
         std::vector<float> partial_host(groups);
         auto dot = [&](cl::Buffer& a, cl::Buffer& b) {
             set_args(dot_k, a, b, cl_int(n), partial, cl::Local(sizeof(float) * dot_group));
@@ -124,13 +127,13 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
         cl::Kernel to_grid(prog, "weighted_to_grid"), from_grid(prog, "weighted_from_grid");
         cl::Kernel divide(prog, "weighted_laplace_divide");
         auto precondition = [&]() {  // z = L^-1 r
-            set_args(to_grid, r, cl_int(n0), cl_int(n1), cl_int(stride), grid);
+            set_args(to_grid, r, cl_int(n0), cl_int(n1), cl_int(stride), cl_int(l.transposed), grid);
             run(to_grid, stride * std::size_t(n1));
             plan.forward(grid);
-            set_args(divide, grid, cl_int(n0), cl_int(n1), cl_int(periodic));
-            run(divide, std::size_t(periodic ? n0 / 2 + 1 : n0) * n1);
+            set_args(divide, grid, cl_int(n0), cl_int(n1), cl_int(l.periodic0()), cl_int(l.periodic1()));
+            run(divide, std::size_t(l.periodic0() ? n0 / 2 + 1 : n0) * n1);
             plan.inverse(grid);
-            set_args(from_grid, grid, cl_int(n0), cl_int(n1), cl_int(stride), z);
+            set_args(from_grid, grid, cl_int(n0), cl_int(n1), cl_int(stride), cl_int(l.transposed), z);
             run(from_grid);
         };
 
@@ -145,7 +148,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
         run(rhs);  // r = b
         // Start from the spectral solution: exact when all weights are 1.
         apply.setArg(0, x);
-        apply.setArg(5, q);
+        apply.setArg(6, q);
         run(apply);
         const double norm_b = std::sqrt(dot(r, r));
         add(r, q, -1.0);  // r = b - A x

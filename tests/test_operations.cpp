@@ -612,12 +612,6 @@ TEST_CASE("validate: a rule reads the same from validate(), the modifiers and th
          },
          "rays take one boundary for both axes (periodic, clip or auto); a boundary per axis needs "
          "method=poisson"},
-        {"height", "boundary=free,periodic:mask=alpha",
-         [](OperationCall& c) {
-             c.height.boundary = {Boundary::Free, Boundary::Periodic};
-             c.height.mask_alpha = true;
-         },
-         "a mask cannot be combined with a boundary per axis yet"},
         {"height", "rays=8:highpass=4",
          [](OperationCall& c) {
              c.height.method = HeightMethod::Rays;

@@ -230,13 +230,14 @@ TEST_CASE("tiling evidence: a periodic field tiles, a crop of one does not", "[p
 namespace {
 
 std::vector<float> solve_weighted(const std::vector<double>& g, const std::vector<float>& weights, int w,
-                                  int h, bool periodic, host::PoissonReport* report = nullptr)
+                                  int h, Axes periodic, host::PoissonReport* report = nullptr)
 {
     auto ctx = host::ComputeContext::acquire("auto");
     std::vector<float> gf(g.begin(), g.end());
     auto slopes = host::upload_slopes(*ctx, gf.data(), w, h);
     host::PoissonParams p;
-    p.boundary_x = p.boundary_y = periodic ? host::PoissonBoundary::Periodic : host::PoissonBoundary::Free;
+    p.boundary_x = periodic.x ? host::PoissonBoundary::Periodic : host::PoissonBoundary::Free;
+    p.boundary_y = periodic.y ? host::PoissonBoundary::Periodic : host::PoissonBoundary::Free;
     p.weights = weights.data();
     p.tolerance = 1e-6;
     std::vector<float> out(std::size_t(w) * h);
@@ -252,8 +253,9 @@ TEST_CASE("weighted Poisson equals the double-precision golden model", "[poisson
         int w, h;
     };
     for (const Case& c : {Case{37, 29}, Case{16, 16}, Case{1, 23}, Case{23, 1}, Case{5, 3}})
-        for (bool periodic : {true, false}) {
-            INFO(c.w << "x" << c.h << (periodic ? " periodic" : " free"));
+        for (Axes periodic : {Axes{true, true}, Axes{false, false}, Axes{true, false}, Axes{false, true}}) {
+            INFO(c.w << "x" << c.h << " x " << (periodic.x ? "periodic" : "free") << ", y "
+                     << (periodic.y ? "periodic" : "free"));
             auto g = noisy_slopes(c.w, c.h, 17u + c.w);
             std::mt19937 rng(5);
             std::uniform_real_distribution<double> u(0.0, 1.0);
@@ -261,7 +263,7 @@ TEST_CASE("weighted Poisson equals the double-precision golden model", "[poisson
             for (double& v : wd)
                 v = u(rng) < 0.2 ? 0.0 : u(rng);  // a fifth excluded, the rest partial
             std::vector<float> wf(wd.begin(), wd.end());
-            auto ref = reference::poisson_weighted(g, c.w, c.h, wd, periodic, 1e-3);
+            auto ref = reference::poisson_weighted(g, c.w, c.h, wd, periodic.x, periodic.y, 1e-3);
             host::PoissonReport report;
             auto got = solve_weighted(g, wf, c.w, c.h, periodic, &report);
             INFO("iterations " << report.iterations << ", residual " << report.residual << ", max diff "
@@ -287,7 +289,7 @@ TEST_CASE("a mask keeps corrupt slopes out of the result", "[poisson][mask]")
                 g[2 * i + 1] += noise(rng);
                 weights[i] = 0.0f;
             }
-    auto masked = solve_weighted(g, weights, f.width, f.height, true);
+    auto masked = solve_weighted(g, weights, f.width, f.height, {true, true});
     auto plain = solve(g, f.width, f.height, {true, true});
     // Error outside the hole, after removing the mean offset there.
     auto error = [&](const std::vector<float>& got) {

@@ -96,11 +96,12 @@ std::vector<double> poisson(const std::vector<double>& g, int w, int h, const Po
 namespace {
 
 // Weighted discrete least squares: edges to the right and lower neighbours
-// (wrapping when periodic), edge weight c_e = max(min(w_p, w_q), eps) (all 1
+// (wrapping along a periodic axis), edge weight c_e = max(min(w_p, w_q), eps) (all 1
 // when `unit`), target mean(sg) over the edge plus delta(q) - delta(p);
 // plain CG in double to a relative residual of 1e-12. Zero mean.
 std::vector<double> discrete_ls(const std::vector<double>& sg, int w, int h, const std::vector<double>& wt,
-                                const std::vector<double>& delta, bool periodic, double eps, bool unit)
+                                const std::vector<double>& delta, bool periodic_x, bool periodic_y,
+                                double eps, bool unit)
 {
     struct Edge {
         std::size_t p, q;
@@ -113,7 +114,7 @@ std::vector<double> discrete_ls(const std::vector<double>& sg, int w, int h, con
             for (int axis = 0; axis < 2; ++axis) {
                 int nx = x + (axis == 0), ny = y + (axis == 1);
                 if (nx == w || ny == h) {
-                    if (!periodic)
+                    if (!(axis == 0 ? periodic_x : periodic_y))
                         continue;
                     nx %= w;
                     ny %= h;
@@ -173,7 +174,8 @@ std::vector<double> discrete_ls(const std::vector<double>& sg, int w, int h, con
 }  // namespace
 
 std::vector<double> poisson_weighted(const std::vector<double>& g, int w, int h,
-                                     const std::vector<double>& wt, bool periodic, double eps)
+                                     const std::vector<double>& wt, bool periodic_x, bool periodic_y,
+                                     double eps)
 {
     const std::size_t n = std::size_t(w) * h;
     std::vector<double> sg(2 * n);
@@ -183,13 +185,14 @@ std::vector<double> poisson_weighted(const std::vector<double>& g, int w, int h,
         sg[2 * i + 1] = s * g[2 * i + 1];
     }
     PoissonSettings settings;
-    settings.periodic_x = settings.periodic_y = periodic;
+    settings.periodic_x = periodic_x;
+    settings.periodic_y = periodic_y;
     const std::vector<double> spectral = poisson(sg, w, h, settings);
-    const std::vector<double> discrete = discrete_ls(sg, w, h, wt, {}, periodic, eps, true);
+    const std::vector<double> discrete = discrete_ls(sg, w, h, wt, {}, periodic_x, periodic_y, eps, true);
     std::vector<double> delta(n);
     for (std::size_t i = 0; i < n; ++i)
         delta[i] = spectral[i] - discrete[i];
-    return discrete_ls(sg, w, h, wt, delta, periodic, eps, false);
+    return discrete_ls(sg, w, h, wt, delta, periodic_x, periodic_y, eps, false);
 }
 
 }  // namespace relief::reference

@@ -20,12 +20,14 @@ std::vector<double> poisson(const std::vector<double>& slopes, int width, int he
                             const PoissonSettings& settings);
 
 // Weighted least squares (kernels/poisson_weighted.cl): the discrete
-// least squares over edges to the right and lower neighbours, weights
+// least squares over edges to the right and lower neighbours (wrapping
+// along a periodic axis), weights
 // c_e = max(min(w_p, w_q), eps), targets mean(s g) + delta(q) - delta(p),
 // s = w / max(w, eps), delta = poisson(s g) minus the unweighted discrete
 // solution of mean(s g); plain conjugate gradients in double to a relative
 // residual of 1e-12. Zero mean. Weights of all ones give poisson(g).
 std::vector<double> poisson_weighted(const std::vector<double>& slopes, int width, int height,
-                                     const std::vector<double>& weights, bool periodic, double eps);
+                                     const std::vector<double>& weights, bool periodic_x, bool periodic_y,
+                                     double eps);
 
 }  // namespace relief::reference

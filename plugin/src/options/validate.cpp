@@ -72,8 +72,6 @@ std::string validate(const HeightOptions& o)
     if (rays && o.boundary.x != o.boundary.y)
         return "rays take one boundary for both axes (periodic, clip or auto); a boundary per axis "
                "needs method=poisson";
-    if (masked && o.boundary.x != o.boundary.y)
-        return "a mask cannot be combined with a boundary per axis yet";
     if (o.mask && o.mask_alpha)
         return "give a mask image or mask_alpha, not both";
     if (masked && o.highpass > 0.0f)
