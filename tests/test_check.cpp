@@ -921,6 +921,9 @@ TEST_CASE("preview: each panel is the map's size at the sheet's scale, in its ow
     struct Case {
         int w, h, pw, ph;
     } cases[] = {{400, 200, 400, 200}, {2048, 1024, 1024, 512}, {100, 300, 344, 1032}, {20, 1000, 41, 2048}};
+    // The first case's panels are not resized; the others' are: each keeps
+    // its colour.
+    std::array<std::array<float, 3>, 5> unscaled{};
     for (const Case& c : cases) {
         INFO(c.w << "x" << c.h);
         std::vector<float> up(std::size_t(c.w) * c.h * 3, 0.0f);
@@ -967,6 +970,11 @@ TEST_CASE("preview: each panel is the map's size at the sheet's scale, in its ow
                     top[std::size_t(row)] = y0;
                 CHECK(y0 == top[std::size_t(row)]);  // a row's panels line up
                 const auto colour = at(x0, y0);
+                auto& first = unscaled[std::size_t(row * 3 + col)];
+                if (&c == &cases[0])
+                    first = colour;
+                for (int k = 0; k < 3; ++k)
+                    CHECK(std::abs(colour[std::size_t(k)] - first[std::size_t(k)]) <= 1e-5f);
                 int uniform_rows = 0;
                 for (int y = y0; y < y0 + c.ph; ++y)
                     uniform_rows += panel_row(x0, y) && at(x0, y) == colour;

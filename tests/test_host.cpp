@@ -377,6 +377,23 @@ TEST_CASE("memory: a cgroup's limit less its use, the tightest of the group and 
     CHECK(cgroup_available(proc, sys) == unlimited);
 }
 
+TEST_CASE("memory: a need of exactly the device's memory fits it, a byte more does not", "[host]")
+{
+    auto ctx = ComputeContext::acquire("auto");
+    const Bytes total = device_memory(*ctx).total;
+    const auto refusal = [&](Bytes device) {
+        try {
+            check_memory(*ctx, "the test", device, 0);
+        } catch (const Error& e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    // (the host's memory may refuse the same bytes; only the device's check is asked here)
+    CHECK(refusal(total).find("of device memory") == std::string::npos);
+    CHECK_THAT(refusal(total + 1), Catch::Contains("the test needs") && Catch::Contains("of device memory"));
+}
+
 TEST_CASE(
     "setup times: a nested timer's time is its own kind's, not its parent's too, and ahead time is apart",
     "[host]")
