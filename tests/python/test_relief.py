@@ -364,6 +364,62 @@ class Keywords(unittest.TestCase):
             self.assertIn("9:9", str(e.exception))
 
 
+def numpy_least_squares(g, periodic_x, periodic_y):
+    """Frankot-Chellappa in numpy, independent of relief: the slopes' even
+    extension across each free axis (gx odd across the vertical edges, gy
+    across the horizontal ones), the FFT of the torus, the mean and the
+    Nyquist terms dropped, cropped back."""
+    gx, gy = g[..., 0].astype(np.float64), g[..., 1].astype(np.float64)
+    h, w = gx.shape
+    if not periodic_x:
+        gx, gy = np.concatenate([gx, -gx[:, ::-1]], 1), np.concatenate([gy, gy[:, ::-1]], 1)
+    if not periodic_y:
+        gx, gy = np.concatenate([gx, gx[::-1, :]], 0), np.concatenate([gy, -gy[::-1, :]], 0)
+    m, n = gx.shape
+    wx = 2 * np.pi * np.fft.fftfreq(n)[None, :]
+    wy = 2 * np.pi * np.fft.fftfreq(m)[:, None]
+    w2 = wx**2 + wy**2
+    w2[0, 0] = 1.0
+    spectrum = -1j * (wx * np.fft.fft2(gx) + wy * np.fft.fft2(gy)) / w2
+    spectrum[0, 0] = 0.0
+    if n % 2 == 0:
+        spectrum[:, n // 2] = 0.0
+    if m % 2 == 0:
+        spectrum[m // 2, :] = 0.0
+    out = np.real(np.fft.ifft2(spectrum))[:h, :w]
+    return out - out.mean()
+
+
+class PerAxisBoundary(unittest.TestCase):
+    def test_one_periodic_axis_equals_numpy_and_fits_a_map_that_tiles_along_it(self):
+        # A height that tiles along x and not along y (a trim sheet's kind),
+        # its normals by central differences that wrap along x only.
+        w, h = 96, 72
+        x, y = np.arange(w)[None, :], np.arange(h)[:, None]
+        rng = np.random.default_rng(3)
+        truth = np.zeros((h, w))
+        for k in range(1, 5):
+            for power in (1, 2, 3):
+                truth += 6.0 * rng.normal() / (k + power) * np.cos(2 * np.pi * k * x / w + rng.uniform(0, 6)) * (y / h) ** power
+        gx = (np.roll(truth, -1, 1) - np.roll(truth, 1, 1)) / 2
+        gy = np.gradient(truth, axis=0)
+        normals = np.stack([-gx, gy, np.ones_like(truth)], -1)  # OpenGL: G = -n_y, rows run down
+        normals = (normals / np.linalg.norm(normals, axis=2, keepdims=True)).astype(np.float32)
+        g = np.asarray(relief.slopes(normals, normal="opengl"))
+        truth -= truth.mean()
+        error = {}
+        for word, px, py in (("periodic,free", True, False), ("free,periodic", False, True),
+                             ("periodic", True, True), ("free", False, False)):
+            got = np.asarray(relief.height(normals, normal="opengl", boundary=word))[..., 0]
+            want = numpy_least_squares(g, px, py)
+            self.assertLess(np.abs(got - want).max(), 1e-4 * want.std(), word)
+            error[word] = np.sqrt(((got - truth) ** 2).mean()) / truth.std()
+        # Periodic along x and free along y fits it best (measured: rms error
+        # 0.0029 of its std; both free 0.0032, the other two 0.34 and 0.35).
+        self.assertLess(1.05 * error["periodic,free"], error["free"], error)
+        self.assertLess(50 * error["periodic,free"], min(error["periodic"], error["free,periodic"]), error)
+
+
 class Threads(unittest.TestCase):
     def test_the_gil_is_released_during_device_work(self):
         n = np.full((1024, 1024, 3), 128, np.uint8)
