@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -488,6 +489,18 @@ TEST_CASE("mesh: within E at every texel centre, no cracks, fewer triangles, on 
     CHECK(c.flipped == 0);
     CHECK(c.open_edges >= 4);
     CHECK(obj.f.size() / 3 <= 512 * 512);  // at most half of the full grid's 2 x 512^2
+    // -v says how many triangles, and what share of the full grid's that is.
+    const std::size_t said = r.err.find("mesh: ");
+    REQUIRE(said != std::string::npos);
+    unsigned long vertices = 0, triangles = 0, full = 0;
+    double percent = 0.0;
+    REQUIRE(std::sscanf(r.err.c_str() + said,
+                        "mesh: %lu vertices, %lu triangles (%lf%% of a full-resolution grid's %lu)", &vertices,
+                        &triangles, &percent, &full) == 4);
+    CHECK(triangles == obj.f.size() / 3);
+    CHECK(vertices == obj.v.size() / 3);
+    CHECK(full == 2ul * 512 * 512);
+    CHECK(percent == Approx(100.0 * double(triangles) / double(full)).margin(0.05));
     // Texture coordinates (x/W, 1 - y/H).
     for (std::size_t i = 0; i < obj.v.size() / 3; i += 97) {
         CHECK(obj.uv[2 * i] == Approx(obj.v[3 * i] / 512).margin(1e-6));
