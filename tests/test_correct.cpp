@@ -368,6 +368,27 @@ TEST_CASE("correct: a flat height map gives zero offsets and skips the solve", "
     CHECK(rep.anisotropy_before.max < 1.001);
 }
 
+TEST_CASE("correct: a periodic map two texels tall or wide is solved, one texel is skipped", "[correct]")
+{
+    // Periodic nodes wrap, so two texels along an axis are two distinct
+    // nodes with edges between them; one texel is nothing to solve.
+    for (auto [w, h] : {std::pair{48, 2}, std::pair{2, 48}, std::pair{48, 1}}) {
+        INFO(w << "x" << h);
+        std::vector<float> hts(std::size_t(w) * h);
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x)
+                hts[std::size_t(y) * w + x] = float(3.0 * std::sin(2.0 * M_PI * (w > h ? x : y) / 48.0));
+        host::CorrectReport rep;
+        run(hts, w, h, params(0.05 * 48 / w, true), &rep);  // (the texture's width is one world unit)
+        if (w == 1 || h == 1) {
+            CHECK(rep.skipped);
+            continue;
+        }
+        REQUIRE_FALSE(rep.skipped);
+        CHECK(rep.energy_after < rep.energy_before);
+    }
+}
+
 TEST_CASE("correct: a radially symmetric bump gives symmetric, radial offsets", "[correct]")
 {
     const int n = 48;
