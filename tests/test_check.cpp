@@ -353,6 +353,10 @@ TEST_CASE("tessellation: flat patches get level 1, detail more", "[check]")
             h[std::size_t(y) * w + x] = 1.5f;
     TessellationOptions o;
     o.patch = 32;
+    o.error = 0.1f;
+    CHECK(
+        relief::tessellation(test::image(w, ht, 1, h), o).spec().get_string_attribute("relief:parameters") ==
+        "patch=32 error=0.1 scale=1");  // as the modifiers are written, not error=0.100000001
     o.error = 0.5f;
     const auto lv = test::pixels(relief::tessellation(test::image(w, ht, 1, h), o));
     REQUIRE(lv.size() == 16 * 16);
@@ -495,8 +499,8 @@ TEST_CASE("mesh: within E at every texel centre, no cracks, fewer triangles, on 
     unsigned long vertices = 0, triangles = 0, full = 0;
     double percent = 0.0;
     REQUIRE(std::sscanf(r.err.c_str() + said,
-                        "mesh: %lu vertices, %lu triangles (%lf%% of a full-resolution grid's %lu)", &vertices,
-                        &triangles, &percent, &full) == 4);
+                        "mesh: %lu vertices, %lu triangles (%lf%% of a full-resolution grid's %lu)",
+                        &vertices, &triangles, &percent, &full) == 4);
     CHECK(triangles == obj.f.size() / 3);
     CHECK(vertices == obj.v.size() / 3);
     CHECK(full == 2ul * 512 * 512);

@@ -716,6 +716,7 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
         CHECK(got.image.spec().get_string_attribute("relief:method") == "correct");
         const std::string par = got.image.spec().get_string_attribute("relief:parameters");
         CHECK(par.find("theta=" + test::format_number(p.theta)) != std::string::npos);
+        CHECK(par.find(" threshold=" + test::format_number(p.threshold)) != std::string::npos);
         CHECK(par.find("nodes=" + r.nodes) != std::string::npos);
         CHECK(par.find("boundary=" + r.boundary) != std::string::npos);
         CHECK(par.find(" levels=" + (p.levels ? std::to_string(p.levels) : std::string("auto"))) !=

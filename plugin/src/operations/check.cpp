@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "check_stage.h"
+#include "options/option_limits.h"
 #include "compute_context.h"
 #include "results.h"
 #include "seams.h"
@@ -45,7 +46,7 @@ bool normals(ImageBuf& dst, const ImageBuf& height, const NormalsOptions& option
         spec.attribute("relief:method", "normals");
         spec.attribute("relief:normal_convention", directx ? "directx" : "opengl");
         spec.attribute("relief:parameters", std::string("normal=") + (directx ? "directx" : "opengl") +
-                                                " scale=" + detail::format_double("%.9g", options.scale) +
+                                                " scale=" + detail::number_text(options.scale) +
                                                 " boundary=" + detail::wrap_name(wrap));
         detail::set_result(dst, spec, n.data());
         return true;
@@ -102,9 +103,10 @@ bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptio
         spec.attribute("relief:patch", options.patch);
         spec.attribute("relief:error", options.error);
         spec.attribute("relief:scale", options.scale);
+        // (numbers as the modifiers write them: error=0.1, not 0.100000001)
         spec.attribute("relief:parameters", "patch=" + std::to_string(options.patch) +
-                                                " error=" + detail::format_double("%.9g", options.error) +
-                                                " scale=" + detail::format_double("%.9g", options.scale));
+                                                " error=" + detail::number_text(options.error) +
+                                                " scale=" + detail::number_text(options.scale));
         detail::set_result(dst, spec, pixels.data());
         return true;
     } catch (const std::exception& e) {

@@ -209,7 +209,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         par << "scale=" << p.scale << " theta=" << p.theta << " nodes=" << rep.nodes
             << " boundary=" << rep.boundary << " tolerance=" << p.tolerance
             << " iterations=" << (p.iterations ? std::to_string(p.iterations) : "auto")
-            << " levels=" << (p.levels ? std::to_string(p.levels) : "auto")
+            << " levels=" << (p.levels ? std::to_string(p.levels) : "auto") << " threshold=" << p.threshold
             << " search=" << search_name(options.search) << " relax=" << p.relax;
         spec.attribute("relief:parameters", par.str());
         detail::set_result(dst, spec, offsets.data());
