@@ -3,16 +3,17 @@
 
 namespace relief::host {
 
-DctPlan::DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, const FftOf& fft_of)
-    : c_(c), n0_(n0), n1_(n1),
+DctPlan::DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, const FftOf& fft_of, Axes axes)
+    : c_(c), n0_(n0), n1_(n1), axes_(axes),
       work_(c.buffer(CL_MEM_READ_WRITE, sizeof(float) * FftPlan::row_stride(n0) * n1, "the DCT")),
       fft_(fft_of(work_))
 {
     cl::Program& prog = c.program("dct.cl");
-    reorder_ = cl::Kernel(prog, "dct_reorder");
-    unreorder_ = cl::Kernel(prog, "dct_unreorder");
-    post_ = cl::Kernel(prog, "dct_forward_post");
-    pre_ = cl::Kernel(prog, "dct_inverse_pre");
+    const bool both = axes == Axes::Both;
+    reorder_ = cl::Kernel(prog, both ? "dct_reorder" : "dct_axis1_reorder");
+    unreorder_ = cl::Kernel(prog, both ? "dct_unreorder" : "dct_axis1_unreorder");
+    post_ = cl::Kernel(prog, both ? "dct_forward_post" : "dct_axis1_forward_post");
+    pre_ = cl::Kernel(prog, both ? "dct_inverse_pre" : "dct_axis1_inverse_pre");
     const cl_int stride = cl_int(FftPlan::row_stride(n0));
     for (cl::Kernel* k : {&reorder_, &unreorder_}) {
         k->setArg(1, cl_int(n0));
@@ -27,69 +28,23 @@ DctPlan::DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, const 
     pre_.setArg(3, work_);
 }
 
-void DctPlan::launch(cl::Kernel& kernel, std::size_t items)
-{
-    c_.launch(kernel, items);
-}
-
 void DctPlan::forward(cl::Buffer& buffer)
 {
+    const std::size_t columns = n0_ / 2 + 1;
     reorder_.setArg(0, buffer);
-    launch(reorder_, FftPlan::row_stride(n0_) * n1_);
+    c_.launch(reorder_, FftPlan::row_stride(n0_) * n1_);
     fft_->forward(work_);
     post_.setArg(3, buffer);
-    launch(post_, n0_ * n1_);
+    c_.launch(post_, (axes_ == Axes::Both ? n0_ : columns) * n1_);
 }
 
 void DctPlan::inverse(cl::Buffer& buffer)
 {
     pre_.setArg(0, buffer);
-    launch(pre_, (n0_ / 2 + 1) * n1_);
-    fft_->inverse(work_);
-    unreorder_.setArg(4, buffer);
-    launch(unreorder_, n0_ * n1_);
-}
-
-FourierCosinePlan::FourierCosinePlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1,
-                                     const DctPlan::FftOf& fft_of)
-    : c_(c), n0_(n0), n1_(n1),
-      work_(c.buffer(CL_MEM_READ_WRITE, sizeof(float) * FftPlan::row_stride(n0) * n1, "the DCT")),
-      fft_(fft_of(work_))
-{
-    cl::Program& prog = c.program("dct.cl");
-    reorder_ = cl::Kernel(prog, "dct_axis1_reorder");
-    unreorder_ = cl::Kernel(prog, "dct_axis1_unreorder");
-    post_ = cl::Kernel(prog, "dct_axis1_forward_post");
-    pre_ = cl::Kernel(prog, "dct_axis1_inverse_pre");
-    const cl_int stride = cl_int(FftPlan::row_stride(n0)), columns = cl_int(n0 / 2 + 1);
-    for (cl::Kernel* k : {&reorder_, &unreorder_}) {
-        k->setArg(1, stride);
-        k->setArg(2, cl_int(n1));
-    }
-    reorder_.setArg(3, work_);
-    unreorder_.setArg(0, work_);
-    set_args(post_, work_, columns, cl_int(n1));
-    pre_.setArg(1, columns);
-    pre_.setArg(2, cl_int(n1));
-    pre_.setArg(3, work_);
-}
-
-void FourierCosinePlan::forward(cl::Buffer& buffer)
-{
-    reorder_.setArg(0, buffer);
-    c_.launch(reorder_, FftPlan::row_stride(n0_) * n1_);
-    fft_->forward(work_);
-    post_.setArg(3, buffer);
-    c_.launch(post_, (n0_ / 2 + 1) * n1_);
-}
-
-void FourierCosinePlan::inverse(cl::Buffer& buffer)
-{
-    pre_.setArg(0, buffer);
     c_.launch(pre_, (n0_ / 2 + 1) * n1_);
     fft_->inverse(work_);
-    unreorder_.setArg(3, buffer);
-    c_.launch(unreorder_, FftPlan::row_stride(n0_) * n1_);
+    unreorder_.setArg(4, buffer);
+    c_.launch(unreorder_, n0_ * n1_);
 }
 
 }  // namespace relief::host

@@ -99,8 +99,8 @@ SpectralPlan::SpectralPlan(ComputeContext::Impl& c, SpectralKind kind, std::size
     case SpectralKind::Cosine: dct_ = c.plans->dct(c, n0, n1); break;
     case SpectralKind::FourierCosine:
         // Not cached itself (its FFT is): a work grid and four kernels.
-        mixed_ = std::make_shared<FourierCosinePlan>(
-            c, n0, n1, [&](cl::Buffer& work) { return c.plans->fft(c, n0, n1, work); });
+        mixed_ = std::make_shared<DctPlan>(
+            c, n0, n1, [&](cl::Buffer& work) { return c.plans->fft(c, n0, n1, work); }, DctPlan::Axes::Axis1);
         break;
     }
 }

@@ -62,7 +62,7 @@ private:
 enum class SpectralKind {
     Fourier,        // periodic on both axes: FftPlan, half spectrum in place
     Cosine,         // free on both: DctPlan, on a dense n0 x n1 grid
-    FourierCosine,  // periodic along axis 0, free along axis 1: FourierCosinePlan
+    FourierCosine,  // periodic along axis 0, free along axis 1: DctPlan::Axes::Axis1
 };
 
 // The kind's plan behind one forward/inverse, the transforms from the cache.
@@ -82,7 +82,7 @@ public:
 private:
     std::shared_ptr<FftPlan> fft_;
     std::shared_ptr<DctPlan> dct_;
-    std::shared_ptr<FourierCosinePlan> mixed_;
+    std::shared_ptr<DctPlan> mixed_;
 };
 
 }  // namespace relief::host

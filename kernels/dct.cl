@@ -97,8 +97,9 @@ __kernel void dct_inverse_pre(__global const float* X, int n0, int n1, __global 
 //   X[k0,k1] = (e^{-i a1} V[k0,k1] + e^{i a1} V[k0,n1-k1]) / 2,
 //   V[k0,k1] = e^{i a1} (X[k0,k1] - i X[k0,n1-k1]),  X = 0 at index n1,
 // with X[k0,k1] = sum_y U[k0,y] cos(pi k1 (2y+1) / 2n1). One work-item per
-// float of the grid (reorder) or complex value of the half spectrum.
-__kernel void dct_axis1_reorder(__global const float* x, int stride, int n1, __global float* v)
+// float of the grid (reorder), of the texels (unreorder), or complex value
+// of the half spectrum (n0/2 + 1 a row).
+__kernel void dct_axis1_reorder(__global const float* x, int n0, int n1, int stride, __global float* v)
 {
     int m0, m1, gid = relief_grid_cell(stride, n1, &m0, &m1);
     if (gid < 0)
@@ -106,12 +107,12 @@ __kernel void dct_axis1_reorder(__global const float* x, int stride, int n1, __g
     v[gid] = x[dct_source(m1, n1) * stride + m0];
 }
 
-__kernel void dct_axis1_unreorder(__global const float* v, int stride, int n1, __global float* x)
+__kernel void dct_axis1_unreorder(__global const float* v, int n0, int n1, int stride, __global float* x)
 {
-    int m0, m1, gid = relief_grid_cell(stride, n1, &m0, &m1);
+    int m0, m1, gid = relief_grid_cell(n0, n1, &m0, &m1);
     if (gid < 0)
         return;
-    x[dct_source(m1, n1) * stride + m0] = v[gid];
+    x[dct_source(m1, n1) * stride + m0] = v[m1 * stride + m0];
 }
 
 // (c + i s) * z
@@ -120,8 +121,9 @@ inline float2 rotated(float c, float s, float2 z)
     return (float2)(c * z.x - s * z.y, s * z.x + c * z.y);
 }
 
-__kernel void dct_axis1_forward_post(__global const float2* V, int columns, int n1, __global float2* X)
+__kernel void dct_axis1_forward_post(__global const float2* V, int n0, int n1, __global float2* X)
 {
+    int columns = n0 / 2 + 1;
     int k0, k1, gid = relief_grid_cell(columns, n1, &k0, &k1);
     if (gid < 0)
         return;
@@ -130,8 +132,9 @@ __kernel void dct_axis1_forward_post(__global const float2* V, int columns, int 
     X[gid] = 0.5f * (rotated(c, -s, p) + rotated(c, s, q));
 }
 
-__kernel void dct_axis1_inverse_pre(__global const float2* X, int columns, int n1, __global float2* V)
+__kernel void dct_axis1_inverse_pre(__global const float2* X, int n0, int n1, __global float2* V)
 {
+    int columns = n0 / 2 + 1;
     int k0, k1, gid = relief_grid_cell(columns, n1, &k0, &k1);
     if (gid < 0)
         return;

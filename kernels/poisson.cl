@@ -112,7 +112,7 @@ __kernel void poisson_free_divide(__global float* dx, __global const float* dy, 
         dx[l * n0 + m] = free_coefficient(bm, cm, m, l, n0, n1, sigma);
 }
 
-// In place on gx's spectrum from host/dct_plan's FourierCosinePlan: n0/2 + 1
+// In place on gx's spectrum from host/dct_plan's DctPlan along axis 1: n0/2 + 1
 // complex values per row; gy's sine coefficient of row l is its cosine
 // coefficient of row n1 - l.
 __kernel void poisson_mixed_divide(__global float2* gx, __global const float2* gy, int n0, int n1,
