@@ -928,6 +928,45 @@ TEST_CASE("preview: a height's own normals light as the height does, and the lig
     CHECK(panel_mean(from_left, 2, 0, pw, ph, 0) < 0.4);
 }
 
+TEST_CASE("preview: the procedural sky lights an upward surface pale blue, every channel lit",
+          "[check][preview]")
+{
+    // A flat map with the key light at the horizon: panel a is the sky's
+    // diffuse light alone (zenith blue, a pale horizon, a brown ground).
+    const int w = 400, h = 200;
+    std::vector<float> up(std::size_t(w) * h * 3, 0.0f);
+    for (std::size_t i = 2; i < up.size(); i += 3)
+        up[i] = 1.0f;
+    PreviewOptions o;
+    o.normals.convention = NormalConvention::OpenGL;
+    o.elevation = 0.001f;
+    const OIIO::ImageBuf sheet = relief::preview(
+        test::image(w, h, 3, up), test::image(w, h, 1, std::vector<float>(std::size_t(w) * h, 0.0f)), o);
+    REQUIRE_FALSE(sheet.has_error());
+    const int W = sheet.spec().width;
+    const std::vector<float> px = test::pixels(sheet);
+    const int x = (W - 3 * w) / 4 + w / 2;  // the middle of panel a's column
+    const auto at = [&](int y) { return &px[3 * (std::size_t(y) * W + x)]; };
+    // Down to the first panel: 20 rows of one colour other than the
+    // background's (a caption's letters are not that tall).
+    const auto same = [&](int a, int b) { return std::equal(at(a), at(a) + 3, at(b)); };
+    const auto panel_at = [&](int y) {
+        for (int k = 0; k < 20; ++k)
+            if (same(y + k, 0) || !same(y + k, y))
+                return false;
+        return true;
+    };
+    int y = 0;
+    while (y + 20 < sheet.spec().height && !panel_at(y))
+        ++y;
+    REQUIRE(y + 20 < sheet.spec().height);
+    const float* c = at(y + 10);
+    INFO("sky light " << c[0] << ", " << c[1] << ", " << c[2]);
+    CHECK(c[2] > c[0]);         // blue
+    CHECK(c[0] > 0.5f * c[2]);  // pale: red well present
+    CHECK(c[1] > c[0]);
+}
+
 TEST_CASE("preview: each panel is the map's size at the sheet's scale, in its own cell", "[check][preview]")
 {
     // A flat map makes every panel one colour, so each can be found and
