@@ -204,6 +204,23 @@ TEST_CASE(
         }
         CHECK(temporaries(d).empty());  // ...but the next run into the folder does
     }
+    // After more outputs than the signal handler keeps (64 at once), each
+    // let go once written, the next one is still removed on a signal.
+    const fs::path many = relief::test::scratch("output_files/signals_many");
+    const fs::path small = many / "small.exr";
+    REQUIRE(relief::write_image(relief::test::image(4, 4, 3, std::vector<float>(48, 0.5f)), small.string()));
+    std::vector<std::string> args = {small.string(), "--slopes"};
+    for (int i = 0; i < 70; ++i)
+        args.insert(args.end(), {"-o", (many / ("s" + std::to_string(i) + ".exr")).string()});
+    args.insert(args.end(), {in.string(), "--slopes", "-o", "out.exr"});
+    std::ofstream(d / "out.exr") << old;
+    const pid_t pid = start_cli(d, args);
+    REQUIRE(temporary_appears(d, pid));
+    CHECK(fs::exists(many / "s69.exr"));
+    ::kill(pid, SIGTERM);
+    CHECK(wait_for(pid) == 128 + SIGTERM);
+    CHECK(slurp(d / "out.exr") == old);
+    CHECK(temporaries(d).empty());
 }
 
 TEST_CASE("output files: batches sharing one --log append whole lines, none lost or torn",
