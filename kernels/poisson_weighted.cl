@@ -43,8 +43,8 @@ inline int right_of(int x, int width, int periodic)
 // below (y), from the masked slopes sg. unit: all weights 1 and no delta
 // (the discrete solve of mean(s g) that delta needs).
 __kernel void weighted_edges(__global const float2* sg, __global const float* weight,
-                             __global const float* delta, int width, int height, int periodic_x, int periodic_y,
-                             float eps, int unit, __global float2* c, __global float2* t)
+                             __global const float* delta, int width, int height, int periodic_x,
+                             int periodic_y, float eps, int unit, __global float2* c, __global float2* t)
 {
     int x, y, p = relief_grid_cell(width, height, &x, &y);
     if (p < 0)
