@@ -206,6 +206,10 @@ void every_stage(const std::vector<Simulator>& sims, const std::string& only = "
         {"poisson free", n6448 + " --height:boundary=free -o OUT", 1e-3, 0},
         {"poisson masked", n64 + " --height:mask='" + in.mask.string() + "' -o OUT", 1e-3, 0},
         {"poisson highpass", n64 + " --height:boundary=periodic:highpass=16 -o OUT", 1e-3, 0},
+        // one axis periodic, the other free: the DCT along axis 1, transposed for y
+        {"poisson periodic,free", n6448 + " --height:boundary=periodic,free -o OUT", 1e-3, 0},
+        {"poisson free,periodic masked",
+         n64 + " --height:boundary=free,periodic:mask='" + in.mask.string() + "' -o OUT", 1e-3, 0},
         {"poisson 8192 free", "'" + in.x8192.string() + "' --height:boundary=free:normal=opengl -o OUT", 1e-3,
          0, true},
         {"poisson 16384 periodic",
