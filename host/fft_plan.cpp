@@ -355,6 +355,11 @@ FftPlan::FftPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, cl::Bu
 
 FftPlan::~FftPlan() = default;
 
+bool FftPlan::whole() const
+{
+    return impl_->whole;
+}
+
 void FftPlan::forward(cl::Buffer& buffer)
 {
     auto& p = *impl_;

@@ -47,6 +47,12 @@ public:
     void forward(cl::Buffer& buffer);
     void inverse(cl::Buffer& buffer);
 
+    // Whether the plan is VkFFT's own 2-D transform (rows and the strided
+    // axis in one), not rows, a transpose and rows again: so only when the
+    // strided axis's length has no prime factor above 13 (Bluestein along
+    // a strided axis crashed PoCL).
+    bool whole() const;
+
 private:
     struct Impl;
     std::unique_ptr<Impl> impl_;
