@@ -229,6 +229,124 @@ TEST_CASE("tiling evidence: a periodic field tiles, a crop of one does not", "[p
 
 namespace {
 
+// The w x h texels from (x0, y0) of slopes g that are `width` texels wide.
+std::vector<float> window(const std::vector<double>& g, int width, int x0, int y0, int w, int h)
+{
+    std::vector<float> out(2 * std::size_t(w) * h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < 2; ++c)
+                out[2 * (std::size_t(y) * w + x) + c] =
+                    float(g[2 * (std::size_t(y + y0) * width + x + x0) + c]);
+    return out;
+}
+
+// The slopes of the first and last column (row) replaced by noise as strong
+// as the slopes: a wrap seam painted over, whose texels no longer correlate.
+void paint_over_seam(std::vector<float>& g, int w, int h, bool columns, unsigned seed)
+{
+    std::mt19937 rng(seed);
+    std::normal_distribution<float> noise(0.0f, float(test::rms(g)));
+    const int lines = columns ? h : w;
+    for (int i = 0; i < lines; ++i)
+        for (int e : {0, (columns ? w : h) - 1}) {
+            const std::size_t t = columns ? std::size_t(i) * w + e : std::size_t(e) * w + i;
+            g[2 * t] = noise(rng);
+            g[2 * t + 1] = noise(rng);
+        }
+}
+
+}  // namespace
+
+TEST_CASE("tiling evidence per axis: block heights see a rough seam through, and a crop or one-axis tiling "
+          "for what it is",
+          "[poisson][tiling]")
+{
+    // Rough slopes (neighbouring columns correlate about 0.4) on a smooth
+    // periodic surface.
+    const test::PeriodicField f{384, 320, {{3, 1, 40.0, 0.2}, {5, -4, 10.0, 1.0}, {11, 7, 3.0, 2.5}}};
+    const std::vector<double> g = test::plus_noise(f.slopes(), 1.5, 7);
+    std::vector<float> whole = window(g, 384, 0, 0, 384, 320);
+    auto e = host::tiling_evidence(whole.data(), 384, 320);
+    INFO("x: r " << e.x.seam << "/" << e.x.adjacent << " step " << e.x.height_step << "; y: r " << e.y.seam
+                 << "/" << e.y.adjacent << " step " << e.y.height_step);
+    CHECK(e.x.adjacent < host::kSmoothAdjacent);
+    CHECK((e.x.slopes_tile && e.y.slopes_tile && e.x.tiles && e.y.tiles));
+    CHECK(e.x.height_step < host::kTilingHeightStep);
+    CHECK(e.y.height_step < host::kTilingHeightStep);
+    // A tilt (a mean slope, as a normal map's bias gives) is no evidence:
+    // every step carries it, the periodic solve drops it.
+    std::vector<float> tilted = whole;
+    for (std::size_t i = 0; i < tilted.size(); i += 2) {
+        tilted[i] += 0.8f;
+        tilted[i + 1] -= 0.5f;
+    }
+    const auto t = host::tiling_evidence(tilted.data(), 384, 320);
+    CHECK(t.x.height_step == Approx(e.x.height_step).epsilon(1e-4));
+    CHECK(t.y.height_step == Approx(e.y.height_step).epsilon(1e-4));
+
+    // The x seam painted over: the slope test fails it, the block heights
+    // still join (the seam carries 2 of 384 columns).
+    paint_over_seam(whole, 384, 320, true, 9);
+    e = host::tiling_evidence(whole.data(), 384, 320);
+    INFO("painted: x r " << e.x.seam << "/" << e.x.adjacent << " step " << e.x.height_step);
+    CHECK_FALSE(e.x.slopes_tile);
+    CHECK(e.x.tiles);
+    CHECK(e.y.tiles);
+    CHECK_FALSE(e.tiles);  // the released rule: free on both axes
+
+    // The left 200 x 170: a crop, neither axis tiles by either test.
+    std::vector<float> crop = window(g, 384, 0, 0, 200, 170);
+    e = host::tiling_evidence(crop.data(), 200, 170);
+    INFO("crop: x r " << e.x.seam << "/" << e.x.adjacent << " step " << e.x.height_step << "; y r "
+                      << e.y.seam << "/" << e.y.adjacent << " step " << e.y.height_step);
+    CHECK(e.x.height_step > host::kTilingHeightStep);
+    CHECK(e.y.height_step > host::kTilingHeightStep);
+    CHECK_FALSE(e.x.tiles);
+    CHECK_FALSE(e.y.tiles);
+
+    // All 384 columns of 170 rows: tiles along x only.
+    std::vector<float> band = window(g, 384, 0, 75, 384, 170);
+    e = host::tiling_evidence(band.data(), 384, 170);
+    INFO("band: x step " << e.x.height_step << "; y step " << e.y.height_step);
+    CHECK(e.x.tiles);
+    CHECK_FALSE(e.y.tiles);
+}
+
+TEST_CASE("tiling evidence per axis: on a smooth map a seam whose slopes do not correlate is a clean break",
+          "[poisson][tiling]")
+{
+    // Smooth slopes (neighbours correlate near 1): a painted-over seam is
+    // believed to be a break, whatever the block heights say.
+    const test::PeriodicField f{192, 160, {{3, 1, 4.0, 0.2}, {5, -4, 1.0, 1.0}}};
+    std::vector<float> g = window(f.slopes(), 192, 0, 0, 192, 160);
+    auto e = host::tiling_evidence(g.data(), 192, 160);
+    CHECK((e.x.tiles && e.y.tiles));
+    paint_over_seam(g, 192, 160, false, 3);
+    e = host::tiling_evidence(g.data(), 192, 160);
+    INFO("y r " << e.y.seam << "/" << e.y.adjacent << " step " << e.y.height_step);
+    CHECK(e.y.adjacent >= host::kSmoothAdjacent);
+    CHECK(e.y.height_step < host::kTilingHeightStep);
+    CHECK_FALSE(e.y.tiles);
+    CHECK(e.x.tiles);
+
+    // Slopes that tile but do not close around the map (a curl across the
+    // rows, as authored normal maps have): the block heights step a few
+    // times more at the seam than inside, and the slopes are believed.
+    std::vector<float> curl = window(f.slopes(), 192, 0, 0, 192, 160);
+    for (int y = 0; y < 160; ++y)
+        for (int x = 0; x < 192; ++x)
+            curl[2 * (std::size_t(y) * 192 + x)] += 0.1f * (float(y) / 160 - 0.5f);
+    e = host::tiling_evidence(curl.data(), 192, 160);
+    INFO("curl: x r " << e.x.seam << "/" << e.x.adjacent << " step " << e.x.height_step);
+    CHECK(e.x.slopes_tile);
+    CHECK(e.x.height_step > host::kTilingHeightStep);
+    CHECK(e.x.height_step <= host::kSlopesBelievedStep);
+    CHECK(e.x.tiles);
+}
+
+namespace {
+
 std::vector<float> solve_weighted(const std::vector<double>& g, const std::vector<float>& weights, int w,
                                   int h, Axes periodic, host::PoissonReport* report = nullptr)
 {

@@ -75,12 +75,12 @@ Boundaries choose_boundary(const HeightOptions& o, const detail::DerivedSlopes& 
     if (b.x == Boundary::Auto && b.y == Boundary::Auto)
         b = verdict(e.tiles);
     else if (b.x == Boundary::Auto)
-        b.x = verdict(e.x.tiles);
+        b.x = verdict(e.x.slopes_tile);
     else
-        b.y = verdict(e.y.tiles);
+        b.y = verdict(e.y.slopes_tile);
     auto axis = [](const char* name, const host::AxisEvidence& a) {
         return std::string(name) + " " + detail::format_double("%.2f", a.seam) + " vs " +
-               detail::format_double("%.2f", a.adjacent) + (a.tiles ? " (tiles)" : " (does not tile)");
+               detail::format_double("%.2f", a.adjacent) + (a.slopes_tile ? " (tiles)" : " (does not tile)");
     };
     detail::say(o.exec, Severity::Notice,
                 "boundary: " + name(b, rays) +
