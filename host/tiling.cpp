@@ -64,6 +64,23 @@ std::vector<double> dct_basis(int n)
     return c;
 }
 
+// The r x c product op(a) op(b), op transposing where asked; op(a) is
+// r x k, op(b) k x c, all row-major.
+std::vector<double> product(const std::vector<double>& a, bool ta, const std::vector<double>& b, bool tb,
+                            int r, int k, int c)
+{
+    std::vector<double> out(std::size_t(r) * c, 0.0);
+    for (int i = 0; i < r; ++i)
+        for (int j = 0; j < c; ++j) {
+            double v = 0;
+            for (int q = 0; q < k; ++q)
+                v += (ta ? a[std::size_t(q) * r + i] : a[std::size_t(i) * k + q]) *
+                     (tb ? b[std::size_t(j) * k + q] : b[std::size_t(q) * c + j]);
+            out[std::size_t(i) * c + j] = v;
+        }
+    return out;
+}
+
 // Heights of an m x n grid of blocks whose slopes (height change per block)
 // are bx, by: the discrete least squares with free edges, each step between
 // neighbours fitted to the mean of their two slopes. Solved exactly in the
@@ -88,38 +105,15 @@ std::vector<double> block_heights(const std::vector<double>& bx, const std::vect
             }
         }
     const std::vector<double> cy = dct_basis(m), cx = dct_basis(n);
-    // Forward (rows then columns), divide by the eigenvalues, back.
-    std::vector<double> t(d.size(), 0.0), s(d.size(), 0.0);
-    for (int i = 0; i < m; ++i)
-        for (int k = 0; k < n; ++k) {
-            double a = 0;
-            for (int j = 0; j < n; ++j)
-                a += cx[std::size_t(k) * n + j] * d[std::size_t(i) * n + j];
-            t[std::size_t(i) * n + k] = a;
-        }
+    // Into the basis (rows, then columns), divided by the eigenvalues, back.
+    std::vector<double> s = product(cy, false, product(d, false, cx, true, m, n, n), false, m, m, n);
     for (int l = 0; l < m; ++l)
         for (int k = 0; k < n; ++k) {
-            double a = 0;
-            for (int i = 0; i < m; ++i)
-                a += cy[std::size_t(l) * m + i] * t[std::size_t(i) * n + k];
             const double lambda = (2 - 2 * std::cos(M_PI * k / n)) + (2 - 2 * std::cos(M_PI * l / m));
-            s[std::size_t(l) * n + k] = l == 0 && k == 0 ? 0.0 : a / lambda;
+            double& v = s[std::size_t(l) * n + k];
+            v = l == 0 && k == 0 ? 0.0 : v / lambda;
         }
-    for (int i = 0; i < m; ++i)
-        for (int k = 0; k < n; ++k) {
-            double a = 0;
-            for (int l = 0; l < m; ++l)
-                a += cy[std::size_t(l) * m + i] * s[std::size_t(l) * n + k];
-            t[std::size_t(i) * n + k] = a;
-        }
-    std::vector<double> h(d.size(), 0.0);
-    for (int i = 0; i < m; ++i)
-        for (int j = 0; j < n; ++j) {
-            double a = 0;
-            for (int k = 0; k < n; ++k)
-                a += cx[std::size_t(k) * n + j] * t[std::size_t(i) * n + k];
-            h[std::size_t(i) * n + j] = a;
-        }
+    const std::vector<double> h = product(product(cy, true, s, false, m, m, n), false, cx, false, m, n, n);
     return h;
 }
 
