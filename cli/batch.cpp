@@ -86,19 +86,15 @@ std::vector<Job> read_jobs(const std::string& path)
         if (job.args.empty())
             continue;
         job.line = line;
-        std::vector<std::vector<std::string>> expanded;
+        std::vector<Expansion> expanded;
         try {
-            expanded = expand_names(job.args);
+            expanded = expand_names_with_tiles(job.args);
         } catch (const UsageError& e) {
             job.error = e.what();
-            expanded = {job.args};
+            expanded = {{job.args, 0, job.args}};
         }
-        for (auto& args : expanded) {
-            Job j = job;
-            j.args = std::move(args);
-            j.index = int(jobs.size());
+        for (Job& j : jobs_of(expanded, job, int(jobs.size())))
             jobs.push_back(std::move(j));
-        }
     }
     if (in.bad())
         throw UsageError("--batch " + path + ": read error");
@@ -312,8 +308,8 @@ private:
 // or `args` alone when no argument holds <UDIM>. Where there is none, says
 // why in `error` and returns nothing (a line of many frames meets this once
 // a frame: no exception there).
-std::vector<std::vector<std::string>> expand_udim(const std::vector<std::string>& args, TileFinder& finder,
-                                                  std::string& error)
+std::vector<Expansion> expand_udim(const std::vector<std::string>& args, TileFinder& finder,
+                                   std::string& error)
 {
     bool udim = false;
     std::vector<int> tiles;
@@ -331,15 +327,15 @@ std::vector<std::vector<std::string>> expand_udim(const std::vector<std::string>
         break;
     }
     if (!udim)
-        return {args};
+        return {{args, 0, args}};
     if (tiles.empty()) {
         error = "<UDIM> in an output needs an input file name holding <UDIM> (its tiles are the ones made)";
         return {};
     }
-    std::vector<std::vector<std::string>> jobs;
+    std::vector<Expansion> jobs;
     for (const int tile : tiles) {
-        jobs.push_back(args);
-        for (std::string& a : jobs.back())
+        jobs.push_back({args, tile, args});
+        for (std::string& a : jobs.back().args)
             a = with_udim(a, tile);
     }
     return jobs;
@@ -348,6 +344,14 @@ std::vector<std::vector<std::string>> expand_udim(const std::vector<std::string>
 }  // namespace
 
 std::vector<std::vector<std::string>> expand_names(const std::vector<std::string>& given)
+{
+    std::vector<std::vector<std::string>> lists;
+    for (Expansion& e : expand_names_with_tiles(given))
+        lists.push_back(std::move(e.args));
+    return lists;
+}
+
+std::vector<Expansion> expand_names_with_tiles(const std::vector<std::string>& given)
 {
     std::vector<std::string> args;
     std::vector<int> frames;
@@ -386,7 +390,7 @@ std::vector<std::vector<std::string>> expand_names(const std::vector<std::string
         return jobs;
     }
     // Frames outer, tiles inner: each frame's tiles are those that exist for it.
-    std::vector<std::vector<std::string>> jobs;
+    std::vector<Expansion> jobs;
     std::size_t held = 0;
     bool found = false;
     for (const int f : frames) {
@@ -397,11 +401,11 @@ std::vector<std::vector<std::string>> expand_names(const std::vector<std::string
             throw UsageError("--frames: no argument holds a frame token (#, @, %04d)");
         auto tiles = expand_udim(framed, finder, error);
         if (tiles.empty())  // a frame without tiles: its job fails alone, naming the file
-            tiles.push_back(std::move(framed));
+            tiles.push_back({framed, 0, framed});
         for (auto& job : tiles) {
             // The jobs are held in memory at once: 100000 frames of a 64 KiB
             // line would be 6 GiB.
-            for (const std::string& a : job)
+            for (const std::string& a : job.args)
                 held += a.size() + sizeof(std::string);
             if (held > kMaxExpandedBytes)
                 throw UsageError("--frames: the jobs of this line's " + std::to_string(frames.size()) +
@@ -409,6 +413,47 @@ std::vector<std::vector<std::string>> expand_names(const std::vector<std::string
                                  " MiB of arguments (fewer frames or tiles per line)");
             jobs.push_back(std::move(job));
         }
+    }
+    return jobs;
+}
+
+std::vector<Job> jobs_of(const std::vector<Expansion>& expanded, const Job& base, int first_index)
+{
+    // Whether the line's tiles go together: the table says, per operation.
+    // (A line that does not parse runs tile by tile, each job failing alone.)
+    const auto joined = [](const Expansion& e) {
+        if (e.tile == 0)
+            return false;
+        try {
+            const Program p = parse_command_line(e.args, false);
+            return std::any_of(p.steps.begin(), p.steps.end(), [](const Step& s) {
+                return s.kind == Step::Kind::Operation && relief::joins_tiles(s);
+            });
+        } catch (const UsageError&) {
+            return false;
+        }
+    };
+    std::vector<Job> jobs;
+    for (std::size_t i = 0; i < expanded.size();) {
+        Job j = base;
+        j.index = first_index + int(jobs.size());
+        j.args = expanded[i].args;
+        std::size_t next = i + 1;
+        if (base.error.empty() && joined(expanded[i])) {
+            // The tiles of one line and frame share their words before the tile went in.
+            while (next < expanded.size() && expanded[next].tile != 0 &&
+                   expanded[next].pattern == expanded[i].pattern)
+                ++next;
+            if (next - i > 1) {
+                j.args = expanded[i].pattern;
+                for (std::size_t k = i; k < next; ++k) {
+                    j.tiles.push_back(expanded[k].tile);
+                    j.tile_args.push_back(expanded[k].args);
+                }
+            }
+        }
+        jobs.push_back(std::move(j));
+        i = next;
     }
     return jobs;
 }

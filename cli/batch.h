@@ -14,6 +14,18 @@ struct Job {
     std::vector<std::string> args;  // the line's words (names expanded, see expand_names)
     std::string error;              // why the line could not be expanded (the job fails alone)
     int shard_key = -1;             // what --shard counts when not `index`: a chain's first job
+    // A UDIM set run as one job, because an operation takes its tiles at
+    // once (relief::joins_tiles: --height's udim=joint|auto): the tile
+    // numbers and each tile's words; `args` is then the line with <UDIM>.
+    std::vector<int> tiles;
+    std::vector<std::vector<std::string>> tile_args;
+};
+
+// One argument list of expand_names(), with where it came from.
+struct Expansion {
+    std::vector<std::string> args;
+    int tile = 0;                      // its UDIM tile (0: none)
+    std::vector<std::string> pattern;  // the words before the tile was put in (frames are)
 };
 
 // oiiotool-style names. In every argument, <UDIM> stands for each UDIM tile
@@ -27,6 +39,12 @@ struct Job {
 // repeated --frames, --frames without a frame token, <UDIM> with no
 // existing tile).
 std::vector<std::vector<std::string>> expand_names(const std::vector<std::string>& args);
+std::vector<Expansion> expand_names_with_tiles(const std::vector<std::string>& args);
+
+// Jobs of one line's expansions (`base` gives the line and error; indices
+// from `first_index`): one job per list, except that the tiles of one line
+// and frame make one job when an operation of the line joins them.
+std::vector<Job> jobs_of(const std::vector<Expansion>& expanded, const Job& base, int first_index);
 
 // Splits one line into words as a POSIX shell would, without any expansion:
 // blanks separate words; '...' is literal; "..." keeps blanks and takes \"

@@ -113,6 +113,33 @@ std::string job_digest(const Program& prog)
     }
 }
 
+std::vector<std::string> output_files(const Program& prog)
+{
+    std::vector<std::string> v;
+    for (const Step& s : prog.steps) {
+        if (s.kind == Step::Kind::Write)
+            v.push_back(s.path);
+        if (s.kind == Step::Kind::Operation)
+            for (const std::string& f : relief::files_written(s))
+                v.push_back(f);
+    }
+    return v;
+}
+
+std::string tile_set_digest(const std::vector<Program>& tiles, const std::vector<int>& numbers)
+{
+    Hasher h;
+    h.text("relief tile set digest 1");
+    for (std::size_t i = 0; i < tiles.size(); ++i) {
+        const std::string d = job_digest(tiles[i]);
+        if (d.empty())
+            return "";
+        h.text(std::to_string(numbers[i]));
+        h.text(d);
+    }
+    return h.digest();
+}
+
 std::string output_digest(const std::string& job, int output)
 {
     if (job.empty())

@@ -54,60 +54,59 @@ std::string json_line(const JobRecord& r)
            "\", \"seconds\": " + seconds + ", \"message\": " + json_quote(r.message) + "}";
 }
 
-// The files a job writes besides its report, in step order: -o images and
-// the files operations write (mesh's out=). Output k records output_digest(job digest, k).
-std::vector<std::string> output_files(const Program& prog)
-{
-    std::vector<std::string> v;
-    for (const Step& s : prog.steps) {
-        if (s.kind == Step::Kind::Write)
-            v.push_back(s.path);
-        if (s.kind == Step::Kind::Operation)
-            for (const std::string& f : relief::files_written(s))
-                v.push_back(f);
-    }
-    return v;
-}
-
-// Whether every output of the job exists and records the digest it would
-// get from the job's `digest` (read from the headers only). A --report file
-// records none; it must exist.
-bool up_to_date(const Program& prog, const std::string& digest)
+// Whether every output of the job (its programs: one, or a tile set's)
+// exists and records the digest it would get from the job's `digest` (read
+// from the headers only). A --report file records none; it must exist.
+bool up_to_date(const std::vector<Program>& progs, const std::string& digest)
 {
     if (digest.empty())
         return false;
     int output = 0;
-    for (const std::string& path : output_files(prog))
-        if (relief::recorded_digest(path) != output_digest(digest, output++))
+    for (const Program& prog : progs) {
+        for (const std::string& path : output_files(prog))
+            if (relief::recorded_digest(path) != output_digest(digest, output++))
+                return false;
+        std::error_code ec;
+        if (!prog.report.empty() && !std::filesystem::is_regular_file(prog.report, ec))
             return false;
-    std::error_code ec;
-    return prog.report.empty() || std::filesystem::is_regular_file(prog.report, ec);
+    }
+    return true;
 }
 
-// Runs one parsed job; fills its record instead of throwing.
-void run_job(const Program& prog, JobRecord& rec)
+// Runs one parsed job (one program, or one per tile of a set that `tiles`
+// numbers); fills its record instead of throwing.
+void run_job(const std::vector<Program>& progs, const std::vector<int>& tiles, JobRecord& rec)
 {
     const auto t0 = std::chrono::steady_clock::now();
-    for (const Step& s : prog.steps) {
-        if (s.kind == Step::Kind::Read)
-            rec.inputs.push_back(s.path);
-        if (s.kind == Step::Kind::Operation)
-            for (const std::string& f : relief::files_read(s))
-                rec.inputs.push_back(f);
+    const Program& prog = progs.front();
+    for (const Program& p : progs) {
+        for (const Step& s : p.steps) {
+            if (s.kind == Step::Kind::Read)
+                rec.inputs.push_back(s.path);
+            if (s.kind == Step::Kind::Operation)
+                for (const std::string& f : relief::files_read(s))
+                    rec.inputs.push_back(f);
+        }
+        for (const std::string& f : output_files(p))
+            rec.outputs.push_back(f);
+        if (!p.report.empty())
+            rec.outputs.push_back(p.report);
     }
-    rec.outputs = output_files(prog);
-    if (!prog.report.empty())
-        rec.outputs.push_back(prog.report);
     try {
         // A dry run without --update lists the jobs without reading their inputs.
-        const std::string digest = prog.dry_run && !prog.update ? std::string() : job_digest(prog);
-        if (prog.update && up_to_date(prog, digest)) {
+        const std::string digest = prog.dry_run && !prog.update ? std::string()
+                                   : tiles.empty()              ? job_digest(prog)
+                                                                : tile_set_digest(progs, tiles);
+        if (prog.update && up_to_date(progs, digest)) {
             rec.status = "skipped";
             rec.message = "up to date";
         } else if (prog.dry_run) {
             rec.status = "pending";
         } else {
-            run_steps(prog, digest);
+            if (tiles.empty())
+                run_steps(prog, digest);
+            else
+                run_tile_steps(progs, tiles, digest);
             rec.status = "ok";
         }
     } catch (const std::exception& e) {
@@ -160,7 +159,8 @@ private:
 // A job as it runs: a manifest's job gets the batch's -v, --device,
 // --update and --dry-run first (its own come later and win). Throws
 // UsageError.
-Program job_program(const Program& top, const Job& job, const std::string& manifest, bool check_inputs = true)
+Program job_program(const Program& top, const Job& job, const std::vector<std::string>& words,
+                    const std::string& manifest, bool check_inputs)
 {
     if (!job.error.empty())
         throw UsageError(job.error);
@@ -172,7 +172,7 @@ Program job_program(const Program& top, const Job& job, const std::string& manif
             if (on)
                 args.push_back(flag);
     }
-    args.insert(args.end(), job.args.begin(), job.args.end());
+    args.insert(args.end(), words.begin(), words.end());
     Program p = parse_command_line(args, check_inputs);
     p.label = "job " + std::to_string(job.index) + ": ";
     if (!manifest.empty() &&
@@ -180,6 +180,20 @@ Program job_program(const Program& top, const Job& job, const std::string& manif
         throw UsageError("a job is images, operations and outputs (no --batch, --log, "
                          "--help, --version or --list-devices)");
     return p;
+}
+
+// The job's programs: its own, or one per tile of a set run as one job.
+std::vector<Program> job_programs(const Program& top, const Job& job, const std::string& manifest,
+                                  bool check_inputs = true)
+{
+    if (job.tiles.empty())
+        return {job_program(top, job, job.args, manifest, check_inputs)};
+    std::vector<Program> progs;
+    for (std::size_t i = 0; i < job.tiles.size(); ++i) {
+        progs.push_back(job_program(top, job, job.tile_args[i], manifest, check_inputs));
+        progs.back().label += "tile " + std::to_string(job.tiles[i]) + ": ";
+    }
+    return progs;
 }
 
 // Refuses, before any work, a run whose writes would clobber what it reads
@@ -198,7 +212,8 @@ std::vector<Dependency> check_files(const Program& top, const std::vector<Job>& 
     for (const Job& job : all) {
         try {
             // An input may be an earlier job's output, not made yet.
-            add_file_uses(job_program(top, job, manifest, false), job.index, job.line, uses);
+            for (const Program& p : job_programs(top, job, manifest, false))
+                add_file_uses(p, job.index, job.line, uses);
         } catch (const UsageError&) {
         }
     }
@@ -234,7 +249,8 @@ int run_jobs(const Program& top, const std::vector<Job>& all, const std::string&
         rec.args = job.args;
         rec.message = job.error;
         try {
-            run_job(job_program(top, job, manifest, !(top.dry_run && readers.count(job.index))), rec);
+            run_job(job_programs(top, job, manifest, !(top.dry_run && readers.count(job.index))), job.tiles,
+                    rec);
         } catch (const UsageError& e) {
             rec.message = e.what();
         }
@@ -277,7 +293,7 @@ void run_command_line(const Program& prog, const std::vector<std::string>& args)
     JobLog log(prog.log);
     JobRecord rec;
     rec.args = args;
-    run_job(prog, rec);
+    run_job({prog}, {}, rec);
     log.add(rec);
     if (rec.status == "failed")
         throw RunError(rec.message);

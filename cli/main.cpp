@@ -36,12 +36,12 @@ int run(int argc, char** argv)
     const double age = relief::cli::process_age();
     const std::vector<std::string> args(argv + 1, argv + argc);
     Program prog;
-    std::vector<std::vector<std::string>> expanded;
+    std::vector<relief::cli::Expansion> expanded;
     try {
-        expanded = relief::cli::expand_names(args);
+        expanded = relief::cli::expand_names_with_tiles(args);
         // With several tiles or frames, each is checked as a job of its own
         // (a missing one fails alone); here only the options count.
-        prog = relief::cli::parse_command_line(expanded.front(), expanded.size() == 1);
+        prog = relief::cli::parse_command_line(expanded.front().args, expanded.size() == 1);
     } catch (const relief::cli::UsageError& e) {
         std::fprintf(stderr, "relief: error: %s\n", e.what());
         return 2;
@@ -67,17 +67,10 @@ int run(int argc, char** argv)
             std::fputs(relief::cli::usage_text().c_str(), stderr);
             return 2;
         }
-        if (expanded.size() > 1 || expanded.front() != args || prog.dry_run) {
-            // Tiles and frames: a batch of whole command lines.
-            std::vector<relief::cli::Job> jobs;
-            for (const auto& a : expanded) {
-                relief::cli::Job j;
-                j.index = int(jobs.size());
-                j.args = a;
-                jobs.push_back(j);
-            }
-            return run_jobs(prog, jobs, "");
-        }
+        if (expanded.size() > 1 || expanded.front().args != args || prog.dry_run)
+            // Tiles and frames: a batch of whole command lines (a UDIM set
+            // whose --height joins its tiles is one job).
+            return run_jobs(prog, relief::cli::jobs_of(expanded, {}, 0), "");
         relief::cli::run_command_line(prog, args);
         if (prog.verbose)
             std::fprintf(stderr, "relief: done %.2f s after the process started (then its exit)\n",

@@ -61,32 +61,158 @@ private:
 
 class StackRunner {
 public:
-    StackRunner(const Program& prog, std::string digest) : prog_(prog), digest_(std::move(digest)) {}
+    // `first_output`: the number of the first file it writes among its
+    // job's (a tile set's later tiles follow the earlier ones').
+    StackRunner(const Program& prog, std::string digest, int first_output = 0)
+        : prog_(prog), digest_(std::move(digest)), outputs_(first_output)
+    {
+    }
 
     void run()
     {
         const double prepared = relief::setup_times().prepared;
         prepare_ahead();
-        for (const Step& s : prog_.steps) {
-            const auto t0 = std::chrono::steady_clock::now();
-            const relief::SetupTimes before = relief::setup_times();
-            run_step(s);
-            if (!prog_.verbose)
-                continue;
-            const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-            const relief::SetupTimes after = relief::setup_times();
-            const double device = after.device - before.device, programs = after.programs - before.programs,
-                         plans = after.plans - before.plans;
-            if (s.kind == Step::Kind::Operation)
-                std::fprintf(stderr,
-                             "relief: %s%s: %.3f s (device set-up %.3f, kernel builds %.3f, FFT plans %.3f, "
-                             "the map's own work %.3f)\n",
-                             prog_.label.c_str(), s.text.c_str(), sec, device, programs, plans,
-                             sec - device - programs - plans);
-            else
-                std::fprintf(stderr, "relief: %s%s: %.3f s\n", prog_.label.c_str(),
-                             s.kind == Step::Kind::Read ? ("read " + s.path).c_str() : s.text.c_str(), sec);
+        for (const Step& s : prog_.steps)
+            timed(s, [&] { run_step(s); });
+        finish(prepared);
+    }
+
+    // A step, and with -v its time: `work` runs it.
+    template <class Work>
+    void timed(const Step& s, Work&& work)
+    {
+        const auto t0 = std::chrono::steady_clock::now();
+        const relief::SetupTimes before = relief::setup_times();
+        work();
+        if (!prog_.verbose)
+            return;
+        const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const relief::SetupTimes after = relief::setup_times();
+        const double device = after.device - before.device, programs = after.programs - before.programs,
+                     plans = after.plans - before.plans;
+        if (s.kind == Step::Kind::Operation)
+            std::fprintf(stderr,
+                         "relief: %s%s: %.3f s (device set-up %.3f, kernel builds %.3f, FFT plans %.3f, "
+                         "the map's own work %.3f)\n",
+                         prog_.label.c_str(), s.text.c_str(), sec, device, programs, plans,
+                         sec - device - programs - plans);
+        else
+            std::fprintf(stderr, "relief: %s%s: %.3f s\n", prog_.label.c_str(),
+                         s.kind == Step::Kind::Read ? ("read " + s.path).c_str() : s.text.c_str(), sec);
+    }
+
+    // An operation's call as this program runs it: its mask and fix files
+    // read into `mask`, `fix`; its report to `report`; its written files counted.
+    relief::OperationCall prepare_call(const Step& s, OIIO::ImageBuf& mask, OIIO::ImageBuf& fix,
+                                       std::string& report)
+    {
+        const relief::OperationInfo& op = *relief::find_operation(s.operation);
+        relief::OperationCall call = s;
+        // Mask and fixation files are read here, quietly like every read.
+        if (!s.mask_file.empty()) {
+            if (!read(mask, s.mask_file))
+                throw RunError("mask: " + relief::geterror());
+            call.height.mask = &mask;
         }
+        if (!s.fix_file.empty()) {
+            if (!read(fix, s.fix_file))
+                throw RunError("fix: " + relief::geterror());
+            call.correct.fix_mask = &fix;
+        }
+        // A file it writes (mesh's out=) records its digest, as -o images do.
+        // (Numbered as output_files() lists them: one file per operation today.)
+        const std::size_t written = relief::files_written(s).size();
+        if (written > 0)
+            call.file_digest = output_digest(digest_, outputs_);
+        outputs_ += int(written);
+        // A height's round trip costs a pass: only when it is reported or shown.
+        if (!op.report.empty() && (!prog_.report.empty() || prog_.verbose))
+            call.report_json = &report;
+        if (const std::string choices = prog_.verbose ? relief::describe(call) : ""; !choices.empty())
+            message(Severity::Info, op.name + ": " + choices);
+        return call;
+    }
+
+    // The result of an operation (prepare_call's) pushed, its report kept.
+    void push_result(OIIO::ImageBuf&& out, const relief::OperationCall& call, const std::string& report)
+    {
+        if (call.report_json)
+            report_.emplace_back(relief::find_operation(call.operation)->report, report);
+        stack_.push_back(std::move(out));
+    }
+
+    OIIO::ImageBuf pop()
+    {
+        OIIO::ImageBuf top = std::move(stack_.back());
+        stack_.pop_back();
+        return top;
+    }
+
+    relief::Execution execution(const Step& s) const
+    {
+        relief::Execution e;
+        e.device = prog_.device;
+        e.on_message = [this](Severity sev, const std::string& m) { message(sev, m); };
+        if (prog_.verbose) {
+            auto next = std::make_shared<int>(10);
+            std::string name = s.text.substr(0, s.text.find(':'));
+            e.on_progress = [name, next](double f) {
+                while (f * 100.0 >= *next && *next <= 100) {
+                    std::fprintf(stderr, "relief: %s: %d%%\n", name.c_str(), *next);
+                    *next += 10;
+                }
+            };
+        }
+        return e;
+    }
+
+    void run_step(const Step& s)
+    {
+        switch (s.kind) {
+        case Step::Kind::Read: {
+            OIIO::ImageBuf img;
+            if (!read(img, s.path))
+                throw RunError(relief::geterror());
+            if (prog_.verbose) {
+                const auto& spec = img.spec();
+                std::fprintf(stderr, "relief: read %s: %dx%d, %d channel(s), %s\n", s.path.c_str(),
+                             spec.width, spec.height, spec.nchannels, img.nativespec().format.c_str());
+            }
+            stack_.push_back(std::move(img));
+            break;
+        }
+        case Step::Kind::Operation: {
+            const relief::OperationInfo& op = *relief::find_operation(s.operation);
+            OIIO::ImageBuf mask, fix;
+            std::string report;
+            const relief::OperationCall call = prepare_call(s, mask, fix, report);
+            // The inputs are the top of the stack, the first input deepest.
+            std::vector<OIIO::ImageBuf> in(op.inputs.size());
+            for (std::size_t i = in.size(); i-- > 0;)
+                in[i] = pop();
+            std::vector<const OIIO::ImageBuf*> inputs;
+            for (const OIIO::ImageBuf& b : in)
+                inputs.push_back(&b);
+            OIIO::ImageBuf out;
+            if (!relief::run_operation(out, call, inputs, execution(s)))
+                throw RunError(relief::geterror());
+            push_result(std::move(out), call, report);
+            break;
+        }
+        case Step::Kind::Dup: {
+            OIIO::ImageBuf copy;
+            if (!copy.copy(stack_.back()))
+                throw RunError("--dup: " + copy.geterror());
+            stack_.push_back(std::move(copy));
+            break;
+        }
+        case Step::Kind::Write: write(s); break;
+        }
+    }
+
+    // The --report file and, with -v, what was set up ahead.
+    void finish(double prepared)
+    {
         if (!prog_.report.empty()) {
             // One object per reporting operation, in the order they ran.
             std::string json = "{";
@@ -142,134 +268,43 @@ private:
             std::fprintf(stderr, "relief: %s%s\n", prog_.label.c_str(), msg.c_str());
     }
 
-    relief::Execution execution(const Step& s) const
-    {
-        relief::Execution e;
-        e.device = prog_.device;
-        e.on_message = [this](Severity sev, const std::string& m) { message(sev, m); };
-        if (prog_.verbose) {
-            auto next = std::make_shared<int>(10);
-            std::string name = s.text.substr(0, s.text.find(':'));
-            e.on_progress = [name, next](double f) {
-                while (f * 100.0 >= *next && *next <= 100) {
-                    std::fprintf(stderr, "relief: %s: %d%%\n", name.c_str(), *next);
-                    *next += 10;
-                }
-            };
-        }
-        return e;
-    }
-
     bool read(OIIO::ImageBuf& img, const std::string& path) const
     {
         QuietLibraries quiet(prog_.verbose);
         return relief::read_image(img, path);
     }
 
-    OIIO::ImageBuf pop()
+    void write(const Step& s)
     {
-        OIIO::ImageBuf top = std::move(stack_.back());
-        stack_.pop_back();
-        return top;
-    }
-
-    void run_step(const Step& s)
-    {
-        switch (s.kind) {
-        case Step::Kind::Read: {
-            OIIO::ImageBuf img;
-            if (!read(img, s.path))
-                throw RunError(relief::geterror());
-            if (prog_.verbose) {
-                const auto& spec = img.spec();
-                std::fprintf(stderr, "relief: read %s: %dx%d, %d channel(s), %s\n", s.path.c_str(),
-                             spec.width, spec.height, spec.nchannels, img.nativespec().format.c_str());
-            }
-            stack_.push_back(std::move(img));
-            break;
-        }
-        case Step::Kind::Operation: {
-            const relief::OperationInfo& op = *relief::find_operation(s.operation);
-            relief::OperationCall call = s;
-            // Mask and fixation files are read here, quietly like every read.
-            OIIO::ImageBuf mask, fix;
-            if (!s.mask_file.empty()) {
-                if (!read(mask, s.mask_file))
-                    throw RunError("mask: " + relief::geterror());
-                call.height.mask = &mask;
-            }
-            if (!s.fix_file.empty()) {
-                if (!read(fix, s.fix_file))
-                    throw RunError("fix: " + relief::geterror());
-                call.correct.fix_mask = &fix;
-            }
-            // A file it writes (mesh's out=) records its digest, as -o images do.
-            // (Numbered as output_files() lists them: one file per operation today.)
-            const std::size_t written = relief::files_written(s).size();
-            if (written > 0)
-                call.file_digest = output_digest(digest_, outputs_);
-            outputs_ += int(written);
-            // A height's round trip costs a pass: only when it is reported or shown.
-            std::string report;
-            if (!op.report.empty() && (!prog_.report.empty() || prog_.verbose))
-                call.report_json = &report;
-            if (const std::string choices = prog_.verbose ? relief::describe(call) : ""; !choices.empty())
-                message(Severity::Info, op.name + ": " + choices);
-            // The inputs are the top of the stack, the first input deepest.
-            std::vector<OIIO::ImageBuf> in(op.inputs.size());
-            for (std::size_t i = in.size(); i-- > 0;)
-                in[i] = pop();
-            std::vector<const OIIO::ImageBuf*> inputs;
-            for (const OIIO::ImageBuf& b : in)
-                inputs.push_back(&b);
-            OIIO::ImageBuf out;
-            if (!relief::run_operation(out, call, inputs, execution(s)))
-                throw RunError(relief::geterror());
-            if (call.report_json)
-                report_.emplace_back(op.report, report);
-            stack_.push_back(std::move(out));
-            break;
-        }
-        case Step::Kind::Dup: {
-            OIIO::ImageBuf copy;
-            if (!copy.copy(stack_.back()))
-                throw RunError("--dup: " + copy.geterror());
-            stack_.push_back(std::move(copy));
-            break;
-        }
-        case Step::Kind::Write: {
-            relief::WriteOptions w;
-            w.format = s.format;
-            const OIIO::ImageBuf& top = stack_.back();
-            // Without -d a baked texture keeps its file's pixel type.
-            const std::string native = top.spec().get_string_attribute("relief:native_format");
-            if (!s.format_given && !native.empty())
-                w.format = OIIO::TypeDesc(native);
-            // A result that half floats hold only up to a size says so.
-            const int half_max = top.spec().get_int_attribute("relief:half_max_texels", 0);
-            if (w.format == OIIO::TypeDesc::HALF && half_max > 0 &&
-                std::max(top.spec().width, top.spec().height) > half_max)
-                std::fprintf(stderr,
-                             "relief: warning: %s: half values above %d texels are coarser than 1/8 "
-                             "texel; prefer float\n",
-                             s.path.c_str(), half_max);
-            w.compression = s.compression;
-            const std::string digest = output_digest(digest_, outputs_++);
-            if (digest.empty())
-                stack_.back().specmod().erase_attribute("relief:digest");
-            else
-                stack_.back().specmod().attribute("relief:digest", digest);
-            // The integer mapping is needed to read the file back: always say it.
-            w.on_message = [](Severity, const std::string& m) {
-                std::fprintf(stderr, "relief: %s\n", m.c_str());
-            };
-            if (!relief::write_image(stack_.back(), s.path, w))
-                throw RunError(relief::geterror());
-            if (prog_.verbose)
-                std::fprintf(stderr, "relief: wrote %s\n", s.path.c_str());
-            break;
-        }
-        }
+        relief::WriteOptions w;
+        w.format = s.format;
+        const OIIO::ImageBuf& top = stack_.back();
+        // Without -d a baked texture keeps its file's pixel type.
+        const std::string native = top.spec().get_string_attribute("relief:native_format");
+        if (!s.format_given && !native.empty())
+            w.format = OIIO::TypeDesc(native);
+        // A result that half floats hold only up to a size says so.
+        const int half_max = top.spec().get_int_attribute("relief:half_max_texels", 0);
+        if (w.format == OIIO::TypeDesc::HALF && half_max > 0 &&
+            std::max(top.spec().width, top.spec().height) > half_max)
+            std::fprintf(stderr,
+                         "relief: warning: %s: half values above %d texels are coarser than 1/8 "
+                         "texel; prefer float\n",
+                         s.path.c_str(), half_max);
+        w.compression = s.compression;
+        const std::string digest = output_digest(digest_, outputs_++);
+        if (digest.empty())
+            stack_.back().specmod().erase_attribute("relief:digest");
+        else
+            stack_.back().specmod().attribute("relief:digest", digest);
+        // The integer mapping is needed to read the file back: always say it.
+        w.on_message = [](Severity, const std::string& m) {
+            std::fprintf(stderr, "relief: %s\n", m.c_str());
+        };
+        if (!relief::write_image(stack_.back(), s.path, w))
+            throw RunError(relief::geterror());
+        if (prog_.verbose)
+            std::fprintf(stderr, "relief: wrote %s\n", s.path.c_str());
     }
 
     // A JSON object's text indented one level (after its first line), without its last newline.
@@ -301,6 +336,48 @@ private:
 void run_steps(const Program& prog, const std::string& digest)
 {
     StackRunner(prog, digest).run();
+}
+
+void run_tile_steps(const std::vector<Program>& tiles, const std::vector<int>& numbers,
+                    const std::string& digest)
+{
+    // One runner per tile, step by step in lockstep: an operation that
+    // joins tiles takes every tile's top at once; every other step runs
+    // tile by tile. (The tiles' programs differ only in their file names.)
+    std::vector<std::unique_ptr<StackRunner>> runners;
+    int first_output = 0;
+    for (const Program& p : tiles) {
+        runners.push_back(std::make_unique<StackRunner>(p, digest, first_output));
+        first_output += int(output_files(p).size());
+    }
+    const double prepared = relief::setup_times().prepared;
+    const std::vector<Step>& steps = tiles.front().steps;
+    for (std::size_t k = 0; k < steps.size(); ++k) {
+        const Step& s = steps[k];
+        if (s.kind != Step::Kind::Operation || !relief::joins_tiles(s)) {
+            for (std::size_t t = 0; t < runners.size(); ++t)
+                runners[t]->timed(tiles[t].steps[k], [&] { runners[t]->run_step(tiles[t].steps[k]); });
+            continue;
+        }
+        StackRunner& first = *runners.front();
+        first.timed(s, [&] {
+            std::vector<OIIO::ImageBuf> mask(runners.size()), fix(runners.size()), in(runners.size()), out;
+            std::vector<std::string> report(runners.size());
+            std::vector<relief::OperationCall> calls;
+            std::vector<const OIIO::ImageBuf*> inputs;
+            for (std::size_t t = 0; t < runners.size(); ++t) {
+                calls.push_back(runners[t]->prepare_call(tiles[t].steps[k], mask[t], fix[t], report[t]));
+                in[t] = runners[t]->pop();
+                inputs.push_back(&in[t]);
+            }
+            if (!relief::run_operation_on_tiles(out, calls.front(), numbers, inputs, first.execution(s)))
+                throw RunError(relief::geterror());
+            for (std::size_t t = 0; t < runners.size(); ++t)
+                runners[t]->push_result(std::move(out[t]), calls[t], report.front());
+        });
+    }
+    for (auto& r : runners)
+        r->finish(prepared);
 }
 
 }  // namespace relief::cli

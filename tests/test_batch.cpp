@@ -9,6 +9,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <regex>
 #include <set>
 #include <sstream>
@@ -395,7 +396,7 @@ TEST_CASE("names: a <UDIM> set and a # sequence run one job per existing tile an
     write_crop(kNormal, d / "n.1002.png", 96);
     write_crop(kDem, d / "n.1012.png", 0);
     fs::create_directories(d / "out");
-    auto r = run_cli("'" + (d / "n.<UDIM>.png").string() + "' --height -o '" +
+    auto r = run_cli("'" + (d / "n.<UDIM>.png").string() + "' --height:udim=each -o '" +
                      (d / "out/h.<UDIM>.exr").string() + "'");
     INFO(r.err);
     CHECK(r.rc == 0);
@@ -421,6 +422,81 @@ TEST_CASE("names: a <UDIM> set and a # sequence run one job per existing tile an
     CHECK(fs::exists(d / "out/s.1001.exr"));
     CHECK(fs::exists(d / "out/s.1002.exr"));
     CHECK_FALSE(fs::exists(d / "out/s.1003.exr"));
+}
+
+TEST_CASE("names: a <UDIM> set whose --height joins its tiles is one job, its digest over every tile",
+          "[names][cli][udim]")
+{
+    const fs::path d = scratch("tile-set");
+    // a 128x128 map and its four 64x64 tiles (v up: 1011, 1012 are the top half)
+    OIIO::ImageBuf src(kNormal);
+    OIIO::ImageBuf whole = OIIO::ImageBufAlgo::cut(src, OIIO::ROI(0, 128, 0, 128));
+    whole.set_write_format(OIIO::TypeDesc::UINT8);
+    REQUIRE(whole.write((d / "whole.png").string()));
+    const std::map<std::string, OIIO::ROI> at = {{"1001", OIIO::ROI(0, 64, 64, 128)},
+                                                 {"1002", OIIO::ROI(64, 128, 64, 128)},
+                                                 {"1011", OIIO::ROI(0, 64, 0, 64)},
+                                                 {"1012", OIIO::ROI(64, 128, 0, 64)}};
+    for (const auto& [t, roi] : at) {
+        OIIO::ImageBuf tile = OIIO::ImageBufAlgo::cut(whole, roi);
+        tile.set_write_format(OIIO::TypeDesc::UINT8);
+        REQUIRE(tile.write((d / ("n." + t + ".png")).string()));
+    }
+    auto run = [&](const std::string& args) {
+        fs::remove(d / "log.jsonl");
+        return run_cli(args, "cd '" + d.string() + "' &&");
+    };
+    const std::string line = "n.\\<UDIM\\>.png --height:udim=joint:boundary=periodic -o h.\\<UDIM\\>.exr";
+    auto r = run(line + " --update --log log.jsonl");
+    INFO(r.err);
+    REQUIRE(r.rc == 0);
+    CHECK(r.err.find("1 ok, 0 skipped, 0 failed of 1 job(s)") != std::string::npos);
+    const std::vector<std::string> log = lines_of(d / "log.jsonl");
+    REQUIRE(log.size() == 1);
+    CHECK(log[0].find("\"inputs\": [\"n.1001.png\", \"n.1002.png\", \"n.1011.png\", \"n.1012.png\"]") !=
+          std::string::npos);
+    CHECK(log[0].find("\"args\": [\"n.<UDIM>.png\"") != std::string::npos);
+    // each tile: the whole map's solve, cut
+    REQUIRE(run("whole.png --height:boundary=periodic -o whole.exr").rc == 0);
+    OIIO::ImageBuf expected((d / "whole.exr").string());
+    for (const auto& [t, roi] : at) {
+        INFO("tile " << t);
+        CHECK(relief::test::file_pixels(d / ("h." + t + ".exr")) ==
+              relief::test::pixels(OIIO::ImageBufAlgo::cut(expected, roi)));
+    }
+    // up to date until any tile changes; then every tile's output is stale
+    CHECK(run(line + " --update").err.find("0 ok, 1 skipped") != std::string::npos);
+    const std::string before = relief::recorded_digest((d / "h.1001.exr").string());
+    {
+        OIIO::ImageBuf other = OIIO::ImageBufAlgo::cut(src, OIIO::ROI(300, 364, 300, 364));
+        other.set_write_format(OIIO::TypeDesc::UINT8);
+        REQUIRE(other.write((d / "n.1012.png").string()));
+    }
+    CHECK(run(line + " --update --dry-run").out.find("\"status\": \"pending\"") != std::string::npos);
+    CHECK(run(line + " --update").err.find("1 ok, 0 skipped") != std::string::npos);
+    CHECK(relief::recorded_digest((d / "h.1001.exr").string()) != before);
+    // udim=each: one job per tile, as before
+    CHECK(run("n.\\<UDIM\\>.png --height:udim=each -o e.\\<UDIM\\>.exr")
+              .err.find("4 ok, 0 skipped, 0 failed of 4") != std::string::npos);
+    // in a manifest the set is one job, and a shard runs all of it or none
+    const std::string q = "'" + d.string() + "/";
+    std::ofstream(d / "jobs.txt") << q << "n.<UDIM>.png' --height:udim=joint -o " << q << "b.<UDIM>.exr'\n"
+                                  << q << "whole.png' --slopes -o " << q << "s.exr'\n";
+    const std::vector<Job> jobs = relief::cli::read_jobs((d / "jobs.txt").string());
+    REQUIRE(jobs.size() == 2);
+    REQUIRE(jobs[0].tiles == std::vector<int>{1001, 1002, 1011, 1012});
+    CHECK(jobs[0].tile_args[3].back() == (d / "b.1012.exr").string());
+    CHECK(jobs[1].index == 1);
+    auto shard = run("--batch jobs.txt --shard 0/2");
+    INFO(shard.err);
+    CHECK(shard.rc == 0);
+    for (const char* t : {"1001", "1002", "1011", "1012"})
+        CHECK(fs::exists(d / ("b." + std::string(t) + ".exr")));
+    CHECK_FALSE(fs::exists(d / "s.exr"));
+    // an output name without the token would be written once per tile
+    auto clash = run("n.\\<UDIM\\>.png --height:udim=joint -o one.exr");
+    CHECK(clash.rc != 0);
+    CHECK_FALSE(fs::exists(d / "one.exr"));
 }
 
 TEST_CASE("update: a job is skipped exactly when its outputs record the digest it would write",

@@ -40,6 +40,13 @@ struct Boundaries {
     friend constexpr bool operator!=(const Boundaries& a, const Boundaries& b) { return !(a == b); }
 };
 
+// How height_udim() (relief/udim.h) integrates a UDIM set. Joint: the set is
+// one surface, laid out by its tile numbers on one canvas (missing tiles
+// weighted 0) and solved once. Each: every tile alone. Auto: tiles whose
+// shared edge passes the wrap-seam slope test are joined, the others cut.
+// height() of one map ignores it.
+enum class UdimMode { Auto, Joint, Each };
+
 // What height() chose and how well its result reproduces the normals it
 // came from (the round trip). Filled when HeightOptions::report is set, at
 // the cost of one more pass over the map.
@@ -90,6 +97,7 @@ struct HeightOptions {
     const OIIO::ImageBuf* mask = nullptr;
     bool mask_alpha = false;
     HeightReport* report = nullptr;  // filled when set (not owned)
+    UdimMode udim = UdimMode::Auto;  // height_udim() only
     Execution exec;
 };
 

@@ -102,6 +102,10 @@ RELIEF_API std::vector<std::string> files_written(const OperationCall& call);
 // Whether prepare() for the map's size (devices.h) shortens the call: what
 // the command line starts on a second thread while it reads the map.
 RELIEF_API bool sets_up_ahead(const OperationCall& call);
+// Whether the call, run over the tiles of a UDIM set, takes them all at
+// once (run_operation_on_tiles): --height with udim=joint, or udim=auto
+// without a mask image.
+RELIEF_API bool joins_tiles(const OperationCall& call);
 // The call's choices in words, as -v prints them ("" when the operation has
 // nothing to add to its modifiers).
 RELIEF_API std::string describe(const OperationCall& call);
@@ -132,5 +136,14 @@ RELIEF_API bool parse_modifiers(OperationCall& call, const std::string& operatio
 // given. Returns false and sets geterror() on failure.
 RELIEF_API bool run_operation(OIIO::ImageBuf& dst, const OperationCall& call,
                               const std::vector<const OIIO::ImageBuf*>& inputs, const Execution& exec = {});
+
+// Runs `call` once over the tiles of a UDIM set (relief/udim.h): `tiles`
+// their numbers, `inputs` one image per tile (operations of one input), dst
+// one result per tile in the same order. Returns false and sets geterror()
+// on failure (dst then empty), also for an operation that does not join tiles.
+RELIEF_API bool run_operation_on_tiles(std::vector<OIIO::ImageBuf>& dst, const OperationCall& call,
+                                       const std::vector<int>& tiles,
+                                       const std::vector<const OIIO::ImageBuf*>& inputs,
+                                       const Execution& exec = {});
 
 }  // namespace relief

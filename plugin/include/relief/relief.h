@@ -16,5 +16,6 @@
 #include "relief/options.h"
 #include "relief/preview.h"
 #include "relief/slopes.h"
+#include "relief/udim.h"
 #include "relief/validate.h"
 #include "relief/version.h"

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "check_stage.h"
+#include "height_memory.h"
 #include "memory_budget.h"
 #include "results.h"
 #include "slope_input.h"
@@ -136,7 +137,7 @@ std::vector<float> mask_weights(const HeightOptions& o, const ImageBuf& normals,
 // and result do not fit the device and the machine. Called before the
 // slopes are derived (boundary=auto: with the boundary that needs less, as
 // it is not chosen yet) and again once the boundary is chosen.
-void check_memory(const HeightOptions& o, int w, int h, bool slopes_made)
+void check_memory(const HeightOptions& o, int w, int h, bool slopes_made, std::uint64_t extra_host = 0)
 {
     const auto ctx = host::ComputeContext::acquire(o.exec.device);
     const std::uint64_t n = std::uint64_t(w) * std::uint64_t(h);
@@ -144,7 +145,7 @@ void check_memory(const HeightOptions& o, int w, int h, bool slopes_made)
     const std::vector<Boundaries> boundaries = candidates(o.boundary);
     // The result is taken when the transforms keep only their output grid
     // (and the slopes, if kept); the other stages take it first.
-    std::uint64_t device = UINT64_MAX, at_result = 0, host_bytes = 4 * n;
+    std::uint64_t device = UINT64_MAX, at_result = 0, host_bytes = 4 * n + extra_host;
     auto consider = [&](std::uint64_t peak, std::uint64_t held_at_result) {
         if (peak < device) {
             device = peak;
@@ -184,6 +185,14 @@ void check_memory(const HeightOptions& o, int w, int h, bool slopes_made)
 }
 
 }  // namespace
+
+void detail::check_height_memory(const HeightOptions& options, int w, int h, std::uint64_t extra_host)
+{
+    HeightOptions o = options;
+    if (o.method == HeightMethod::Auto)
+        o.method = HeightMethod::Poisson;
+    check_memory(o, w, h, false, extra_host);
+}
 
 std::string HeightReport::to_json() const
 {

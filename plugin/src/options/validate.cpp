@@ -57,6 +57,7 @@ std::string validate(const HeightOptions& o)
                    choice_problem("boundary", o.boundary.y, 3, "auto|periodic|free"),
                    choice_problem("impl", o.impl, 2, "fast|reference"),
                    choice_problem("directions", o.directions, 2, "rational|exact"),
+                   choice_problem("udim", o.udim, 3, "auto|joint|each"),
                    range_problem(limits::highpass, o.highpass), range_problem(limits::rays, o.rays),
                    range_problem(limits::radius, o.radius), range_problem(limits::phase, o.phase)});
         !p.empty())
@@ -76,6 +77,8 @@ std::string validate(const HeightOptions& o)
         return "give a mask image or mask_alpha, not both";
     if (masked && o.highpass > 0.0f)
         return "highpass cannot be combined with a mask yet";
+    if (o.udim == UdimMode::Joint && o.mask)
+        return "udim=joint takes mask=alpha (each tile's alpha), not a mask image (one tile's weights)";
     return "";
 }
 

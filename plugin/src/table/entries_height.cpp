@@ -10,6 +10,7 @@
 
 #include "relief/height.h"
 #include "relief/slopes.h"
+#include "relief/udim.h"
 #include "relief/validate.h"
 
 namespace relief::table {
@@ -73,6 +74,13 @@ Operation height_operation()
             };
             return m;
         }(),
+        choice(
+            "udim", [h](auto& c) -> auto& { return h(c).udim; },
+            std::vector<std::pair<std::string, UdimMode>>{
+                {"auto", UdimMode::Auto}, {"joint", UdimMode::Joint}, {"each", UdimMode::Each}},
+            "",
+            "over a <UDIM> set: joint: the tiles as one surface (missing tiles weighted 0); each: "
+            "every tile alone; auto: tiles joined where the slopes continue across their edge"),
         number(
             detail::limits::highpass, [h](auto& c) -> auto& { return h(c).highpass; }, "R", poisson,
             "relief balance: remove structure larger than R texels (0 = off)"),
@@ -161,6 +169,25 @@ Operation height_operation()
         if (c.report_json && !o.report)
             o.report = &report;
         if (!relief::height(dst, *in[0], o))
+            return false;
+        if (c.report_json)
+            *c.report_json = o.report->to_json();
+        return true;
+    };
+    op.joins_tiles = [](const OperationCall& c) {
+        return c.height.udim == UdimMode::Joint ||
+               (c.height.udim == UdimMode::Auto && !c.height.mask && c.mask_file.empty());
+    };
+    op.run_tiles = [](std::vector<ImageBuf>& dst, const OperationCall& c, const std::vector<int>& numbers,
+                      const std::vector<const ImageBuf*>& in) {
+        std::vector<UdimTile> tiles;
+        for (std::size_t i = 0; i < in.size(); ++i)
+            tiles.push_back({numbers[i], in[i]});
+        HeightOptions o = c.height;
+        HeightReport report;
+        if (c.report_json && !o.report)
+            o.report = &report;
+        if (!relief::height_udim(dst, tiles, o))
             return false;
         if (c.report_json)
             *c.report_json = o.report->to_json();

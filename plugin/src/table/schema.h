@@ -47,7 +47,13 @@ struct Operation {
     // relief::validate() of the call's options: "" or the broken rule.
     std::function<std::string(const OperationCall&)> validate;
     std::function<bool(ImageBuf&, const OperationCall&, const std::vector<const ImageBuf*>&)> run;
-    std::function<bool(const OperationCall&)> sets_up_ahead;    // empty: never
+    std::function<bool(const OperationCall&)> sets_up_ahead;  // empty: never
+    // Over a UDIM set: whether the call takes every tile at once, and the
+    // run that does (one input per tile, numbered by `tiles`).
+    std::function<bool(const OperationCall&)> joins_tiles;  // empty: never
+    std::function<bool(std::vector<ImageBuf>&, const OperationCall&, const std::vector<int>& tiles,
+                       const std::vector<const ImageBuf*>&)>
+        run_tiles;
     std::function<std::string(const OperationCall&)> describe;  // empty: nothing to add
 };
 

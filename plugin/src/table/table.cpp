@@ -195,6 +195,19 @@ bool parse_modifiers(OperationCall& call, const std::string& operation, const st
     }
 }
 
+namespace {
+
+// The call with `exec` in every option struct (only the operation's is used).
+OperationCall with_execution(const OperationCall& call, const Execution& exec)
+{
+    OperationCall c = call;
+    c.slopes.exec = c.height.exec = c.correct.exec = c.bake.exec = exec;
+    c.normals.exec = c.tessellation.exec = c.mesh.tessellation.exec = c.preview.exec = exec;
+    return c;
+}
+
+}  // namespace
+
 bool run_operation(ImageBuf& dst, const OperationCall& call, const std::vector<const ImageBuf*>& inputs,
                    const Execution& exec)
 {
@@ -210,10 +223,29 @@ bool run_operation(ImageBuf& dst, const OperationCall& call, const std::vector<c
             if (!inputs[i])
                 throw std::invalid_argument(op.info.name + ": input '" + op.info.inputs[i].name +
                                             "' is missing (null)");
-        OperationCall c = call;
-        c.slopes.exec = c.height.exec = c.correct.exec = c.bake.exec = exec;
-        c.normals.exec = c.tessellation.exec = c.mesh.tessellation.exec = c.preview.exec = exec;
-        return op.run(dst, c, inputs);
+        return op.run(dst, with_execution(call, exec), inputs);
+    } catch (const std::exception& e) {
+        detail::set_error(e.what());
+        return false;
+    }
+}
+
+bool run_operation_on_tiles(std::vector<ImageBuf>& dst, const OperationCall& call,
+                            const std::vector<int>& tiles, const std::vector<const ImageBuf*>& inputs,
+                            const Execution& exec)
+{
+    dst.clear();
+    try {
+        const Operation& op = find_or_throw(call.operation);
+        if (!op.run_tiles || op.info.inputs.size() != 1)
+            throw std::invalid_argument(op.info.name + " does not take the tiles of a UDIM set at once");
+        if (tiles.size() != inputs.size())
+            throw std::invalid_argument(op.info.name + ": " + std::to_string(tiles.size()) +
+                                        " tile number(s) for " + std::to_string(inputs.size()) + " image(s)");
+        for (const ImageBuf* in : inputs)
+            if (!in)
+                throw std::invalid_argument(op.info.name + ": a tile's image is missing (null)");
+        return op.run_tiles(dst, with_execution(call, exec), tiles, inputs);
     } catch (const std::exception& e) {
         detail::set_error(e.what());
         return false;
@@ -234,6 +266,12 @@ bool sets_up_ahead(const OperationCall& call)
 {
     const Operation* op = find(call.operation);
     return op && op->sets_up_ahead && op->sets_up_ahead(call);
+}
+
+bool joins_tiles(const OperationCall& call)
+{
+    const Operation* op = find(call.operation);
+    return op && op->joins_tiles && op->joins_tiles(call);
 }
 
 std::string describe(const OperationCall& call)

@@ -1,0 +1,228 @@
+// SPDX-License-Identifier: Apache-2.0
+// UDIM sets integrated as one surface (relief::height_udim): by definition
+// the solve of the tiles laid out on one canvas, missing tiles weighted 0,
+// so each mode is checked against height() of an assembled map.
+#include <catch2/catch.hpp>
+
+#include <OpenImageIO/imagebufalgo.h>
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "relief/relief.h"
+#include "support/fields.h"
+#include "support/images.h"
+
+using namespace relief;
+using relief::test::pixels;
+
+namespace {
+
+constexpr int kW = 32, kH = 24;  // one tile
+
+// A smooth field that tiles over 2x2 tiles, with a little noise so that
+// every texel's slope counts.
+OIIO::ImageBuf whole_map(unsigned seed = 1, double noise = 0.02)
+{
+    test::PeriodicField f{2 * kW, 2 * kH, {{1, 1, 3.0, 0.3}, {2, -1, 1.5, 1.1}, {3, 2, 0.7, 2.0}}};
+    return test::normal_image(test::plus_noise(f.slopes(), noise, seed), 2 * kW, 2 * kH, test::Green::OpenGL,
+                              OIIO::TypeDesc::FLOAT);
+}
+
+// Tile `number` of a 2x2 canvas (1001, 1002 bottom, 1011, 1012 top: v runs up).
+OIIO::ROI tile_roi(int number)
+{
+    const int u = (number - 1001) % 10, v = (number - 1001) / 10;
+    const int x = u * kW, y = (1 - v) * kH;
+    return OIIO::ROI(x, x + kW, y, y + kH);
+}
+
+OIIO::ImageBuf cut(const OIIO::ImageBuf& whole, int number)
+{
+    OIIO::ImageBuf t = OIIO::ImageBufAlgo::cut(whole, tile_roi(number));
+    REQUIRE(!t.has_error());
+    return t;
+}
+
+struct Set {
+    std::map<int, OIIO::ImageBuf> images;
+    std::vector<UdimTile> tiles() const
+    {
+        std::vector<UdimTile> v;
+        for (const auto& [n, img] : images)
+            v.push_back({n, &img});
+        return v;
+    }
+};
+
+Set set_of(const OIIO::ImageBuf& whole, std::vector<int> numbers = {1001, 1002, 1011, 1012})
+{
+    Set s;
+    for (int n : numbers)
+        s.images[n] = cut(whole, n);
+    return s;
+}
+
+// dst[i] (the tiles in ascending order) against `expected` cut at each tile.
+void check_cut_of(const std::vector<OIIO::ImageBuf>& dst, const Set& s, const OIIO::ImageBuf& expected)
+{
+    REQUIRE(dst.size() == s.images.size());
+    std::size_t i = 0;
+    for (const auto& [n, img] : s.images) {
+        INFO("tile " << n);
+        CHECK(pixels(dst[i]) == pixels(cut(expected, n)));
+        CHECK(dst[i].spec().width == kW);
+        ++i;
+    }
+}
+
+HeightOptions with_boundary(Boundaries b, UdimMode mode = UdimMode::Joint)
+{
+    HeightOptions o;
+    o.boundary = b;
+    o.udim = mode;
+    return o;
+}
+
+}  // namespace
+
+TEST_CASE("udim joint: a full set equals the solve of the assembled map, cut into tiles", "[udim]")
+{
+    const OIIO::ImageBuf whole = whole_map();
+    const Set s = set_of(whole);
+    for (Boundaries b : {Boundaries(Boundary::Periodic), Boundaries(Boundary::Free),
+                         Boundaries(Boundary::Periodic, Boundary::Free)}) {
+        INFO("boundary " << int(b.x) << "," << int(b.y));
+        std::vector<OIIO::ImageBuf> dst;
+        REQUIRE(height_udim(dst, s.tiles(), with_boundary(b)));
+        check_cut_of(dst, s, height(whole, with_boundary(b)));
+        CHECK(dst[0].spec().get_string_attribute("relief:udim") == "joint 1001,1002,1011,1012");
+    }
+    // auto (the default): every edge continues, so all are joined, and the
+    // canvas takes the boundary auto would give the whole map
+    UdimReport report;
+    const std::vector<OIIO::ImageBuf> dst = height_udim(s.tiles(), {}, &report);
+    check_cut_of(dst, s, height(whole));
+    REQUIRE(report.edges.size() == 4);
+    for (const UdimEdge& e : report.edges) {
+        INFO(e.a << "-" << e.b << ": " << e.seam << " vs " << e.adjacent);
+        CHECK(e.joined);
+    }
+    CHECK(report.groups == std::vector<std::vector<int>>{{1001, 1002, 1011, 1012}});
+}
+
+TEST_CASE("udim joint: a missing tile is weighted 0, as a mask over the assembled map would", "[udim]")
+{
+    const OIIO::ImageBuf whole = whole_map();
+    const Set s = set_of(whole, {1001, 1002, 1011});
+    OIIO::ImageBuf mask(OIIO::ImageSpec(2 * kW, 2 * kH, 1, OIIO::TypeDesc::FLOAT));
+    OIIO::ImageBufAlgo::fill(mask, {1.0f});
+    OIIO::ImageBufAlgo::zero(mask, tile_roi(1012));
+    for (Boundaries b : {Boundaries(Boundary::Free), Boundaries(Boundary::Periodic)}) {
+        INFO("boundary " << int(b.x));
+        HeightOptions masked = with_boundary(b, UdimMode::Each);
+        masked.mask = &mask;
+        std::vector<OIIO::ImageBuf> dst;
+        REQUIRE(height_udim(dst, s.tiles(), with_boundary(b)));
+        check_cut_of(dst, s, height(whole, masked));
+    }
+    // what a mask cannot do yet, a missing tile cannot either; rays join
+    // only a full rectangle
+    HeightOptions o = with_boundary(Boundary::Free);
+    o.highpass = 16.0f;
+    std::vector<OIIO::ImageBuf> dst;
+    CHECK_FALSE(height_udim(dst, s.tiles(), o));
+    const std::string why = geterror();
+    CHECK(why.find("(1012) are masked out, and highpass") != std::string::npos);
+    o.highpass = 0.0f;
+    o.method = HeightMethod::Rays;
+    o.boundary = Boundary::Periodic;
+    CHECK_FALSE(height_udim(dst, s.tiles(), o));
+    CHECK(geterror().find("method=rays joins only a full rectangle") != std::string::npos);
+    CHECK(dst.empty());
+    // a full set joins under rays too: the rays of the assembled map
+    const Set full = set_of(whole);
+    REQUIRE(height_udim(dst, full.tiles(), o));
+    HeightOptions rays = o;
+    rays.udim = UdimMode::Each;
+    check_cut_of(dst, full, height(whole, rays));
+}
+
+TEST_CASE("udim auto: a tile unrelated to its neighbours is solved alone, the others stay joined", "[udim]")
+{
+    const OIIO::ImageBuf whole = whole_map();
+    Set s = set_of(whole);
+    // another surface altogether, rough (on edges of 32 texels two unrelated
+    // smooth surfaces can correlate by chance: 0.51 against 0.86 for one)
+    test::PeriodicField other{kW, kH, {{5, 2, 0.5, 0.9}, {2, 5, 0.5, 0.2}}};
+    s.images[1012] = test::normal_image(test::plus_noise(other.slopes(), 0.5, 7), kW, kH, test::Green::OpenGL,
+                                        OIIO::TypeDesc::FLOAT);
+    UdimReport report;
+    std::vector<OIIO::ImageBuf> dst;
+    REQUIRE(height_udim(dst, s.tiles(), with_boundary(Boundary::Auto, UdimMode::Auto), &report));
+    for (const UdimEdge& e : report.edges) {
+        INFO(e.a << "-" << e.b << ": " << e.seam << " vs " << e.adjacent);
+        CHECK(e.joined == (e.b != 1012));
+    }
+    CHECK(report.groups == std::vector<std::vector<int>>{{1001, 1002, 1011}, {1012}});
+    // 1012: the same bits as its own height()
+    CHECK(pixels(dst[3]) == pixels(height(s.images[1012])));
+    CHECK(dst[3].spec().get_string_attribute("relief:udim") == "alone");
+    // the others: the joint solve of the three
+    Set three = s;
+    three.images.erase(1012);
+    const std::vector<OIIO::ImageBuf> joined = height_udim(three.tiles(), with_boundary(Boundary::Auto));
+    REQUIRE(joined.size() == 3);
+    for (int i = 0; i < 3; ++i)
+        CHECK(pixels(dst[i]) == pixels(joined[i]));
+}
+
+TEST_CASE("udim each: every tile alone; sets that cannot be solved are refused with a message", "[udim]")
+{
+    const OIIO::ImageBuf whole = whole_map();
+    Set s = set_of(whole);
+    std::vector<OIIO::ImageBuf> dst;
+    REQUIRE(height_udim(dst, s.tiles(), with_boundary(Boundary::Auto, UdimMode::Each)));
+    std::size_t i = 0;
+    for (const auto& [n, img] : s.images) {
+        CHECK(pixels(dst[i]) == pixels(height(img)));
+        CHECK(!dst[i].spec().find_attribute("relief:udim"));
+        ++i;
+    }
+    // a mask image is one tile's: joint refuses it, auto solves each tile alone
+    OIIO::ImageBuf mask(OIIO::ImageSpec(kW, kH, 1, OIIO::TypeDesc::FLOAT));
+    OIIO::ImageBufAlgo::fill(mask, {1.0f});
+    HeightOptions o;
+    o.mask = &mask;
+    o.udim = UdimMode::Joint;
+    CHECK_FALSE(height_udim(dst, s.tiles(), o));
+    CHECK(geterror().find("udim=joint takes mask=alpha") != std::string::npos);
+    o.udim = UdimMode::Auto;
+    UdimReport report;
+    REQUIRE(height_udim(dst, s.tiles(), o, &report));
+    CHECK(report.groups.size() == 4);
+    CHECK(pixels(dst[0]) == pixels(height(s.images[1001], o)));
+
+    auto refused = [&](std::vector<UdimTile> tiles, const std::string& why, UdimMode mode = UdimMode::Joint) {
+        INFO(why);
+        std::vector<OIIO::ImageBuf> out(1);
+        CHECK_FALSE(height_udim(out, tiles, with_boundary(Boundary::Auto, mode)));
+        CHECK(geterror().find(why) != std::string::npos);
+        CHECK(out.empty());
+    };
+    const OIIO::ImageBuf* a = &s.images[1001];
+    refused({}, "at least one tile");
+    refused({{1001, a}, {1001, a}}, "tile 1001 is given twice");
+    refused({{1000, a}}, "from 1001 to 1999, got 1000");
+    refused({{2000, a}}, "from 1001 to 1999, got 2000");
+    refused({{1001, nullptr}}, "tile 1001 has no image");
+    // tiles of different sizes cannot share a canvas; auto cuts their edge
+    const OIIO::ImageBuf small = OIIO::ImageBufAlgo::cut(*a, OIIO::ROI(0, kW / 2, 0, kH));
+    refused({{1001, a}, {1002, &small}}, "UDIM tiles solved together must match: tile 1002 is 16x24");
+    REQUIRE(height_udim(dst, {{1001, a}, {1002, &small}}, with_boundary(Boundary::Auto, UdimMode::Auto),
+                        &report));
+    CHECK(report.edges.size() == 1);
+    CHECK_FALSE(report.edges[0].joined);
+    CHECK(pixels(dst[1]) == pixels(height(small)));
+}
