@@ -41,15 +41,16 @@ bool same_options(const OperationCall& a, const OperationCall& b)
     return dec(a.slopes.normals, b.slopes.normals) && dec(h.normals, g.normals) && h.method == g.method &&
            h.boundary == g.boundary && h.impl == g.impl && h.rays == g.rays && h.radius == g.radius &&
            h.phase == g.phase && h.directions == g.directions && h.skip_flat == g.skip_flat &&
-           h.highpass == g.highpass && h.mask_alpha == g.mask_alpha && a.mask_file == b.mask_file &&
-           c.scale == d.scale && c.theta == d.theta && c.nodes == d.nodes && c.boundary == d.boundary &&
-           c.fix_height == d.fix_height && c.fix_width == d.fix_width && a.fix_file == b.fix_file &&
-           c.iterations == d.iterations && c.tolerance == d.tolerance && c.levels == d.levels &&
-           c.threshold == d.threshold && c.skip_tiles == d.skip_tiles && c.search == d.search &&
-           c.relax == d.relax && a.bake.filter == b.bake.filter && a.bake.colorspace == b.bake.colorspace &&
-           a.bake.kind == b.bake.kind && a.bake.wrap == b.bake.wrap &&
-           a.normals.convention == b.normals.convention && a.normals.scale == b.normals.scale &&
-           a.normals.boundary == b.normals.boundary && same_tessellation(a.tessellation, b.tessellation) &&
+           h.highpass == g.highpass && h.udim == g.udim && h.mask_alpha == g.mask_alpha &&
+           a.mask_file == b.mask_file && c.scale == d.scale && c.theta == d.theta && c.nodes == d.nodes &&
+           c.boundary == d.boundary && c.fix_height == d.fix_height && c.fix_width == d.fix_width &&
+           a.fix_file == b.fix_file && c.iterations == d.iterations && c.tolerance == d.tolerance &&
+           c.levels == d.levels && c.threshold == d.threshold && c.skip_tiles == d.skip_tiles &&
+           c.search == d.search && c.relax == d.relax && a.bake.filter == b.bake.filter &&
+           a.bake.colorspace == b.bake.colorspace && a.bake.kind == b.bake.kind &&
+           a.bake.wrap == b.bake.wrap && a.normals.convention == b.normals.convention &&
+           a.normals.scale == b.normals.scale && a.normals.boundary == b.normals.boundary &&
+           same_tessellation(a.tessellation, b.tessellation) &&
            same_tessellation(a.mesh.tessellation, b.mesh.tessellation) && a.mesh.out == b.mesh.out &&
            dec(a.preview.normals, b.preview.normals) && a.preview.azimuth == b.preview.azimuth &&
            a.preview.elevation == b.preview.elevation && a.preview.env == b.preview.env &&

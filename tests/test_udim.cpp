@@ -178,7 +178,7 @@ TEST_CASE("udim auto: a tile unrelated to its neighbours is solved alone, the ot
         CHECK(pixels(dst[i]) == pixels(joined[i]));
 }
 
-TEST_CASE("udim each: every tile alone; sets that cannot be solved are refused with a message", "[udim]")
+TEST_CASE("udim each: every tile alone, and sets that cannot be solved are refused with a message", "[udim]")
 {
     const OIIO::ImageBuf whole = whole_map();
     Set s = set_of(whole);

@@ -240,6 +240,7 @@ class Keywords(unittest.TestCase):
         ("height", ["n.png"], {}, {"boundary": "free"}, True),
         ("height", ["n.png"], {"method": "rays"}, {"boundary": "clip"}, True),
         ("height", ["n.png"], {}, {"highpass": 4}, True),
+        ("height", ["n.png"], {}, {"udim": "each"}, False),  # one map: a UDIM set's mode changes nothing
         ("height", ["na.png"], {}, {"mask": "alpha"}, True),
         ("height", ["n.png"], {}, {"mask": "w.png"}, True),
         ("height", ["n.png"], {"method": "rays"}, {"impl": "reference"}, True),

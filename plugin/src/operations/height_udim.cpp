@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // relief::height_udim — a UDIM set integrated as one surface, or tile by
-// tile, or joined where its tiles meet (docs/design.md §4.4.4).
+// tile, or joined where its tiles meet (docs/design.md §4.4.2: the mask path).
 #include "relief/udim.h"
 
 #include <OpenImageIO/imagebufalgo.h>
