@@ -161,7 +161,6 @@ TilingEvidence tiling_evidence(const float* slopes, int w, int h)
     TilingEvidence e;
     e.x = axis_evidence(slopes, w, 1, h, std::size_t(w));  // columns
     e.y = axis_evidence(slopes, h, std::size_t(w), w, 1);  // rows
-    e.tiles = e.x.slopes_tile && e.y.slopes_tile;
 
     const int b = std::max(1, int(std::lround(double(std::max(w, h)) / kTilingBlocks)));
     const int n = w / b, m = h / b;
@@ -184,6 +183,7 @@ TilingEvidence tiling_evidence(const float* slopes, int w, int h)
     }
     e.x.tiles = verdict(e.x);
     e.y.tiles = verdict(e.y);
+    e.tiles = e.x.tiles && e.y.tiles;
     return e;
 }
 

@@ -31,8 +31,7 @@ struct AxisEvidence {
 struct TilingEvidence {
     AxisEvidence x;  // the left/right seam (columns)
     AxisEvidence y;  // the top/bottom seam (rows)
-    // Both axes pass the slope test: the released rule for boundary=auto,
-    // one choice for both axes.
+    // Both axes tile: the one boundary rays take on auto.
     bool tiles = true;
 };
 

@@ -80,27 +80,50 @@ std::map<std::string, std::string> metadata_of(const ImageBuf& img)
     return m;
 }
 
+relief::OperationCall parse_call(const std::string& op,
+                                 const std::vector<std::pair<std::string, std::string>>& modifiers)
+{
+    relief::OperationCall call;
+    if (!relief::parse_modifiers(call, op, modifiers))
+        throw py::value_error(relief::find_operation(op) ? op + ": " + relief::geterror()
+                                                         : relief::geterror());
+    return call;
+}
+
+// The arrays as images of the operation's input slots (slot i of `slots`,
+// or slot 0 for every array when `one_slot`).
+std::vector<ImageBuf> to_imagebufs(const std::string& op, const std::vector<py::array>& arrays,
+                                   const std::vector<std::map<std::string, std::string>>& metadata,
+                                   bool one_slot)
+{
+    const relief::OperationInfo& info = *relief::find_operation(op);
+    std::vector<ImageBuf> bufs;
+    for (std::size_t i = 0; i < arrays.size(); ++i)
+        bufs.push_back(to_imagebuf(arrays[i], info.inputs[one_slot ? 0 : i], op,
+                                   i < metadata.size() ? metadata[i] : std::map<std::string, std::string>{}));
+    return bufs;
+}
+
+std::vector<const ImageBuf*> pointers(const std::vector<ImageBuf>& bufs)
+{
+    std::vector<const ImageBuf*> p;
+    for (const ImageBuf& b : bufs)
+        p.push_back(&b);
+    return p;
+}
+
 // One operation: inputs (arrays and their metadata), modifiers as text ->
 // (float32 array H x W x C, metadata).
 py::tuple run(const std::string& op, const std::vector<py::array>& arrays,
               const std::vector<std::map<std::string, std::string>>& metadata,
               const std::vector<std::pair<std::string, std::string>>& modifiers, const std::string& device)
 {
-    relief::OperationCall call;
-    if (!relief::parse_modifiers(call, op, modifiers))
-        throw py::value_error(relief::find_operation(op) ? op + ": " + relief::geterror()
-                                                         : relief::geterror());
+    const relief::OperationCall call = parse_call(op, modifiers);
     const relief::OperationInfo& info = *relief::find_operation(op);
     if (arrays.size() != info.inputs.size())
         throw py::value_error(op + " takes " + std::to_string(info.inputs.size()) + " image(s), got " +
                               std::to_string(arrays.size()));
-    std::vector<ImageBuf> bufs;
-    for (std::size_t i = 0; i < arrays.size(); ++i)
-        bufs.push_back(to_imagebuf(arrays[i], info.inputs[i], op,
-                                   i < metadata.size() ? metadata[i] : std::map<std::string, std::string>{}));
-    std::vector<const ImageBuf*> inputs;
-    for (const ImageBuf& b : bufs)
-        inputs.push_back(&b);
+    const std::vector<ImageBuf> bufs = to_imagebufs(op, arrays, metadata, false);
     relief::Execution exec;
     exec.device = device;
     ImageBuf out;
@@ -108,13 +131,47 @@ py::tuple run(const std::string& op, const std::vector<py::array>& arrays,
     std::string error;
     {
         py::gil_scoped_release device_work;
-        ok = relief::run_operation(out, call, inputs, exec);
+        ok = relief::run_operation(out, call, pointers(bufs), exec);
         if (!ok)
             error = relief::geterror();
     }
     if (!ok)
         throw std::runtime_error(error);
     return py::make_tuple(to_numpy(out), metadata_of(out));
+}
+
+// One operation over the tiles of a UDIM set at once (relief/udim.h):
+// tile numbers and one array each -> a list of (array, metadata), in order.
+py::list run_tiles(const std::string& op, const std::vector<int>& numbers,
+                   const std::vector<py::array>& arrays,
+                   const std::vector<std::map<std::string, std::string>>& metadata,
+                   const std::vector<std::pair<std::string, std::string>>& modifiers,
+                   const std::string& device)
+{
+    const relief::OperationCall call = parse_call(op, modifiers);
+    if (relief::find_operation(op)->inputs.size() != 1)
+        throw py::value_error(op + " does not take the tiles of a UDIM set at once");
+    if (numbers.size() != arrays.size())
+        throw py::value_error(op + ": " + std::to_string(numbers.size()) + " tile number(s) for " +
+                              std::to_string(arrays.size()) + " image(s)");
+    const std::vector<ImageBuf> bufs = to_imagebufs(op, arrays, metadata, true);
+    relief::Execution exec;
+    exec.device = device;
+    std::vector<ImageBuf> out;
+    bool ok;
+    std::string error;
+    {
+        py::gil_scoped_release device_work;
+        ok = relief::run_operation_on_tiles(out, call, numbers, pointers(bufs), exec);
+        if (!ok)
+            error = relief::geterror();
+    }
+    if (!ok)
+        throw std::runtime_error(error);
+    py::list results;
+    for (const ImageBuf& img : out)
+        results.append(py::make_tuple(to_numpy(img), metadata_of(img)));
+    return results;
 }
 
 // The file's pixels in its own type (uint8, uint16, float16, float32; other
@@ -177,6 +234,8 @@ PYBIND11_MODULE(_relief, m)
     m.def("operations_json", &relief::operations_json);
     m.def("run", &run, py::arg("operation"), py::arg("arrays"), py::arg("metadata"), py::arg("modifiers"),
           py::arg("device") = "auto");
+    m.def("run_tiles", &run_tiles, py::arg("operation"), py::arg("numbers"), py::arg("arrays"),
+          py::arg("metadata"), py::arg("modifiers"), py::arg("device") = "auto");
     m.def("read", &read_file, py::arg("path"));
     m.def("write", &write_file, py::arg("path"), py::arg("array"), py::arg("metadata"),
           py::arg("type") = "float", py::arg("compression") = "");

@@ -242,7 +242,8 @@ TEST_CASE("normals: a tilted plane gives its own normal, one-sided at free edges
     }
 }
 
-TEST_CASE("normals: auto takes the boundary the height was integrated with", "[check]")
+TEST_CASE("normals: auto takes the boundary the height was integrated with, else each axis's seam test",
+          "[check]")
 {
     // A ramp jumps across the seam: the seam test alone says free.
     const int w = 16, ht = 16;
@@ -259,6 +260,17 @@ TEST_CASE("normals: auto takes the boundary the height was integrated with", "[c
     img.specmod().attribute("relief:parameters", "method=poisson boundary=periodic highpass=0");
     CHECK(test::max_abs_diff(test::pixels(relief::normals(img, auto_o)), p) == 0.0);
     CHECK(test::max_abs_diff(f, p) > 0.1);
+
+    // Without a record each axis takes its own seam test: a ramp along x
+    // with a whole wave along y tiles along y only.
+    for (int i = 0; i < w * ht; ++i)
+        h[i] = float(i % w) + 3.0f * float(std::sin(2.0 * M_PI * (i / w) / ht));
+    const OIIO::ImageBuf wave = test::image(w, ht, 1, h);
+    NormalsOptions fp;
+    fp.boundary = {Boundary::Free, Boundary::Periodic};
+    const auto want = test::pixels(relief::normals(wave, fp));
+    CHECK(test::max_abs_diff(test::pixels(relief::normals(wave, auto_o)), want) == 0.0);
+    CHECK(test::max_abs_diff(test::pixels(relief::normals(wave, free_o)), want) > 0.01);
 }
 
 TEST_CASE("normals: auto on a height one texel wide or tall is free (a seam needs two texels)", "[check]")

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "relief/relief.h"
+#include "relief/relief_c.h"
 #include "support/fields.h"
 #include "support/images.h"
 
@@ -225,4 +226,55 @@ TEST_CASE("udim each: every tile alone, and sets that cannot be solved are refus
     CHECK(report.edges.size() == 1);
     CHECK_FALSE(report.edges[0].joined);
     CHECK(pixels(dst[1]) == pixels(height(small)));
+}
+
+TEST_CASE("udim through the C ABI: relief_run_tiles equals height_udim, refusals zero the outputs",
+          "[udim][abi]")
+{
+    const OIIO::ImageBuf whole = whole_map();
+    const Set s = set_of(whole);
+    std::vector<std::vector<float>> px;
+    std::vector<relief_image> in;
+    std::vector<int> numbers;
+    for (const auto& [n, img] : s.images) {
+        px.push_back(pixels(img));
+        numbers.push_back(n);
+    }
+    for (std::vector<float>& p : px)
+        in.push_back({kW, kH, 3, RELIEF_FLOAT, p.data(), nullptr});
+    const std::vector<OIIO::ImageBuf> want = height_udim(s.tiles(), with_boundary(Boundary::Free));
+    std::vector<relief_image> out(in.size());
+    REQUIRE(relief_run_tiles("auto", "height", "udim=joint:boundary=free", numbers.data(), in.data(),
+                             int(in.size()), out.data()) == RELIEF_OK);
+    for (std::size_t i = 0; i < out.size(); ++i) {
+        INFO("tile " << numbers[i]);
+        REQUIRE((out[i].width == kW && out[i].height == kH && out[i].channels == 1));
+        const float* h = static_cast<const float*>(out[i].pixels);
+        CHECK(std::vector<float>(h, h + kW * kH) == pixels(want[i]));
+        CHECK(std::string(out[i].metadata).find("relief:udim=joint 1001,1002,1011,1012\n") !=
+              std::string::npos);
+        relief_image_free(&out[i]);
+    }
+
+    // Refused before any work: RELIEF_INVALID, every output zeroed.
+    const auto refused = [&](const char* op, const char* mods, int n, const char* says) {
+        std::vector<relief_image> o(in.size(), relief_image{1, 1, 1, RELIEF_FLOAT, nullptr, nullptr});
+        CHECK(relief_run_tiles("auto", op, mods, numbers.data(), in.data(), n, o.data()) == RELIEF_INVALID);
+        CHECK(std::string(relief_last_error()).find(says) != std::string::npos);
+        // Only the n outputs the caller named are relief's to touch.
+        for (int i = 0; i < int(o.size()); ++i)
+            CHECK((i < n ? (o[i].width == 0 && o[i].pixels == nullptr) : o[i].width == 1));
+    };
+    refused("bake", "", 4, "does not take the tiles");
+    refused("height", "udim=sometimes", 4, "udim");
+    refused("height", "", 0, "at least one tile");
+    CHECK(relief_run_tiles("auto", "height", "", numbers.data(), in.data(), 4, nullptr) == RELIEF_INVALID);
+    // A tile of another size fails the joint solve: RELIEF_FAILED, nothing left.
+    in[1].width = kW / 2;
+    std::vector<relief_image> o(in.size());
+    CHECK(relief_run_tiles("auto", "height", "udim=joint", numbers.data(), in.data(), 4, o.data()) ==
+          RELIEF_FAILED);
+    CHECK(std::string(relief_last_error()).find("must match") != std::string::npos);
+    for (const relief_image& r : o)
+        CHECK(r.pixels == nullptr);
 }

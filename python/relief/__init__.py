@@ -30,7 +30,7 @@ import numpy as _np
 from . import _relief
 
 __version__ = _relief.version
-__all__ = ["Image", "operations", "prepare", "read", "write"]
+__all__ = ["Image", "height_udim", "operations", "prepare", "read", "write"]
 
 
 class Image(_np.ndarray):
@@ -99,6 +99,23 @@ for _info in operations():
     globals()[_info["name"]] = _operation(_info)
     __all__.append(_info["name"])
 del _info
+
+
+def height_udim(tiles, device="auto", **modifiers):
+    """height over the tiles of a UDIM set at once: tiles maps each tile
+    number (1001 + u + 10 v, v up: 1011 sits above 1001) to its normal map,
+    as a dict or (number, array) pairs. Returns a dict from the same numbers
+    to relief.Image heights. udim="auto" (the default) joins the tiles whose
+    slopes continue across their shared edge, "joint" solves the set as one
+    surface (missing tiles weighted 0), "each" every tile alone; the other
+    keywords are height's."""
+    pairs = list(tiles.items()) if isinstance(tiles, dict) else list(tiles)
+    numbers = [int(n) for n, _ in pairs]
+    images = [image for _, image in pairs]
+    metadata = [dict(getattr(image, "metadata", None) or {}) for image in images]
+    results = _relief.run_tiles("height", numbers, [_pixels(i) for i in images], metadata,
+                                [(k, _text(k, v)) for k, v in modifiers.items()], device)
+    return {n: Image(pixels, meta) for n, (pixels, meta) in zip(numbers, results)}
 
 
 def prepare(width, height, device="auto"):

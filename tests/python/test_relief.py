@@ -415,10 +415,45 @@ class PerAxisBoundary(unittest.TestCase):
             want = numpy_least_squares(g, px, py)
             self.assertLess(np.abs(got - want).max(), 1e-4 * want.std(), word)
             error[word] = np.sqrt(((got - truth) ** 2).mean()) / truth.std()
+        # The default decides each axis on its own: the same as periodic,free.
+        default = np.asarray(relief.height(normals, normal="opengl"))[..., 0]
+        np.testing.assert_array_equal(default, np.asarray(relief.height(normals, normal="opengl",
+                                                                         boundary="periodic,free"))[..., 0])
         # Periodic along x and free along y fits it best (measured: rms error
         # 0.0029 of its std; both free 0.0032, the other two 0.34 and 0.35).
         self.assertLess(1.05 * error["periodic,free"], error["free"], error)
         self.assertLess(50 * error["periodic,free"], min(error["periodic"], error["free,periodic"]), error)
+
+
+class Udim(unittest.TestCase):
+    """height_udim: a set's tiles by number, as the command line's <UDIM>."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.normals = relief.read(NORMAL)[:344, :400]  # 2 x 2 tiles of 200 x 172
+        n = cls.normals
+        # v up: 1011 and 1012 are the top half.
+        cls.tiles = {1001: n[172:, :200], 1002: n[172:, 200:], 1011: n[:172, :200], 1012: n[:172, 200:]}
+
+    def test_joint_is_the_assembled_map_cut_into_tiles(self):
+        whole = np.asarray(relief.height(np.ascontiguousarray(self.normals), boundary="free"))
+        got = relief.height_udim(self.tiles, udim="joint", boundary="free")
+        self.assertEqual(sorted(got), [1001, 1002, 1011, 1012])
+        for n, (rows, cols) in {1001: (slice(172, None), slice(0, 200)), 1002: (slice(172, None), slice(200, None)),
+                                1011: (slice(0, 172), slice(0, 200)), 1012: (slice(0, 172), slice(200, None))}.items():
+            np.testing.assert_array_equal(np.asarray(got[n]), whole[rows, cols], str(n))
+        self.assertEqual(got[1001].metadata["relief:udim"], "joint 1001,1002,1011,1012")
+
+    def test_each_is_every_tile_alone_and_pairs_work_as_a_dict(self):
+        got = relief.height_udim(list(self.tiles.items()), udim="each")
+        for n, tile in self.tiles.items():
+            np.testing.assert_array_equal(np.asarray(got[n]), np.asarray(relief.height(tile)), str(n))
+
+    def test_bad_sets_raise(self):
+        with self.assertRaisesRegex(RuntimeError, "1001"):
+            relief.height_udim({1001: self.tiles[1001], 1002: self.tiles[1002][:100]}, udim="joint")
+        with self.assertRaisesRegex(ValueError, "udim"):
+            relief.height_udim(self.tiles, udim="sometimes")
 
 
 class Threads(unittest.TestCase):

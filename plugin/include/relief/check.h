@@ -19,7 +19,8 @@ struct NormalsOptions {
     float scale = 1.0f;  // the height in texels is multiplied by this first
     // Per axis, periodic: differences wrap; free: one-sided at the edges.
     // Auto: the boundary the height was integrated with (relief:parameters),
-    // else periodic when the height is continuous across the wrap seams.
+    // else each axis periodic when the height is continuous across its wrap
+    // seam.
     Boundaries boundary = Boundary::Auto;
     Execution exec;
 };

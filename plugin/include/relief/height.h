@@ -21,8 +21,10 @@ enum class RayImpl { Fast, Reference };
 enum class RayDirections { Rational, Exact };
 // Periodic: the texture tiles (rays wrap; Poisson on a torus). Free: it does
 // not (rays stop at the edge, "clip"; Poisson with zero normal slope at the
-// edges, Neumann). Auto: periodic when the slopes are as continuous across
-// the wrap seams as inside the texture, else free; the choice is reported.
+// edges, Neumann). Auto: each axis periodic when the surface continues
+// across its wrap seam (the slopes correlate there as between neighbouring
+// lines, or block heights step there no more than inside), else free; rays
+// take periodic only when both axes do. The choice is reported.
 enum class Boundary { Auto, Periodic, Free };
 // A boundary for each axis: x (does the map wrap from its right edge to its
 // left?) and y (from its bottom edge to its top?), for maps that tile along

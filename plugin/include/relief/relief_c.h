@@ -82,6 +82,18 @@ RELIEF_API int relief_run(const char* operation, const char* modifiers, const re
 RELIEF_API int relief_run_on(const char* device, const char* operation, const char* modifiers,
                              const relief_image* inputs, int n_inputs, relief_image* output);
 
+/* Runs `operation` once over the `n_tiles` tiles of a UDIM set
+ * ("height": udim=auto|joint|each, see relief/udim.h): tiles[i] is the number
+ * of inputs[i] (1001 + u + 10 v, v up: 1011 sits above 1001), and on RELIEF_OK
+ * outputs[i] (an array of n_tiles images) holds its result, each freed with
+ * relief_image_free. `device` as relief_run_on. On failure every output is
+ * zeroed and relief_last_error() says why. Added within ABI version 1 (the
+ * library's soname): a host that dlopen()s a library that may predate it
+ * looks it up with dlsym(). */
+RELIEF_API int relief_run_tiles(const char* device, const char* operation, const char* modifiers,
+                                const int* tiles, const relief_image* inputs, int n_tiles,
+                                relief_image* outputs);
+
 /* Frees the pixels and metadata of an image relief_run made; zeroes it. */
 RELIEF_API void relief_image_free(relief_image* image);
 

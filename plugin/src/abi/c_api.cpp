@@ -116,6 +116,20 @@ void to_c_image(const ImageBuf& img, relief_image* out)
     }
 }
 
+// The modifiers parsed for `operation`, the device checked.
+relief::OperationCall parse_call(const char* device, const char* operation, const char* modifiers)
+{
+    if (!device || !*device)
+        throw Refused("relief_run_on: device is NULL or empty (\"auto\" picks one)");
+    if (!operation)
+        throw Refused("relief_run: operation is NULL");
+    const std::string op = operation;
+    relief::OperationCall call;
+    if (!relief::parse_modifiers(call, op, modifiers ? modifiers : ""))
+        throw Refused(relief::find_operation(op) ? op + ": " + relief::geterror() : relief::geterror());
+    return call;
+}
+
 }  // namespace
 
 extern "C" {
@@ -149,14 +163,8 @@ int relief_run_on(const char* device, const char* operation, const char* modifie
     try {
         if (!output)
             throw Refused("relief_run: output is NULL");
-        if (!device || !*device)
-            throw Refused("relief_run_on: device is NULL or empty (\"auto\" picks one)");
-        if (!operation)
-            throw Refused("relief_run: operation is NULL");
+        const relief::OperationCall call = parse_call(device, operation, modifiers);
         const std::string op = operation;
-        relief::OperationCall call;
-        if (!relief::parse_modifiers(call, op, modifiers ? modifiers : ""))
-            throw Refused(relief::find_operation(op) ? op + ": " + relief::geterror() : relief::geterror());
         const relief::OperationInfo& info = *relief::find_operation(op);
         if (n_inputs != int(info.inputs.size()) || (n_inputs > 0 && !inputs))
             throw Refused(op + " takes " + std::to_string(info.inputs.size()) + " image(s), got " +
@@ -187,6 +195,59 @@ int relief_run_on(const char* device, const char* operation, const char* modifie
     }
     if (output)
         *output = relief_image{};
+    return status;
+}
+
+int relief_run_tiles(const char* device, const char* operation, const char* modifiers, const int* tiles,
+                     const relief_image* inputs, int n_tiles, relief_image* outputs)
+{
+    c_last_error.clear();
+    int status = RELIEF_FAILED;
+    std::vector<ImageBuf> results;
+    bool zeroed = false;  // outputs hold nothing of the caller's any more
+    try {
+        if (!outputs)
+            throw Refused("relief_run_tiles: outputs is NULL");
+        const relief::OperationCall call = parse_call(device, operation, modifiers);
+        const std::string op = operation;
+        const relief::OperationInfo& info = *relief::find_operation(op);
+        if (info.inputs.size() != 1)
+            throw Refused(op + " does not take the tiles of a UDIM set at once");
+        if (n_tiles < 1 || !tiles || !inputs)
+            throw Refused(op + ": a UDIM set needs at least one tile, its number and its image");
+        std::vector<ImageBuf> bufs;
+        bufs.reserve(n_tiles);
+        for (int i = 0; i < n_tiles; ++i)
+            bufs.push_back(to_imagebuf(inputs[i], info.inputs[0], op));
+        std::vector<const ImageBuf*> ptrs;
+        for (const ImageBuf& b : bufs)
+            ptrs.push_back(&b);
+        const std::vector<int> numbers(tiles, tiles + n_tiles);
+        // Only now: `outputs` may be the inputs' own array.
+        for (int i = 0; i < n_tiles; ++i)
+            outputs[i] = relief_image{};
+        zeroed = true;
+        relief::Execution exec;
+        exec.device = device;
+        if (!relief::run_operation_on_tiles(results, call, numbers, ptrs, exec))
+            throw std::runtime_error(relief::geterror());
+        for (int i = 0; i < n_tiles; ++i)
+            to_c_image(results[i], &outputs[i]);
+        return RELIEF_OK;
+    } catch (const Refused& e) {
+        c_last_error = e.what();
+        status = RELIEF_INVALID;
+    } catch (const std::exception& e) {
+        c_last_error = e.what();
+    } catch (...) {
+        c_last_error = "relief_run_tiles: unknown failure";
+    }
+    if (outputs)
+        for (int i = 0; i < n_tiles; ++i) {
+            if (zeroed)
+                relief_image_free(&outputs[i]);  // (the results made before the failure)
+            outputs[i] = relief_image{};
+        }
     return status;
 }
 

@@ -60,9 +60,9 @@ std::vector<Boundaries> candidates(Boundaries b)
     return all;
 }
 
-// Resolves boundary=auto from the slopes' seams, and says why. With both
-// axes on auto one rule decides both: periodic when both tile; an axis
-// alone on auto takes its own verdict.
+// Resolves boundary=auto from the slopes' seams, each axis on its own
+// (host/tiling: the slope test, then block heights), and says why. Rays
+// take one boundary for both axes: periodic when both axes tile.
 Boundaries choose_boundary(const HeightOptions& o, const detail::DerivedSlopes& d, bool rays)
 {
     if (o.boundary.x != Boundary::Auto && o.boundary.y != Boundary::Auto)
@@ -73,20 +73,22 @@ Boundaries choose_boundary(const HeightOptions& o, const detail::DerivedSlopes& 
                               [&](const float* g) { e = host::tiling_evidence(g, w, h); });
     const auto verdict = [](bool tiles) { return tiles ? Boundary::Periodic : Boundary::Free; };
     Boundaries b = o.boundary;
-    if (b.x == Boundary::Auto && b.y == Boundary::Auto)
+    if (rays)
         b = verdict(e.tiles);
-    else if (b.x == Boundary::Auto)
-        b.x = verdict(e.x.slopes_tile);
-    else
-        b.y = verdict(e.y.slopes_tile);
+    if (b.x == Boundary::Auto)
+        b.x = verdict(e.x.tiles);
+    if (b.y == Boundary::Auto)
+        b.y = verdict(e.y.tiles);
     auto axis = [](const char* name, const host::AxisEvidence& a) {
-        return std::string(name) + " " + detail::format_double("%.2f", a.seam) + " vs " +
-               detail::format_double("%.2f", a.adjacent) + (a.slopes_tile ? " (tiles)" : " (does not tile)");
+        return std::string(name) + ": slopes across the wrap seam correlate " +
+               detail::format_double("%.2f", a.seam) + " vs " + detail::format_double("%.2f", a.adjacent) +
+               " between neighbours (" + (a.slopes_tile ? "pass" : "fail") + "), block heights step " +
+               detail::format_double("%.2f", a.height_step) + "x as much across it -> " +
+               (a.tiles ? "tiles" : "does not tile");
     };
     detail::say(o.exec, Severity::Notice,
-                "boundary: " + name(b, rays) +
-                    " (slope correlation across the wrap seam vs between neighbours: " + axis("x", e.x) +
-                    ", " + axis("y", e.y) + ")");
+                "boundary: " + name(b, rays) + " (" + axis("x", e.x) + "; " + axis("y", e.y) +
+                    (rays && e.x.tiles != e.y.tiles ? "; rays take one boundary for both axes" : "") + ")");
     return b;
 }
 

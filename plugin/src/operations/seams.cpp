@@ -118,16 +118,19 @@ Wrap height_wrap(const OIIO::ImageBuf& height, const std::vector<float>& h, int 
                 " (the height was integrated with boundary=" + recorded + ")");
         return wrap;
     }
+    // Each axis on its own, as the height's boundary=auto decides.
     double rx = 0.0, ry = 0.0;
-    const bool both = w > 1 && ht > 1 && seams_continuous(h, w, ht, rx, ry);
+    if (w > 1 && ht > 1)
+        seams_continuous(h, w, ht, rx, ry);
     if (requested.x == Boundary::Auto)
-        wrap.x = requested.y == Boundary::Auto ? both : w > 1 && ht > 1 && rx <= 2.0;
+        wrap.x = w > 1 && ht > 1 && rx <= 2.0;
     if (requested.y == Boundary::Auto)
-        wrap.y = requested.x == Boundary::Auto ? both : w > 1 && ht > 1 && ry <= 2.0;
+        wrap.y = w > 1 && ht > 1 && ry <= 2.0;
     say(exec, Severity::Notice,
         operation + ": boundary " + wrap_name(wrap) +
             " (height jump across the wrap seam / mean jump between neighbours: x " +
-            format_double("%.2f", rx) + ", y " + format_double("%.2f", ry) + "; periodic when both <= 2)");
+            format_double("%.2f", rx) + ", y " + format_double("%.2f", ry) +
+            "; an axis is periodic at <= 2)");
     return wrap;
 }
 

@@ -41,8 +41,8 @@ Operation normals_operation()
         choice(
             "boundary", [n](auto& c) -> auto& { return n(c).boundary; }, kBoundaryWords, "",
             "periodic: differences wrap; free: one-sided at the edges; X,Y: x's and y's "
-            "(periodic,free); auto: the height's own (relief:parameters), else periodic when it is "
-            "continuous across the wrap seams"),
+            "(periodic,free); auto: the height's own (relief:parameters), else each axis periodic "
+            "when the height is continuous across its wrap seam"),
     };
     op.validate = [](const OperationCall& c) { return relief::validate(c.normals); };
     op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {

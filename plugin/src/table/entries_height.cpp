@@ -65,8 +65,8 @@ Operation height_operation()
             Modifier m = choice(
                 "boundary", [h](auto& c) -> auto& { return h(c).boundary; }, words, "",
                 "periodic: the texture tiles; free (clip for rays): it does not; X,Y: x's and y's, "
-                "for poisson (periodic,free: tiles along x only); auto: periodic when the slopes are "
-                "continuous across the wrap seams");
+                "for poisson (periodic,free: tiles along x only); auto: each axis periodic when the "
+                "surface continues across its wrap seam (slopes, then block heights; rays: when both do)");
             // Written as each method takes it: rays refuse "free".
             m.get = [h, get = m.get](const OperationCall& c) {
                 const std::string name = get(c);
