@@ -17,7 +17,7 @@
 // normals (an unrelated map of the same size): the edges auto joins and
 // cuts, the replaced tile against its own single run, and the border ratio
 // of the three remaining tiles.
-// Writes udim.csv, udim.md and udim_before_after.png (0ad_paving_india's
+// Writes udim.csv, udim.md and udim_before_after.png (nx_brickfloor's
 // heights under each and auto, each panel scaled to its own range) into
 // --out.
 #include <OpenImageIO/imagebuf.h>
@@ -214,7 +214,7 @@ int main(int argc, char** argv)
         const std::string text((std::istreambuf_iterator<char>(meta)), std::istreambuf_iterator<char>());
         c = text.find("\"green\": \"Y+") != std::string::npos ? relief::NormalConvention::OpenGL
                                                               : relief::NormalConvention::DirectX;
-        return normals.read(0, 0, true, OIIO::TypeDesc::FLOAT);
+        return normals.read(0, 0, true);  // 8-bit stays 8-bit: float normals would be read as [-1, 1]
     };
 
     std::vector<Set> sets;
@@ -253,6 +253,7 @@ int main(int argc, char** argv)
         "| map | mode | distance | border | seconds |\n|---|---|---|---|---|\n",
         runs);
     std::vector<std::vector<float>> picture;
+    int picture_w = 0, picture_h = 0;
     for (const Set& s : sets) {
         const ImageBuf whole = relief::height(s.whole, options_for(s, relief::UdimMode::Each));
         if (whole.has_error()) {
@@ -285,8 +286,11 @@ int main(int argc, char** argv)
                 << '\n';
             std::fprintf(md, "| %s | %s | %.4f | %.3f | %.2f |\n", s.name.c_str(), word, distance, border,
                          median(seconds));
-            if (s.name == "0ad_paving_india" && mode != relief::UdimMode::Joint)
+            if (s.name == "nx_brickfloor" && mode != relief::UdimMode::Joint) {
                 picture.push_back(h);
+                picture_w = 2 * s.tw;
+                picture_h = 2 * s.th;
+            }
         }
     }
 
@@ -312,11 +316,11 @@ int main(int argc, char** argv)
         for (std::size_t i = 0; i < alone.size(); ++i)
             diff = std::max(diff, double(std::abs(alone[i] - replaced[i])));
         const double border = border_ratio(assemble(got, s.tw, s.th), s.tw, s.th, 3);
-        std::fprintf(
-            md,
-            "\nTile 1012 of 0ad_paving_india replaced by the top-left %dx%d of gk_castell_wall_v01 "
-            "(udim=auto):\n\n| edge | slope |r| across / between neighbours | joined |\n|---|---|---|\n",
-            s.tw, s.th);
+        std::fprintf(md,
+                     "\nTile 1012 of 0ad_paving_india replaced by the top-left %dx%d of gk_castell_wall_v01 "
+                     "(udim=auto):\n\n| edge | slope correlation across the edge / between neighbours | "
+                     "joined |\n|---|---|---|\n",
+                     s.tw, s.th);
         for (const relief::UdimEdge& e : report.edges)
             std::fprintf(md, "| %d-%d | %.3f / %.3f | %s |\n", e.a, e.b, e.seam, e.adjacent,
                          e.joined ? "yes" : "no");
@@ -329,12 +333,12 @@ int main(int argc, char** argv)
                     border);
     }
     if (picture.size() == 2) {
-        write_picture(out / "udim_before_after.png", picture, 2 * paving->tw, 2 * paving->th, 512);
-        std::fprintf(
-            md, "\n![0ad_paving_india as four tiles: each (left), auto (right)](udim_before_after.png)\n\n"
-                "0ad_paving_india's heights as four UDIM tiles, each panel scaled to its own range: "
-                "udim=each (left), every tile with its own zero mean and low frequencies, and udim=auto "
-                "(right), the set as one surface.\n");
+        write_picture(out / "udim_before_after.png", picture, picture_w, picture_h, 512);
+        std::fprintf(md,
+                     "\n![nx_brickfloor as four tiles: each (left), auto (right)](udim_before_after.png)\n\n"
+                     "nx_brickfloor's heights as four UDIM tiles, each panel scaled to its own range: "
+                     "udim=each (left), every tile with its own zero mean and low frequencies, and udim=auto "
+                     "(right), the set as one surface.\n");
     }
     std::fclose(md);
     return 0;
