@@ -9,7 +9,7 @@
 namespace relief::host {
 
 void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch, const float* offsets,
-                 bool periodic, BakeFilter filter, float* dst)
+                 Periodic periodic, BakeFilter filter, float* dst)
 {
     if (w < 1 || h < 1 || nch < 1)
         throw Error("baking needs a non-empty texture");
@@ -36,7 +36,7 @@ void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch, c
         k.setArg(a++, cl_int(h));
         k.setArg(a++, cl_int(pass_channels));
         k.setArg(a++, off);
-        k.setArg(a++, cl_int(periodic));
+        k.setArg(a++, cl_int(periodic.bits()));
         k.setArg(a++, cl_int(filter == BakeFilter::Bicubic));
         k.setArg(a++, out);
         std::vector<float> plane(planar ? n : 0);

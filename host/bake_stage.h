@@ -4,14 +4,16 @@
 // device (kernels/bake.cl). Colour management happens before and after, in
 // the plugin.
 #include "compute_context.h"
+#include "periodic_axes.h"
 
 namespace relief::host {
 
 enum class BakeFilter { Bilinear, Bicubic };
 
 // src, dst: w*h*nch interleaved floats; offsets: 2*w*h floats (texture
-// units). Periodic wraps reads around the texture, otherwise they clamp.
+// units). Along a periodic axis reads wrap around the texture, along the
+// other they clamp.
 void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch, const float* offsets,
-                 bool periodic, BakeFilter filter, float* dst);
+                 Periodic periodic, BakeFilter filter, float* dst);
 
 }  // namespace relief::host

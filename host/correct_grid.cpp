@@ -6,12 +6,11 @@
 
 namespace relief::host {
 
-NodeGrid::NodeGrid(int texels_w, int texels_h, bool corner_nodes, bool periodic_boundary)
-    : width(texels_w), height(texels_h), corner(corner_nodes), periodic(periodic_boundary)
+NodeGrid::NodeGrid(int texels_w, int texels_h, bool corner_nodes, Periodic periodic_axes)
+    : width(texels_w), height(texels_h), corner(corner_nodes), periodic(periodic_axes)
 {
-    const int extra = corner && !periodic ? 1 : 0;
-    nx = width + extra;
-    ny = height + extra;
+    nx = width + (corner && !periodic.x ? 1 : 0);
+    ny = height + (corner && !periodic.y ? 1 : 0);
 }
 
 namespace {
@@ -75,13 +74,8 @@ std::vector<float> node_values(const std::vector<float>& texels, const NodeGrid&
         return texels;
     std::vector<float> out(std::size_t(g.nx) * g.ny);
     auto at = [&](int x, int y) {
-        if (g.periodic) {
-            x = wrap(x, g.width);
-            y = wrap(y, g.height);
-        } else {
-            x = std::clamp(x, 0, g.width - 1);
-            y = std::clamp(y, 0, g.height - 1);
-        }
+        x = g.periodic.x ? wrap(x, g.width) : std::clamp(x, 0, g.width - 1);
+        y = g.periodic.y ? wrap(y, g.height) : std::clamp(y, 0, g.height - 1);
         return double(texels[std::size_t(y) * g.width + x]);
     };
     for (int j = 0; j < g.ny; ++j)
@@ -95,14 +89,14 @@ std::vector<float> upsample_offsets(const std::vector<float>& coarse, const Node
                                     const NodeGrid& to)
 {
     std::vector<float> out(2 * std::size_t(to.nx) * to.ny, 0.0f);
-    auto index = [&](double pos, int n, int texels, int& i0, int& i1, double& f) {
+    auto index = [&](double pos, int n, int texels, bool periodic, int& i0, int& i1, double& f) {
         // Node coordinate of a texture position on the coarse grid.
         const double x = from.corner ? pos * texels : pos * texels - 0.5;
         const double fl = std::floor(x);
         f = x - fl;
         i0 = int(fl);
         i1 = i0 + 1;
-        if (from.periodic) {
+        if (periodic) {
             i0 = wrap(i0, n);
             i1 = wrap(i1, n);
         } else {
@@ -118,14 +112,15 @@ std::vector<float> upsample_offsets(const std::vector<float>& coarse, const Node
     for (int j = 0; j < to.ny; ++j) {
         int y0, y1;
         double fy;
-        index(to.v(j), from.ny, from.height, y0, y1, fy);
+        index(to.v(j), from.ny, from.height, from.periodic.y, y0, y1, fy);
         for (int i = 0; i < to.nx; ++i) {
             const std::size_t o = 2 * (std::size_t(j) * to.nx + i);
-            if (!to.periodic && (i == 0 || j == 0 || i == to.nx - 1 || j == to.ny - 1))
+            if ((!to.periodic.x && (i == 0 || i == to.nx - 1)) ||
+                (!to.periodic.y && (j == 0 || j == to.ny - 1)))
                 continue;
             int x0, x1;
             double fx;
-            index(to.u(i), from.nx, from.width, x0, x1, fx);
+            index(to.u(i), from.nx, from.width, from.periodic.x, x0, x1, fx);
             for (int ch = 0; ch < 2; ++ch) {
                 auto at = [&](int x, int y) {
                     return double(coarse[2 * (std::size_t(y) * from.nx + x) + ch]);
@@ -147,10 +142,10 @@ std::vector<float> texel_offsets(const std::vector<float>& node_offsets, const N
         for (int x = 0; x < g.width; ++x)
             for (int ch = 0; ch < 2; ++ch) {
                 auto at = [&](int i, int j) {
-                    if (g.periodic) {
+                    if (g.periodic.x)
                         i = wrap(i, g.nx);
+                    if (g.periodic.y)
                         j = wrap(j, g.ny);
-                    }
                     return double(node_offsets[2 * (std::size_t(j) * g.nx + i) + ch]);
                 };
                 out[2 * (std::size_t(y) * g.width + x) + ch] =

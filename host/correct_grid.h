@@ -6,19 +6,21 @@
 // per-texel offsets that are the stage's output. No OpenCL here.
 #include <vector>
 
+#include "periodic_axes.h"
+
 namespace relief::host {
 
 // Nodes at texel centres (one per texel) or at texel corners (the reference
-// tool's default: (W+1) x (H+1) with a fixed boundary, W x H when periodic,
-// where the last corner is the first).
+// tool's default: W+1 along an axis with a fixed border, W along a periodic
+// one, where the last corner is the first).
 struct NodeGrid {
     int width = 0, height = 0;  // texels
     int nx = 0, ny = 0;         // nodes
     bool corner = false;
-    bool periodic = false;
+    Periodic periodic{false};
 
     NodeGrid() = default;
-    NodeGrid(int texels_w, int texels_h, bool corner_nodes, bool periodic_boundary);
+    NodeGrid(int texels_w, int texels_h, bool corner_nodes, Periodic periodic_axes);
     // Node (i, j)'s position in texture units (u spans [0, 1] across the width).
     double u(int i) const { return corner ? double(i) / width : (i + 0.5) / width; }
     double v(int j) const { return corner ? double(j) / height : (j + 0.5) / height; }
@@ -29,8 +31,8 @@ struct NodeGrid {
 std::vector<float> area_downsample(const std::vector<float>& src, int w, int h, int w2, int h2);
 
 // Per-node values of a per-texel field: the texel's value (centre nodes) or
-// the mean of the up to four texels around the corner (wrapping when
-// periodic, clamped otherwise).
+// the mean of the up to four texels around the corner (wrapping along a
+// periodic axis, clamped along a fixed one).
 std::vector<float> node_values(const std::vector<float>& texels, const NodeGrid& g);
 
 // Offsets (float2 per node, texture units) of `coarse` interpolated

@@ -64,8 +64,8 @@ public:
         gain_ = c_.buffer(CL_MEM_READ_WRITE, esize * nodes_, "distortion correction");
         tiles_x_ = (g.nx + kTile - 1) / kTile;
         tiles_y_ = (g.ny + kTile - 1) / kTile;
-        for (int cy = 0; cy < (g.periodic && (g.ny & 1) && g.ny > 1 ? 3 : 2); ++cy)
-            for (int cx = 0; cx < (g.periodic && (g.nx & 1) && g.nx > 1 ? 3 : 2); ++cx)
+        for (int cy = 0; cy < (g.periodic.y && (g.ny & 1) && g.ny > 1 ? 3 : 2); ++cy)
+            for (int cx = 0; cx < (g.periodic.x && (g.nx & 1) && g.nx > 1 ? 3 : 2); ++cx)
                 phases_.push_back({cx, cy});
         const std::size_t tiles = std::size_t(tiles_x_) * tiles_y_;
         moved_ = c_.buffer(CL_MEM_READ_WRITE, tiles * phases_.size(), "distortion correction");
@@ -113,7 +113,7 @@ public:
             energy_k_.setArg(a++, cl_int(use_fix_));
             energy_k_.setArg(a++, cl_int(g_.nx));
             energy_k_.setArg(a++, cl_int(g_.ny));
-            energy_k_.setArg(a++, cl_int(g_.periodic));
+            energy_k_.setArg(a++, cl_int(g_.periodic.bits()));
             energy_k_.setArg(a++, float(p_.theta));
             energy_k_.setArg(a++, cl_int(itheta_));
             energy_k_.setArg(a++, partial_);
@@ -204,7 +204,7 @@ public:
                     active_k_.setArg(a++, cl_int(phases_.size()));
                     active_k_.setArg(a++, cl_int(tiles_x_));
                     active_k_.setArg(a++, cl_int(tiles_y_));
-                    active_k_.setArg(a++, cl_int(g_.periodic));
+                    active_k_.setArg(a++, cl_int(g_.periodic.bits()));
                     active_k_.setArg(a++, active_);
                     c_.launch(active_k_, tiles);
                     c_.queue.enqueueReadBuffer(active_, CL_TRUE, 0, tiles, act.data());
@@ -223,7 +223,7 @@ public:
                 phase_k_.setArg(a++, cl_int(use_fix_));
                 phase_k_.setArg(a++, cl_int(g_.nx));
                 phase_k_.setArg(a++, cl_int(g_.ny));
-                phase_k_.setArg(a++, cl_int(g_.periodic));
+                phase_k_.setArg(a++, cl_int(g_.periodic.bits()));
                 phase_k_.setArg(a++, cl_int(phases_[ph].first));
                 phase_k_.setArg(a++, cl_int(phases_[ph].second));
                 phase_k_.setArg(a++, cl_int(tiles_x_));

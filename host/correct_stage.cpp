@@ -121,7 +121,7 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
         rep.anisotropy_before = summarise(aniso);
         rep.area_before = summarise(area);
         const bool too_small =
-            finest.grid.periodic ? (w < 2 || h < 2) : (finest.grid.nx < 3 || finest.grid.ny < 3);
+            (p.periodic.x ? w < 2 : finest.grid.nx < 3) || (p.periodic.y ? h < 2 : finest.grid.ny < 3);
         if (worst <= p.threshold || too_small) {
             rep.skipped = true;
             rep.energy_after = rep.energy_before;

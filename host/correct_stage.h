@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "compute_context.h"
+#include "correct_grid.h"
 
 namespace relief::host {
 
@@ -18,7 +19,7 @@ struct CorrectParams {
     double scale = 0.05;
     double theta = 5.0;        // area exponent, 0..20
     bool corner_nodes = true;  // nodes at texel corners (else centres)
-    bool periodic = true;      // the texture tiles (else the border is fixed)
+    Periodic periodic{true};   // the axes along which the texture tiles (else fixed borders)
     // Fixation weights per texel (w: the texel stays within 1/w texels of
     // where it started), or null.
     const float* fix_weights = nullptr;

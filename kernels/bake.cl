@@ -19,7 +19,8 @@ inline float4 bake_cubic_weights(float f)
 }
 
 // src, dst: w x h texels of nch interleaved floats; offsets: float2 per
-// texel in texture units.
+// texel in texture units; periodic: bit 0 x wraps, bit 1 y wraps (else
+// reads clamp at that axis's edges).
 kernel void bake_gather(global const float* src, int w, int h, int nch, global const float2* offsets,
                         int periodic, int bicubic, global float* dst)
 {
@@ -33,8 +34,8 @@ kernel void bake_gather(global const float* src, int w, int h, int nch, global c
     const float fx = x - fx0, fy = y - fy0;
     const int x0 = (int)fx0, y0 = (int)fy0;
     if (!bicubic) {
-        const int xa = bake_index(x0, w, periodic), xb = bake_index(x0 + 1, w, periodic);
-        const int ya = bake_index(y0, h, periodic), yb = bake_index(y0 + 1, h, periodic);
+        const int xa = bake_index(x0, w, periodic & 1), xb = bake_index(x0 + 1, w, periodic & 1);
+        const int ya = bake_index(y0, h, periodic & 2), yb = bake_index(y0 + 1, h, periodic & 2);
         for (int ch = 0; ch < nch; ++ch) {
             // size_t: texels x channels may pass 2^31 (a 32768^2 RGB map).
             const float v00 = src[((size_t)ya * w + xa) * nch + ch];
@@ -52,8 +53,8 @@ kernel void bake_gather(global const float* src, int w, int h, int nch, global c
     const float wxs[4] = {wx.x, wx.y, wx.z, wx.w}, wys[4] = {wy.x, wy.y, wy.z, wy.w};
     int xs[4], ys[4];
     for (int k = 0; k < 4; ++k) {
-        xs[k] = bake_index(x0 - 1 + k, w, periodic);
-        ys[k] = bake_index(y0 - 1 + k, h, periodic);
+        xs[k] = bake_index(x0 - 1 + k, w, periodic & 1);
+        ys[k] = bake_index(y0 - 1 + k, h, periodic & 2);
     }
     for (int ch = 0; ch < nch; ++ch) {
         if (fx == 0.0f && fy == 0.0f) {

@@ -112,7 +112,9 @@ kernel void correct_energy(global const float2* c, global const float* z, global
     if (gid < nx * ny) {
         const int i = gid % nx, j = gid / nx;
         float4 st = (float4)(NAN);
-        if (periodic || (i + 1 < nx && j >= 1)) {
+        // `periodic`: bit 0 x wraps, bit 1 y wraps; along a fixed axis the
+        // last column (first row) owns no triangle.
+        if (((periodic & 1) || i + 1 < nx) && ((periodic & 2) || j >= 1)) {
             const float2 cp = c[gid];
             const float zp = z[gid];
             const int n2 = correct_node(i + 1, j, nx, ny), n1 = correct_node(i + 1, j - 1, nx, ny),
@@ -179,12 +181,12 @@ kernel void correct_active(global const uchar* moved, int slots, int tiles_x, in
     for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
             int x = tx + dx, y = ty + dy;
-            if (periodic) {
+            if (periodic & 1)
                 x = relief_wrap(x, tiles_x);
+            if (periodic & 2)
                 y = relief_wrap(y, tiles_y);
-            } else if (x < 0 || y < 0 || x >= tiles_x || y >= tiles_y) {
+            if (x < 0 || y < 0 || x >= tiles_x || y >= tiles_y)
                 continue;
-            }
             for (int s = 0; s < slots; ++s)
                 any |= moved[s * count + y * tiles_x + x];
         }
@@ -257,11 +259,12 @@ inline NodeSearch correct_prepare(global const float2* c, global const float* z,
     ns.fp.inv_k = ns.fp.fix_scale = 1.0f;
     if (i >= nx || j >= ny)
         return ns;
-    const int odd_x = periodic && (nx & 1), odd_y = periodic && (ny & 1);
+    const int px = periodic & 1, py = (periodic >> 1) & 1;
+    const int odd_x = px && (nx & 1), odd_y = py && (ny & 1);
     if ((class_x == 2) != (odd_x && i == nx - 1) || (class_y == 2) != (odd_y && j == ny - 1))
         return ns;
-    // Fixed boundary: border nodes stay where they are.
-    if (!periodic && (i == 0 || j == 0 || i == nx - 1 || j == ny - 1))
+    // Along a fixed axis the border nodes stay where they are.
+    if ((!px && (i == 0 || i == nx - 1)) || (!py && (j == 0 || j == ny - 1)))
         return ns;
 
     const int p = j * nx + i;

@@ -79,18 +79,20 @@ TEST_CASE("bake: device gather equals the golden model", "[bake]")
     const auto src = random_field(std::size_t(w) * h * nch, 1, 0.0f, 1.0f);
     const auto off = random_field(2 * std::size_t(w) * h, 2, -0.1f, 0.1f);
     auto ctx = host::ComputeContext::acquire("auto");
-    for (bool periodic : {true, false})
+    // Both axes, neither, and each alone ("periodic,fixed" offsets).
+    for (const host::Periodic periodic : {host::Periodic(true), host::Periodic(false),
+                                          host::Periodic(true, false), host::Periodic(false, true)})
         for (bool bicubic : {false, true}) {
             std::vector<float> out(src.size());
             host::bake_gather(*ctx, src.data(), w, h, nch, off.data(), periodic,
                               bicubic ? host::BakeFilter::Bicubic : host::BakeFilter::Bilinear, out.data());
-            const auto gold =
-                reference::bake_gather(std::vector<double>(src.begin(), src.end()), w, h, nch,
-                                       std::vector<double>(off.begin(), off.end()), periodic, bicubic);
+            const auto gold = reference::bake_gather(std::vector<double>(src.begin(), src.end()), w, h, nch,
+                                                     std::vector<double>(off.begin(), off.end()), periodic.x,
+                                                     periodic.y, bicubic);
             double worst = 0.0;
             for (std::size_t i = 0; i < out.size(); ++i)
                 worst = std::max(worst, std::abs(out[i] - gold[i]));
-            INFO("periodic " << periodic << " bicubic " << bicubic);
+            INFO("periodic x " << periodic.x << " y " << periodic.y << " bicubic " << bicubic);
             CHECK(worst < 2e-5);
         }
 }
@@ -289,9 +291,9 @@ TEST_CASE("bake: 8- and 16-bit normal maps bake to the golden gather's direction
                 CHECK(said.find("normal map") != std::string::npos);
                 CHECK(out.spec().get_string_attribute("relief:native_format") == type.c_str());
                 const auto got = pixels(out);
-                const auto gold =
-                    reference::bake_gather(std::vector<double>(src.begin(), src.end()), w, h, nch,
-                                           std::vector<double>(off.begin(), off.end()), periodic, false);
+                const auto gold = reference::bake_gather(std::vector<double>(src.begin(), src.end()), w, h,
+                                                         nch, std::vector<double>(off.begin(), off.end()),
+                                                         periodic, periodic, false);
                 double length_error = 0.0;
                 CHECK(worst_normal_angle(got, gold, nch, true, length_error) < 1e-5);
                 CHECK(length_error < 1e-5);
@@ -314,8 +316,9 @@ TEST_CASE("bake: half and float normal maps (signed) bake to the golden gather's
         o.wrap = BakeWrap::Periodic;
         OIIO::ImageBuf out;
         REQUIRE(bake(out, tex, image(w, h, 2, off), o));
-        const auto gold = reference::bake_gather(std::vector<double>(src.begin(), src.end()), w, h, 3,
-                                                 std::vector<double>(off.begin(), off.end()), true, false);
+        const auto gold =
+            reference::bake_gather(std::vector<double>(src.begin(), src.end()), w, h, 3,
+                                   std::vector<double>(off.begin(), off.end()), true, true, false);
         double length_error = 0.0;
         CHECK(worst_normal_angle(pixels(out), gold, 3, false, length_error) < 1e-5);
         CHECK(length_error < 1e-5);
@@ -379,6 +382,20 @@ TEST_CASE("bake: wrap=auto wraps when the offsets say periodic", "[bake]")
     CHECK(baked(BakeWrap::Auto, "fixed") == clamp);
     CHECK(baked(BakeWrap::Auto, nullptr) == clamp);
     CHECK(baked(BakeWrap::Clamp, "periodic") == clamp);  // an explicit choice wins
+    // Per axis, as --correct:boundary=periodic,fixed writes it: the device
+    // wrapping x and clamping y, which neither single choice gives.
+    auto ctx = host::ComputeContext::acquire("auto");
+    for (const auto& [boundary, axes] : {std::pair{"periodic,fixed", host::Periodic(true, false)},
+                                         std::pair{"fixed,periodic", host::Periodic(false, true)}}) {
+        INFO(boundary);
+        std::vector<float> want(src.size());
+        host::bake_gather(*ctx, src.data(), w, h, 1, off.data(), axes, host::BakeFilter::Bilinear,
+                          want.data());
+        const auto got = baked(BakeWrap::Auto, boundary);
+        CHECK(got == want);
+        CHECK(test::max_abs_diff(got, periodic) > 1e-3);
+        CHECK(test::max_abs_diff(got, clamp) > 1e-3);
+    }
 }
 
 TEST_CASE("bake: kind=auto tells normal and height maps by name and by origin", "[bake]")
@@ -504,7 +521,7 @@ TEST_CASE("cli: a baked 8-bit normal map keeps its type and the golden direction
     CHECK(baked.nativespec().format == OIIO::TypeDesc::UINT8);
     const auto src = test::file_pixels(dir / "wall_normal.png");
     const auto gold = reference::bake_gather(std::vector<double>(src.begin(), src.end()), w, h, 3,
-                                             std::vector<double>(off.begin(), off.end()), true, false);
+                                             std::vector<double>(off.begin(), off.end()), true, true, false);
     // 8-bit storage: within about one code of the direction.
     double length_error = 0.0;
     CHECK(worst_normal_angle(pixels(baked), gold, 3, true, length_error) < 0.02);

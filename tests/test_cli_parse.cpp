@@ -205,6 +205,10 @@ TEST_CASE("parse: every --correct modifier lands in its field", "[cli][parse]")
     CHECK(c("nodes=center").nodes == CorrectNodes::Center);
     CHECK(c("boundary=periodic").boundary == CorrectBoundary::Periodic);
     CHECK(c("boundary=fixed").boundary == CorrectBoundary::Fixed);
+    CHECK(c("boundary=periodic,fixed").boundary ==
+          CorrectBoundaries(CorrectBoundary::Periodic, CorrectBoundary::Fixed));
+    CHECK(c("boundary=fixed,periodic").boundary ==
+          CorrectBoundaries(CorrectBoundary::Fixed, CorrectBoundary::Periodic));
     CHECK(c("boundary=auto").boundary == CorrectBoundary::Auto);
     CHECK(c("iterations=17").iterations == 17);
     CHECK(c("iterations=auto").iterations == 0);

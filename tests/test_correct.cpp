@@ -25,20 +25,21 @@ using relief::test::waves;
 namespace {
 
 // The golden model's grid for centre nodes (heights in texels).
-ref::CorrectionGrid centre_grid(const std::vector<float>& h, int w, int ht, double scale, bool periodic,
-                                double theta = 5.0)
+ref::CorrectionGrid centre_grid(const std::vector<float>& h, int w, int ht, double scale,
+                                host::Periodic periodic, double theta = 5.0)
 {
     ref::CorrectionGrid g;
     g.nx = w;
     g.ny = ht;
-    g.periodic = periodic;
+    g.periodic_x = periodic.x;
+    g.periodic_y = periodic.y;
     g.theta = theta;
     for (float v : h)
         g.z.push_back(double(v) * scale * w);
     return g;
 }
 
-host::CorrectParams params(double scale, bool periodic, bool corner = false)
+host::CorrectParams params(double scale, host::Periodic periodic, bool corner = false)
 {
     host::CorrectParams p;
     p.scale = scale;
@@ -138,23 +139,23 @@ TEST_CASE("correct: device energy equals the golden model's", "[correct]")
     const auto hts = waves(w, h, 1.0, 5);
     std::mt19937 rng(2);
     std::uniform_real_distribution<double> u(-0.1, 0.1);
-    for (bool periodic : {true, false}) {
+    // Both axes, neither, and one periodic axis with the other fixed.
+    for (const host::Periodic periodic : {host::Periodic(true), host::Periodic(false),
+                                          host::Periodic(true, false), host::Periodic(false, true)}) {
         const ref::CorrectionGrid g = centre_grid(hts, w, h, 0.2, periodic);
         std::vector<double> c(2 * std::size_t(w) * h);
         std::vector<float> tex(c.size());
         for (std::size_t k = 0; k < c.size(); ++k) {
             c[k] = u(rng);
-            if (!periodic) {
-                const int i = int(k / 2) % w, j = int(k / 2) / w;
-                if (i == 0 || j == 0 || i == w - 1 || j == h - 1)
-                    c[k] = 0.0;
-            }
+            const int i = int(k / 2) % w, j = int(k / 2) / w;
+            if ((!periodic.x && (i == 0 || i == w - 1)) || (!periodic.y && (j == 0 || j == h - 1)))
+                c[k] = 0.0;
             tex[k] = float(c[k] / (k % 2 ? h : w));  // texture units
         }
         auto ctx = host::ComputeContext::acquire("auto");
         const double dev = host::correction_energy(*ctx, hts.data(), w, h, params(0.2, periodic), tex.data());
         const double gold = ref::total_energy(g, c);
-        INFO("periodic " << periodic);
+        INFO("periodic x " << periodic.x << " y " << periodic.y);
         CHECK(std::abs(dev - gold) <= 1e-5 * gold);
     }
 }
@@ -207,10 +208,13 @@ host::CorrectParams with_search(host::CorrectParams p, const Search& s)
 
 TEST_CASE("correct: one device iteration equals the golden model's", "[correct]")
 {
-    // Odd periodic sizes exercise the extra phase class of the last node.
+    // Odd periodic sizes exercise the extra phase class of the last node;
+    // one periodic axis with the other fixed, both ways round.
+    using P = host::Periodic;
     for (const Search& search : kSearches)
         for (auto [w, h, periodic] :
-             {std::tuple{24, 16, true}, std::tuple{23, 17, true}, std::tuple{20, 19, false}}) {
+             {std::tuple{24, 16, P(true)}, std::tuple{23, 17, P(true)}, std::tuple{20, 19, P(false)},
+              std::tuple{23, 16, P(true, false)}, std::tuple{18, 21, P(false, true)}}) {
             const auto hts = waves(w, h, 1.0, 9);
             const double scale = 0.3;
             ref::CorrectionGrid g = centre_grid(hts, w, h, scale, periodic);
@@ -226,8 +230,8 @@ TEST_CASE("correct: one device iteration equals the golden model's", "[correct]"
                 worst = std::max(worst, std::abs(dev[k] - c[k]));
                 largest = std::max(largest, std::abs(c[k]));
             }
-            INFO(search.name << ", " << w << "x" << h << " periodic " << periodic << ": max |offset| "
-                             << largest << " texels, max |device - golden| " << worst);
+            INFO(search.name << ", " << w << "x" << h << " periodic x " << periodic.x << " y " << periodic.y
+                             << ": max |offset| " << largest << " texels, max |device - golden| " << worst);
             CHECK(largest > 1e-2);
             CHECK(worst <= search.agreement * largest);
             const double e_dev = ref::total_energy(g, dev), e_gold = ref::total_energy(g, c);
@@ -244,21 +248,26 @@ TEST_CASE("correct: corner nodes, one device iteration equals the golden model's
     // texels (i-1, j-1) and (i, j), with the mean of those four texels'
     // heights (wrapping when periodic, clamped at a fixed border: W+1 x H+1
     // nodes); the offset of a texel is the mean of its four corners'.
+    // One periodic axis: W corner nodes along it, H+1 along the fixed one.
+    using P = host::Periodic;
     for (const Search& search : kSearches)
-        for (auto [w, h, periodic] : {std::tuple{24, 16, true}, std::tuple{23, 17, true},
-                                      std::tuple{20, 19, false}, std::tuple{17, 22, false}}) {
+        for (auto [w, h, periodic] :
+             {std::tuple{24, 16, P(true)}, std::tuple{23, 17, P(true)}, std::tuple{20, 19, P(false)},
+              std::tuple{17, 22, P(false)}, std::tuple{23, 18, P(true, false)},
+              std::tuple{20, 17, P(false, true)}}) {
             const auto hts = waves(w, h, 1.0, 10);
             const double scale = 0.3;
-            const int nx = periodic ? w : w + 1, ny = periodic ? h : h + 1;
+            const int nx = periodic.x ? w : w + 1, ny = periodic.y ? h : h + 1;
             auto texel = [&](int x, int y) {
-                x = periodic ? (x + w) % w : std::clamp(x, 0, w - 1);
-                y = periodic ? (y + h) % h : std::clamp(y, 0, h - 1);
+                x = periodic.x ? (x + w) % w : std::clamp(x, 0, w - 1);
+                y = periodic.y ? (y + h) % h : std::clamp(y, 0, h - 1);
                 return double(hts[std::size_t(y) * w + x]);
             };
             ref::CorrectionGrid g;
             g.nx = nx;
             g.ny = ny;
-            g.periodic = periodic;
+            g.periodic_x = periodic.x;
+            g.periodic_y = periodic.y;
             g.theta = 5.0;
             g.search = search.golden_model;
             g.relax = search.relax;
@@ -282,8 +291,9 @@ TEST_CASE("correct: corner nodes, one device iteration equals the golden model's
                         worst = std::max(worst, std::abs(dev - gold));
                         largest = std::max(largest, std::abs(gold));
                     }
-            INFO(search.name << ", " << w << "x" << h << " periodic " << periodic << ": max |texel offset| "
-                             << largest << " texels, max |device - golden| " << worst);
+            INFO(search.name << ", " << w << "x" << h << " periodic x " << periodic.x << " y " << periodic.y
+                             << ": max |texel offset| " << largest << " texels, max |device - golden| "
+                             << worst);
             CHECK(largest > 1e-2);
             CHECK(worst <= search.agreement * largest);
         }
@@ -296,7 +306,8 @@ TEST_CASE("correct: the energy never rises, iteration after iteration", "[correc
     auto ctx = host::ComputeContext::acquire("auto");
     for (const Search& search : kSearches)
         for (bool corner : {false, true})
-            for (bool periodic : {true, false}) {
+            for (const host::Periodic periodic :
+                 {host::Periodic(true), host::Periodic(false), host::Periodic(true, false)}) {
                 double previous = INFINITY, first = 0.0;
                 for (int it = 0; it <= 6; ++it) {
                     auto p = with_search(params(0.4, periodic, corner), search);
@@ -306,8 +317,8 @@ TEST_CASE("correct: the energy never rises, iteration after iteration", "[correc
                     host::CorrectReport rep;
                     run(hts, w, h, p, &rep);
                     const double e = it == 0 ? rep.energy_before : rep.energy_after;
-                    INFO(search.name << ", corner " << corner << " periodic " << periodic << " iteration "
-                                     << it);
+                    INFO(search.name << ", corner " << corner << " periodic x " << periodic.x << " y "
+                                     << periodic.y << " iteration " << it);
                     REQUIRE(std::isfinite(e));
                     CHECK(e <= previous * (1.0 + 1e-7));
                     if (it == 0)
@@ -315,7 +326,8 @@ TEST_CASE("correct: the energy never rises, iteration after iteration", "[correc
                     previous = e;
                 }
                 // ... and it does fall: something moved.
-                INFO("corner " << corner << " periodic " << periodic << ": " << first << " -> " << previous);
+                INFO("corner " << corner << " periodic x " << periodic.x << " y " << periodic.y << ": "
+                               << first << " -> " << previous);
                 CHECK(previous < first * (1.0 - 1e-3));
             }
 }
@@ -436,27 +448,34 @@ TEST_CASE("correct: periodic seams stay continuous (shift equivariance)", "[corr
 {
     // Shifting a tiling height map by a multiple of 2^levels shifts its
     // offsets exactly: the seam is like any other line of the texture.
+    // With one periodic axis, a shift along it does the same (the fixed
+    // border of the other axis stays where it is).
     const int w = 64, h = 64, shift = 32;
     const auto hts = waves(w, h, 1.0, 8);
-    std::vector<float> shifted(hts.size());
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x)
-            shifted[std::size_t(y) * w + x] = hts[std::size_t((y + shift) % h) * w + (x + shift) % w];
-    for (bool corner : {false, true}) {
-        auto p = params(0.2, true, corner);
-        const auto a = run(hts, w, h, p), b = run(shifted, w, h, p);
-        double worst = 0.0, largest = 0.0;
+    for (const host::Periodic axes :
+         {host::Periodic(true), host::Periodic(true, false), host::Periodic(false, true)}) {
+        const int sx = axes.x ? shift : 0, sy = axes.y ? shift : 0;
+        std::vector<float> shifted(hts.size());
         for (int y = 0; y < h; ++y)
             for (int x = 0; x < w; ++x)
-                for (int ch = 0; ch < 2; ++ch) {
-                    const double va = a[2 * (std::size_t((y + shift) % h) * w + (x + shift) % w) + ch];
-                    const double vb = b[2 * (std::size_t(y) * w + x) + ch];
-                    worst = std::max(worst, std::abs(va - vb));
-                    largest = std::max(largest, std::abs(va));
-                }
-        INFO("corner " << corner << ": max offset " << largest << ", max shift difference " << worst);
-        CHECK(largest > 1e-4);
-        CHECK(worst <= 1e-6 * largest + 1e-9);
+                shifted[std::size_t(y) * w + x] = hts[std::size_t((y + sy) % h) * w + (x + sx) % w];
+        for (bool corner : {false, true}) {
+            auto p = params(0.2, axes, corner);
+            const auto a = run(hts, w, h, p), b = run(shifted, w, h, p);
+            double worst = 0.0, largest = 0.0;
+            for (int y = 0; y < h; ++y)
+                for (int x = 0; x < w; ++x)
+                    for (int ch = 0; ch < 2; ++ch) {
+                        const double va = a[2 * (std::size_t((y + sy) % h) * w + (x + sx) % w) + ch];
+                        const double vb = b[2 * (std::size_t(y) * w + x) + ch];
+                        worst = std::max(worst, std::abs(va - vb));
+                        largest = std::max(largest, std::abs(va));
+                    }
+            INFO("periodic x " << axes.x << " y " << axes.y << ", corner " << corner << ": max offset "
+                               << largest << ", max shift difference " << worst);
+            CHECK(largest > 1e-4);
+            CHECK(worst <= 1e-6 * largest + 1e-9);
+        }
     }
 }
 
@@ -645,6 +664,24 @@ TEST_CASE("correct: the pyramid helpers", "[correct]")
                 REQUIRE(fine[2 * (std::size_t(j) * to.nx + i) + 1] == Approx(to.v(j)).margin(1e-6));
             }
     }
+    // One periodic axis: corner nodes W along it, H+1 along the fixed one;
+    // a constant field upsamples to the constant except on the fixed axis's
+    // border rows, which stay at zero.
+    {
+        const host::Periodic x_only(true, false);
+        host::NodeGrid from(8, 6, true, x_only), to(16, 12, true, x_only);
+        CHECK((from.nx == 8 && from.ny == 7 && to.nx == 16 && to.ny == 13));
+        std::vector<float> k(2 * std::size_t(from.nx) * from.ny);
+        for (std::size_t i = 0; i < k.size(); ++i)
+            k[i] = i % 2 ? -0.01f : 0.02f;
+        const auto fine = host::upsample_offsets(k, from, to);
+        for (int j = 0; j < to.ny; ++j)
+            for (int i = 0; i < to.nx; ++i) {
+                INFO("node " << i << "," << j);
+                const bool border = j == 0 || j == to.ny - 1;
+                REQUIRE(fine[2 * (std::size_t(j) * to.nx + i)] == Approx(border ? 0.0f : 0.02f));
+            }
+    }
     CHECK(host::pyramid_sizes(1024, 1024, 0).size() == 7);
     CHECK(host::pyramid_sizes(1024, 1024, 1).size() == 1);
 }
@@ -784,7 +821,7 @@ TEST_CASE("correct: boundary=auto weighs the jump across each wrap seam against 
           "neighbours, per axis",
           "[correct]")
 {
-    // -v says the two ratios; periodic when both are at most 2.
+    // -v says the two ratios; an axis is periodic when its ratio is at most 2.
     const auto decide = [](const std::vector<float>& px, int w, int h) {
         relief::CorrectOptions o;
         o.scale = 0.05f;
@@ -809,9 +846,9 @@ TEST_CASE("correct: boundary=auto weighs the jump across each wrap seam against 
             rows[std::size_t(y) * w + x] = float(y);
         }
     CHECK_THAT(decide(ramp, w, h),
-               Catch::StartsWith("correct: boundary fixed") && Catch::Contains("x 7.00, y 1.00;"));
+               Catch::StartsWith("correct: boundary fixed,periodic (") && Catch::Contains("x 7.00, y 1.00;"));
     CHECK_THAT(decide(rows, w, h),
-               Catch::StartsWith("correct: boundary fixed") && Catch::Contains("x 1.00, y 4.00;"));
+               Catch::StartsWith("correct: boundary periodic,fixed (") && Catch::Contains("x 1.00, y 4.00;"));
     // a gentle periodic bump, jumps far below a texel: it tiles
     const int n = 32;
     std::vector<float> bump(std::size_t(n) * n);
@@ -819,14 +856,14 @@ TEST_CASE("correct: boundary=auto weighs the jump across each wrap seam against 
         for (int x = 0; x < n; ++x)
             bump[std::size_t(y) * n + x] =
                 float(0.05 * std::sin(2 * M_PI * x / n) * std::cos(2 * M_PI * (y + 0.5) / n));
-    CHECK_THAT(decide(bump, n, n), Catch::StartsWith("correct: boundary periodic"));
+    CHECK_THAT(decide(bump, n, n), Catch::StartsWith("correct: boundary periodic ("));
     // one texel off a flat map, at (0, 0): each axis's seam and its
     // neighbours carry one jump of 1 each, over h (w) seam pairs against
     // (w - 1) h ((h - 1) w) neighbour pairs: ratios w - 1 and h - 1
     std::vector<float> dot(std::size_t(w) * h, 0.0f);
     dot[0] = 1.0f;
     CHECK_THAT(decide(dot, w, h),
-               Catch::StartsWith("correct: boundary fixed") && Catch::Contains("x 7.00, y 4.00;"));
+               Catch::StartsWith("correct: boundary fixed (") && Catch::Contains("x 7.00, y 4.00;"));
     CHECK_THAT(decide(std::vector<float>(std::size_t(w) * h, 3.0f), w, h),
-               Catch::StartsWith("correct: boundary periodic") && Catch::Contains("x 1.00, y 1.00;"));
+               Catch::StartsWith("correct: boundary periodic (") && Catch::Contains("x 1.00, y 1.00;"));
 }

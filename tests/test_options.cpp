@@ -676,6 +676,20 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
              p.corner_nodes = true;
              p.periodic = false;
          }},
+        {"periodic,fixed",
+         [](CorrectOptions& o) {
+             o.boundary = {CorrectBoundary::Periodic, CorrectBoundary::Fixed};
+         },
+         [](host::CorrectParams& p) { p.periodic = host::Periodic(true, false); }},
+        {"corner nodes, fixed,periodic",
+         [](CorrectOptions& o) {
+             o.nodes = CorrectNodes::Corner;
+             o.boundary = {CorrectBoundary::Fixed, CorrectBoundary::Periodic};
+         },
+         [](host::CorrectParams& p) {
+             p.corner_nodes = true;
+             p.periodic = host::Periodic(false, true);
+         }},
         {"scale 0.5", [](CorrectOptions& o) { o.scale = 0.5f; },
          [](host::CorrectParams& p) { p.scale = 0.5f; }},
         {"3 iterations", [](CorrectOptions& o) { o.iterations = 3; },
@@ -746,7 +760,9 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
         CHECK(r.height == h);
         const std::string json = r.to_json();
         CHECK(json.find("\"width\": 40, \"height\": 36") != std::string::npos);
-        CHECK(r.boundary == (p.periodic ? "periodic" : "fixed"));
+        const auto word = [](bool periodic) { return std::string(periodic ? "periodic" : "fixed"); };
+        CHECK(r.boundary == (p.periodic.x == p.periodic.y ? word(p.periodic.x)
+                                                          : word(p.periodic.x) + "," + word(p.periodic.y)));
         CHECK(r.nodes == (p.corner_nodes ? "corner" : "center"));
         CHECK(r.scale == Approx(p.scale));
         CHECK(got.image.spec().get_string_attribute("relief:boundary") == r.boundary);
@@ -803,8 +819,8 @@ TEST_CASE("options: correction boundary=auto finds tiling maps and crops", "[opt
 {
     const int w = 48, h = 40;
     const auto hts = waves(w, h, 1.0, 11);
-    // The top-left 30 x 26 of a tiling field does not tile; nor does its
-    // left 30 columns (only the top/bottom seam continuous).
+    // The top-left 30 x 26 of a tiling field does not tile; its left 30
+    // columns tile along y only (the top/bottom seam continuous).
     auto cut = [&](int cw, int ch) {
         std::vector<float> crop(std::size_t(cw) * ch);
         for (int y = 0; y < ch; ++y)
@@ -813,17 +829,21 @@ TEST_CASE("options: correction boundary=auto finds tiling maps and crops", "[opt
         return crop;
     };
     const auto crop = cut(30, 26), strip = cut(30, h);
-    for (const auto& [px, iw, ih, tiles] :
-         {std::tuple{&hts, w, h, true}, std::tuple{&crop, 30, 26, false}, std::tuple{&strip, 30, h, false}}) {
-        INFO(iw << "x" << ih << (tiles ? " tiling" : " crop"));
+    using B = CorrectBoundaries;
+    for (const auto& [px, iw, ih, want, word] :
+         {std::tuple{&hts, w, h, B(CorrectBoundary::Periodic), "periodic"},
+          std::tuple{&crop, 30, 26, B(CorrectBoundary::Fixed), "fixed"},
+          std::tuple{&strip, 30, h, B(CorrectBoundary::Fixed, CorrectBoundary::Periodic),
+                     "fixed,periodic"}}) {
+        INFO(iw << "x" << ih << ": " << word);
         const ImageBuf img = test::image(iw, ih, 1, *px);
         CorrectOptions o;
         o.scale = 0.3f;
         o.nodes = CorrectNodes::Center;
         const ApiCorrection got = api_correct(img, o);
-        CHECK(got.report.boundary == (tiles ? "periodic" : "fixed"));
-        CHECK(got.said.find(tiles ? "boundary periodic" : "boundary fixed") != std::string::npos);
-        o.boundary = tiles ? CorrectBoundary::Periodic : CorrectBoundary::Fixed;
+        CHECK(got.report.boundary == word);
+        CHECK(got.said.find(std::string("boundary ") + word + " (") != std::string::npos);
+        o.boundary = want;
         CHECK(max_abs_diff(api_correct(img, o).offsets, got.offsets) == 0.0);
     }
 }

@@ -7,9 +7,10 @@
 namespace relief::reference {
 
 std::vector<double> bake_gather(const std::vector<double>& src, int w, int h, int nch,
-                                const std::vector<double>& offsets, bool periodic, bool bicubic)
+                                const std::vector<double>& offsets, bool periodic_x, bool periodic_y,
+                                bool bicubic)
 {
-    auto idx = [&](int v, int n) {
+    auto idx = [&](int v, int n, bool periodic) {
         if (periodic)
             return ((v % n) + n) % n;
         return std::clamp(v, 0, n - 1);
@@ -36,7 +37,8 @@ std::vector<double> bake_gather(const std::vector<double>& src, int w, int h, in
                         const double wgt =
                             bicubic ? cubic(x - a) * cubic(y - b)
                                     : std::max(0.0, 1 - std::abs(x - a)) * std::max(0.0, 1 - std::abs(y - b));
-                        v += wgt * src[(std::size_t(idx(b, h)) * w + idx(a, w)) * nch + ch];
+                        v += wgt *
+                             src[(std::size_t(idx(b, h, periodic_y)) * w + idx(a, w, periodic_x)) * nch + ch];
                     }
                 out[p * nch + ch] = v;
             }

@@ -67,7 +67,7 @@ double fan_energy_at(const CorrectionGrid& g, const std::vector<double>& c, int 
 
 bool movable(const CorrectionGrid& g, int i, int j)
 {
-    return g.periodic || (i > 0 && j > 0 && i < g.nx - 1 && j < g.ny - 1);
+    return (g.periodic_x || (i > 0 && i < g.nx - 1)) && (g.periodic_y || (j > 0 && j < g.ny - 1));
 }
 
 void update_node(const CorrectionGrid& g, std::vector<double>& c, int i, int j)
@@ -237,7 +237,7 @@ double total_energy(const CorrectionGrid& g, const std::vector<double>& c)
     double e = 0.0;
     for (int j = 0; j < g.ny; ++j)
         for (int i = 0; i < g.nx; ++i) {
-            if (g.periodic || (i + 1 < g.nx && j >= 1)) {
+            if ((g.periodic_x || i + 1 < g.nx) && (g.periodic_y || j >= 1)) {
                 // Owned triangles = fan triangles 0 and 1 of p.
                 for (int t = 0; t < 2; ++t) {
                     const Edges a =
@@ -297,16 +297,17 @@ Vec2 fan_gradient(const CorrectionGrid& g, const std::vector<double>& c, int i, 
 void iterate(const CorrectionGrid& g, std::vector<double>& c)
 {
     // Per axis: even, odd, and the last node of an odd periodic axis.
-    auto classes = [&](int n) { return g.periodic && n % 2 == 1 && n > 1 ? 3 : 2; };
-    auto in_class = [&](int v, int n, int cls) {
-        const bool last_odd = g.periodic && n % 2 == 1 && v == n - 1;
+    auto classes = [&](int n, bool periodic) { return periodic && n % 2 == 1 && n > 1 ? 3 : 2; };
+    auto in_class = [&](int v, int n, bool periodic, int cls) {
+        const bool last_odd = periodic && n % 2 == 1 && v == n - 1;
         return cls == 2 ? last_odd : (!last_odd && v % 2 == cls);
     };
-    for (int cy = 0; cy < classes(g.ny); ++cy)
-        for (int cx = 0; cx < classes(g.nx); ++cx)
+    for (int cy = 0; cy < classes(g.ny, g.periodic_y); ++cy)
+        for (int cx = 0; cx < classes(g.nx, g.periodic_x); ++cx)
             for (int j = 0; j < g.ny; ++j)
                 for (int i = 0; i < g.nx; ++i)
-                    if (in_class(i, g.nx, cx) && in_class(j, g.ny, cy) && movable(g, i, j))
+                    if (in_class(i, g.nx, g.periodic_x, cx) && in_class(j, g.ny, g.periodic_y, cy) &&
+                        movable(g, i, j))
                         update_node(g, c, i, j);
 }
 

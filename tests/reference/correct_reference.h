@@ -12,7 +12,9 @@ namespace relief::reference {
 
 struct CorrectionGrid {
     int nx = 0, ny = 0;
-    bool periodic = true;  // else the border nodes are fixed
+    // Per axis: the grid wraps (the texture tiles along it), else the
+    // border nodes at that axis's two ends are fixed.
+    bool periodic_x = true, periodic_y = true;
     double theta = 5.0;
     std::vector<double> z;    // height per node, texels
     std::vector<double> fix;  // fixation weight per node, or empty

@@ -25,7 +25,8 @@ enum class BakeColorspace { Auto, SRGB, Linear, Raw };
 // stay where they are.
 enum class BakeKind { Auto, Color, Normal, Data, Height };
 // Periodic: reads wrap around (tiling textures); Clamp: they stop at the
-// edge; Auto: what the offset map's relief:boundary says (periodic, else clamp).
+// edge; Auto: what the offset map's relief:boundary says, per axis
+// (periodic, else clamp; "periodic,fixed": wrap along x only).
 enum class BakeWrap { Auto, Periodic, Clamp };
 
 struct BakeOptions {

@@ -18,10 +18,26 @@ namespace relief {
 // texel is the mean of its four corners' (the reference tool's default).
 // Center: one node per texel centre, with the texel's height.
 enum class CorrectNodes { Corner, Center };
-// Periodic: the texture tiles (the mesh wraps). Fixed: the border nodes stay
-// put. Auto: periodic when the height jumps across the wrap seams no more
-// than twice the mean jump between neighbouring texels; the choice is reported.
+// Periodic: the texture tiles along the axis (the mesh wraps). Fixed: the
+// border nodes at the axis's two ends stay put. Auto: periodic when the
+// height jumps across that axis's wrap seam no more than twice the mean jump
+// between neighbouring texels; the choice is reported.
 enum class CorrectBoundary { Auto, Periodic, Fixed };
+// A boundary for each axis, x first, as relief::Boundaries for height():
+// one value sets both axes, and compared with one value both must have it.
+struct CorrectBoundaries {
+    CorrectBoundary x = CorrectBoundary::Auto, y = CorrectBoundary::Auto;
+    constexpr CorrectBoundaries(CorrectBoundary both = CorrectBoundary::Auto) : x(both), y(both) {}
+    constexpr CorrectBoundaries(CorrectBoundary along_x, CorrectBoundary along_y) : x(along_x), y(along_y) {}
+    friend constexpr bool operator==(const CorrectBoundaries& a, const CorrectBoundaries& b)
+    {
+        return a.x == b.x && a.y == b.y;
+    }
+    friend constexpr bool operator!=(const CorrectBoundaries& a, const CorrectBoundaries& b)
+    {
+        return !(a == b);
+    }
+};
 // The line search along each node's descent direction: Brent's minimiser
 // (parabolic steps, precision relative to the step), golden section (one
 // energy evaluation per step) or ternary (two per step; the first
@@ -44,7 +60,7 @@ struct CorrectLevelReport {
 
 struct CorrectReport {
     bool skipped = false;        // nothing could distort: zero offsets, no solve
-    std::string boundary;        // "periodic" or "fixed", as chosen
+    std::string boundary;        // "periodic", "fixed" or x's,y's ("periodic,fixed"), as chosen
     std::string nodes;           // "corner" or "center"
     double scale = 0.0;          // the displacement scale used
     double energy_before = 0.0;  // at zero offsets
@@ -66,7 +82,7 @@ struct CorrectOptions {
     float scale = 0.0f;
     float theta = 5.0f;  // area exponent, 0..20
     CorrectNodes nodes = CorrectNodes::Corner;
-    CorrectBoundary boundary = CorrectBoundary::Auto;
+    CorrectBoundaries boundary = CorrectBoundary::Auto;
     // Fixation (optional): texels with weight w stay within 1/w texels of
     // where they started. Either channel 0 of `fix_mask` (same size, values
     // >= 0; not owned) or a tent over the stored height: w = max(0, 1 -

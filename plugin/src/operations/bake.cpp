@@ -145,9 +145,15 @@ bool bake(ImageBuf& dst, const ImageBuf& texture, const ImageBuf& offsets, const
             throw std::runtime_error(
                 "refusing to bake a displacement (height) map: its texels must stay where they "
                 "are, the offsets are computed from it (pass kind=data if this is not a height map)");
-        const bool periodic = options.wrap == BakeWrap::Periodic ||
-                              (options.wrap == BakeWrap::Auto &&
-                               offsets.spec().get_string_attribute("relief:boundary") == "periodic");
+        // Auto: as the correction's boundary per axis ("periodic,fixed":
+        // wrap along x, clamp along y).
+        const std::string boundary = offsets.spec().get_string_attribute("relief:boundary");
+        const std::size_t comma = boundary.find(',');
+        const std::string bx = boundary.substr(0, comma),
+                          by = comma == std::string::npos ? bx : boundary.substr(comma + 1);
+        const host::Periodic periodic = options.wrap == BakeWrap::Auto
+                                            ? host::Periodic(bx == "periodic", by == "periodic")
+                                            : host::Periodic(options.wrap == BakeWrap::Periodic);
         std::string space;
         if (kind == BakeKind::Color)
             space = resolve_space(options, texture);
@@ -161,7 +167,10 @@ bool bake(ImageBuf& dst, const ImageBuf& texture, const ImageBuf& offsets, const
                                                                         detail::colour_engine())
                                                  : std::string()) +
                         ", " + (options.filter == BakeFilter::Bicubic ? "bicubic" : "bilinear") + ", " +
-                        (periodic ? "wrapping" : "clamped at the edges"));
+                        (periodic.x && periodic.y ? "wrapping"
+                         : periodic.x             ? "wrapping along x, clamped at the top and bottom"
+                         : periodic.y             ? "wrapping along y, clamped at the left and right"
+                                                  : "clamped at the edges"));
 
         if (!space.empty())
             detail::to_linear(px, nch, space);

@@ -27,6 +27,14 @@ DistortionSummary summary(const host::DistortionStats& s)
     return {s.mean, s.p95, s.max};
 }
 
+// "periodic", "fixed", or x's and y's ("periodic,fixed"): the word of the
+// boundary modifier that reproduces the choice.
+std::string boundary_name(host::Periodic p)
+{
+    const auto word = [](bool periodic) { return periodic ? "periodic" : "fixed"; };
+    return p.x == p.y ? word(p.x) : std::string(word(p.x)) + "," + word(p.y);
+}
+
 const char* search_name(CorrectSearch s)
 {
     return s == CorrectSearch::Ternary ? "ternary" : s == CorrectSearch::Golden ? "golden" : "brent";
@@ -93,17 +101,24 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         }
         p.theta = options.theta;
         p.corner_nodes = options.nodes == CorrectNodes::Corner;
+        // Each axis on its own, as the height's boundary=auto decides; a
+        // seam needs two texels across both axes to be measured.
         double rx = 0, ry = 0;
-        if (options.boundary == CorrectBoundary::Auto) {
-            p.periodic = w > 1 && h > 1 && detail::seams_continuous(heights, w, h, rx, ry);
+        const bool measurable = w > 1 && h > 1;
+        if (measurable &&
+            (options.boundary.x == CorrectBoundary::Auto || options.boundary.y == CorrectBoundary::Auto))
+            detail::seams_continuous(heights, w, h, rx, ry);
+        const auto axis = [&](CorrectBoundary b, double r) {
+            return b == CorrectBoundary::Auto ? measurable && r <= 2.0 : b == CorrectBoundary::Periodic;
+        };
+        p.periodic = host::Periodic(axis(options.boundary.x, rx), axis(options.boundary.y, ry));
+        const std::string chosen = boundary_name(p.periodic);
+        if (options.boundary.x == CorrectBoundary::Auto || options.boundary.y == CorrectBoundary::Auto)
             detail::say(options.exec, Severity::Notice,
-                        std::string("correct: boundary ") + (p.periodic ? "periodic" : "fixed") +
+                        "correct: boundary " + chosen +
                             " (height jump across the wrap seam / mean jump between neighbours: x " +
                             detail::format_double("%.2f", rx) + ", y " + detail::format_double("%.2f", ry) +
-                            "; periodic when both <= 2)");
-        } else {
-            p.periodic = options.boundary == CorrectBoundary::Periodic;
-        }
+                            "; an axis is periodic at <= 2)");
         std::vector<float> fix;
         if (options.fix_mask) {
             const ImageBuf& m = *options.fix_mask;
@@ -143,7 +158,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         rep.width = w;
         rep.height = h;
         rep.skipped = hr.skipped;
-        rep.boundary = p.periodic ? "periodic" : "fixed";
+        rep.boundary = chosen;
         rep.nodes = p.corner_nodes ? "corner" : "center";
         rep.scale = p.scale;
         rep.energy_before = hr.energy_before;

@@ -86,7 +86,8 @@ std::string validate(const CorrectOptions& o)
 {
     if (std::string p =
             first({choice_problem("nodes", o.nodes, 2, "corner|center"),
-                   choice_problem("boundary", o.boundary, 3, "auto|periodic|fixed"),
+                   choice_problem("boundary", o.boundary.x, 3, "auto|periodic|fixed"),
+                   choice_problem("boundary", o.boundary.y, 3, "auto|periodic|fixed"),
                    choice_problem("search", o.search, 3, "brent|golden|ternary"),
                    range_problem(limits::displacement_scale, o.scale), range_problem(limits::theta, o.theta),
                    range_problem(limits::iterations, o.iterations),

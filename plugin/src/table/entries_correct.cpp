@@ -43,12 +43,16 @@ Operation correct_operation()
             "", "mesh nodes at texel corners or centres"),
         choice(
             "boundary", [k](auto& c) -> auto& { return k(c).boundary; },
-            std::vector<std::pair<std::string, CorrectBoundary>>{{"auto", CorrectBoundary::Auto},
-                                                                 {"periodic", CorrectBoundary::Periodic},
-                                                                 {"fixed", CorrectBoundary::Fixed}},
+            std::vector<std::pair<std::string, CorrectBoundaries>>{
+                {"auto", CorrectBoundary::Auto},
+                {"periodic", CorrectBoundary::Periodic},
+                {"fixed", CorrectBoundary::Fixed},
+                {"periodic,fixed", {CorrectBoundary::Periodic, CorrectBoundary::Fixed}},
+                {"fixed,periodic", {CorrectBoundary::Fixed, CorrectBoundary::Periodic}}},
             "",
-            "periodic: the texture tiles; fixed: the border stays; auto: periodic when the "
-            "height is continuous across the wrap seams"),
+            "periodic: the texture tiles; fixed: the border stays; X,Y: x's and y's "
+            "(periodic,fixed: tiles along x only); auto: each axis periodic when the height is "
+            "continuous across its wrap seam"),
         [k] {
             Modifier m;
             m.info.name = "fix";
@@ -175,7 +179,7 @@ Operation bake_operation()
             "wrap", [b](auto& c) -> auto& { return b(c).wrap; },
             std::vector<std::pair<std::string, BakeWrap>>{
                 {"auto", BakeWrap::Auto}, {"periodic", BakeWrap::Periodic}, {"clamp", BakeWrap::Clamp}},
-            "", "auto: periodic when the offsets were computed with boundary=periodic"),
+            "", "auto: per axis, periodic where the offsets were computed with a periodic boundary"),
     };
     op.validate = [](const OperationCall& c) { return relief::validate(c.bake); };
     op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
