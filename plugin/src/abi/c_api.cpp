@@ -130,6 +130,30 @@ relief::OperationCall parse_call(const char* device, const char* operation, cons
     return call;
 }
 
+// Runs the body of a C entry point that makes images: RELIEF_OK when it
+// returns, RELIEF_INVALID for a refusal, RELIEF_FAILED otherwise, the
+// message left for relief_last_error() and `leave_nothing` run so that no
+// output is half made.
+template <class Body, class Cleanup>
+int run_entry(const char* entry, Body body, Cleanup leave_nothing)
+{
+    c_last_error.clear();
+    int status = RELIEF_FAILED;
+    try {
+        body();
+        return RELIEF_OK;
+    } catch (const Refused& e) {
+        c_last_error = e.what();
+        status = RELIEF_INVALID;
+    } catch (const std::exception& e) {
+        c_last_error = e.what();
+    } catch (...) {
+        c_last_error = std::string(entry) + ": unknown failure";
+    }
+    leave_nothing();
+    return status;
+}
+
 }  // namespace
 
 extern "C" {
@@ -158,97 +182,83 @@ int relief_run(const char* operation, const char* modifiers, const relief_image*
 int relief_run_on(const char* device, const char* operation, const char* modifiers,
                   const relief_image* inputs, int n_inputs, relief_image* output)
 {
-    c_last_error.clear();
-    int status = RELIEF_FAILED;
-    try {
-        if (!output)
-            throw Refused("relief_run: output is NULL");
-        const relief::OperationCall call = parse_call(device, operation, modifiers);
-        const std::string op = operation;
-        const relief::OperationInfo& info = *relief::find_operation(op);
-        if (n_inputs != int(info.inputs.size()) || (n_inputs > 0 && !inputs))
-            throw Refused(op + " takes " + std::to_string(info.inputs.size()) + " image(s), got " +
-                          std::to_string(inputs ? n_inputs : 0));
-        std::vector<ImageBuf> bufs;
-        bufs.reserve(n_inputs);
-        for (int i = 0; i < n_inputs; ++i)
-            bufs.push_back(to_imagebuf(inputs[i], info.inputs[i], op));
-        std::vector<const ImageBuf*> ptrs;
-        for (const ImageBuf& b : bufs)
-            ptrs.push_back(&b);
-        // Only now: `output` may be one of the inputs.
-        *output = relief_image{};
-        ImageBuf result;
-        relief::Execution exec;
-        exec.device = device;
-        if (!relief::run_operation(result, call, ptrs, exec))
-            throw std::runtime_error(relief::geterror());
-        to_c_image(result, output);
-        return RELIEF_OK;
-    } catch (const Refused& e) {
-        c_last_error = e.what();
-        status = RELIEF_INVALID;
-    } catch (const std::exception& e) {
-        c_last_error = e.what();
-    } catch (...) {
-        c_last_error = "relief_run: unknown failure";
-    }
-    if (output)
-        *output = relief_image{};
-    return status;
+    return run_entry(
+        "relief_run",
+        [&] {
+            if (!output)
+                throw Refused("relief_run: output is NULL");
+            const relief::OperationCall call = parse_call(device, operation, modifiers);
+            const std::string op = operation;
+            const relief::OperationInfo& info = *relief::find_operation(op);
+            if (n_inputs != int(info.inputs.size()) || (n_inputs > 0 && !inputs))
+                throw Refused(op + " takes " + std::to_string(info.inputs.size()) + " image(s), got " +
+                              std::to_string(inputs ? n_inputs : 0));
+            std::vector<ImageBuf> bufs;
+            bufs.reserve(n_inputs);
+            for (int i = 0; i < n_inputs; ++i)
+                bufs.push_back(to_imagebuf(inputs[i], info.inputs[i], op));
+            std::vector<const ImageBuf*> ptrs;
+            for (const ImageBuf& b : bufs)
+                ptrs.push_back(&b);
+            // Only now: `output` may be one of the inputs.
+            *output = relief_image{};
+            ImageBuf result;
+            relief::Execution exec;
+            exec.device = device;
+            if (!relief::run_operation(result, call, ptrs, exec))
+                throw std::runtime_error(relief::geterror());
+            to_c_image(result, output);
+        },
+        [&] {
+            if (output)
+                *output = relief_image{};
+        });
 }
 
 int relief_run_tiles(const char* device, const char* operation, const char* modifiers, const int* tiles,
                      const relief_image* inputs, int n_tiles, relief_image* outputs)
 {
-    c_last_error.clear();
-    int status = RELIEF_FAILED;
-    std::vector<ImageBuf> results;
     bool zeroed = false;  // outputs hold nothing of the caller's any more
-    try {
-        if (!outputs)
-            throw Refused("relief_run_tiles: outputs is NULL");
-        const relief::OperationCall call = parse_call(device, operation, modifiers);
-        const std::string op = operation;
-        const relief::OperationInfo& info = *relief::find_operation(op);
-        if (info.inputs.size() != 1)
-            throw Refused(op + " does not take the tiles of a UDIM set at once");
-        if (n_tiles < 1 || !tiles || !inputs)
-            throw Refused(op + ": a UDIM set needs at least one tile, its number and its image");
-        std::vector<ImageBuf> bufs;
-        bufs.reserve(n_tiles);
-        for (int i = 0; i < n_tiles; ++i)
-            bufs.push_back(to_imagebuf(inputs[i], info.inputs[0], op));
-        std::vector<const ImageBuf*> ptrs;
-        for (const ImageBuf& b : bufs)
-            ptrs.push_back(&b);
-        const std::vector<int> numbers(tiles, tiles + n_tiles);
-        // Only now: `outputs` may be the inputs' own array.
-        for (int i = 0; i < n_tiles; ++i)
-            outputs[i] = relief_image{};
-        zeroed = true;
-        relief::Execution exec;
-        exec.device = device;
-        if (!relief::run_operation_on_tiles(results, call, numbers, ptrs, exec))
-            throw std::runtime_error(relief::geterror());
-        for (int i = 0; i < n_tiles; ++i)
-            to_c_image(results[i], &outputs[i]);
-        return RELIEF_OK;
-    } catch (const Refused& e) {
-        c_last_error = e.what();
-        status = RELIEF_INVALID;
-    } catch (const std::exception& e) {
-        c_last_error = e.what();
-    } catch (...) {
-        c_last_error = "relief_run_tiles: unknown failure";
-    }
-    if (outputs)
-        for (int i = 0; i < n_tiles; ++i) {
-            if (zeroed)
-                relief_image_free(&outputs[i]);  // (the results made before the failure)
-            outputs[i] = relief_image{};
-        }
-    return status;
+    return run_entry(
+        "relief_run_tiles",
+        [&] {
+            if (!outputs)
+                throw Refused("relief_run_tiles: outputs is NULL");
+            const relief::OperationCall call = parse_call(device, operation, modifiers);
+            const std::string op = operation;
+            const relief::OperationInfo& info = *relief::find_operation(op);
+            if (info.inputs.size() != 1)
+                throw Refused(op + " does not take the tiles of a UDIM set at once");
+            if (n_tiles < 1 || !tiles || !inputs)
+                throw Refused(op + ": a UDIM set needs at least one tile, its number and its image");
+            std::vector<ImageBuf> bufs;
+            bufs.reserve(n_tiles);
+            for (int i = 0; i < n_tiles; ++i)
+                bufs.push_back(to_imagebuf(inputs[i], info.inputs[0], op));
+            std::vector<const ImageBuf*> ptrs;
+            for (const ImageBuf& b : bufs)
+                ptrs.push_back(&b);
+            const std::vector<int> numbers(tiles, tiles + n_tiles);
+            // Only now: `outputs` may be the inputs' own array.
+            for (int i = 0; i < n_tiles; ++i)
+                outputs[i] = relief_image{};
+            zeroed = true;
+            std::vector<ImageBuf> results;
+            relief::Execution exec;
+            exec.device = device;
+            if (!relief::run_operation_on_tiles(results, call, numbers, ptrs, exec))
+                throw std::runtime_error(relief::geterror());
+            for (int i = 0; i < n_tiles; ++i)
+                to_c_image(results[i], &outputs[i]);
+        },
+        [&] {
+            if (outputs)
+                for (int i = 0; i < n_tiles; ++i) {
+                    if (zeroed)
+                        relief_image_free(&outputs[i]);  // (the results made before the failure)
+                    outputs[i] = relief_image{};
+                }
+        });
 }
 
 void relief_image_free(relief_image* image)
