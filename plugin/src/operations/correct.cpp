@@ -101,24 +101,18 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         }
         p.theta = options.theta;
         p.corner_nodes = options.nodes == CorrectNodes::Corner;
-        // Each axis on its own, as the height's boundary=auto decides; a
-        // seam needs two texels across both axes to be measured.
-        double rx = 0, ry = 0;
-        const bool measurable = w > 1 && h > 1;
-        if (measurable &&
-            (options.boundary.x == CorrectBoundary::Auto || options.boundary.y == CorrectBoundary::Auto))
-            detail::seams_continuous(heights, w, h, rx, ry);
-        const auto axis = [&](CorrectBoundary b, double r) {
-            return b == CorrectBoundary::Auto ? measurable && r <= 2.0 : b == CorrectBoundary::Periodic;
+        const bool any_auto =
+            options.boundary.x == CorrectBoundary::Auto || options.boundary.y == CorrectBoundary::Auto;
+        const detail::SeamTest seams = any_auto ? detail::seam_test(heights, w, h) : detail::SeamTest{};
+        const auto axis = [](CorrectBoundary b, bool seam_periodic) {
+            return b == CorrectBoundary::Auto ? seam_periodic : b == CorrectBoundary::Periodic;
         };
-        p.periodic = host::Periodic(axis(options.boundary.x, rx), axis(options.boundary.y, ry));
+        p.periodic = host::Periodic(axis(options.boundary.x, seams.periodic.x),
+                                    axis(options.boundary.y, seams.periodic.y));
         const std::string chosen = boundary_name(p.periodic);
-        if (options.boundary.x == CorrectBoundary::Auto || options.boundary.y == CorrectBoundary::Auto)
+        if (any_auto)
             detail::say(options.exec, Severity::Notice,
-                        "correct: boundary " + chosen +
-                            " (height jump across the wrap seam / mean jump between neighbours: x " +
-                            detail::format_double("%.2f", rx) + ", y " + detail::format_double("%.2f", ry) +
-                            "; an axis is periodic at <= 2)");
+                        "correct: boundary " + chosen + " (" + seams.numbers() + ")");
         std::vector<float> fix;
         if (options.fix_mask) {
             const ImageBuf& m = *options.fix_mask;

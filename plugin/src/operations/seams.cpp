@@ -44,10 +44,11 @@ std::vector<float> height_channel(const OIIO::ImageBuf& height, OIIO::ROI roi, c
     return h;
 }
 
-// Periodic when, along both axes, the height jump across the wrap seam is
-// at most twice the mean jump between neighbours.
-bool seams_continuous(const std::vector<float>& h, int w, int ht, double& ratio_x, double& ratio_y)
+SeamTest seam_test(const std::vector<float>& h, int w, int ht)
 {
+    SeamTest t;
+    if (w < 2 || ht < 2)
+        return t;
     auto at = [&](int x, int y) { return double(h[std::size_t(y) * w + x]); };
     double seam_x = 0, in_x = 0, seam_y = 0, in_y = 0;
     for (int y = 0; y < ht; ++y) {
@@ -62,11 +63,19 @@ bool seams_continuous(const std::vector<float>& h, int w, int ht, double& ratio_
     }
     seam_x /= ht;
     seam_y /= w;
-    in_x /= std::max(1, (w - 1) * ht);
-    in_y /= std::max(1, (ht - 1) * w);
-    ratio_x = in_x > 0 ? seam_x / in_x : (seam_x > 0 ? INFINITY : 1.0);
-    ratio_y = in_y > 0 ? seam_y / in_y : (seam_y > 0 ? INFINITY : 1.0);
-    return ratio_x <= 2.0 && ratio_y <= 2.0;
+    in_x /= (w - 1) * ht;
+    in_y /= (ht - 1) * w;
+    t.ratio_x = in_x > 0 ? seam_x / in_x : (seam_x > 0 ? INFINITY : 1.0);
+    t.ratio_y = in_y > 0 ? seam_y / in_y : (seam_y > 0 ? INFINITY : 1.0);
+    t.periodic = {t.ratio_x <= 2.0, t.ratio_y <= 2.0};
+    return t;
+}
+
+std::string SeamTest::numbers() const
+{
+    return "height jump across the wrap seam / mean jump between neighbours: x " +
+           format_double("%.2f", ratio_x) + ", y " + format_double("%.2f", ratio_y) +
+           "; an axis is periodic at <= 2";
 }
 
 std::string wrap_name(Wrap wrap)
@@ -118,19 +127,12 @@ Wrap height_wrap(const OIIO::ImageBuf& height, const std::vector<float>& h, int 
                 " (the height was integrated with boundary=" + recorded + ")");
         return wrap;
     }
-    // Each axis on its own, as the height's boundary=auto decides.
-    double rx = 0.0, ry = 0.0;
-    if (w > 1 && ht > 1)
-        seams_continuous(h, w, ht, rx, ry);
+    const SeamTest seams = seam_test(h, w, ht);
     if (requested.x == Boundary::Auto)
-        wrap.x = w > 1 && ht > 1 && rx <= 2.0;
+        wrap.x = seams.periodic.x;
     if (requested.y == Boundary::Auto)
-        wrap.y = w > 1 && ht > 1 && ry <= 2.0;
-    say(exec, Severity::Notice,
-        operation + ": boundary " + wrap_name(wrap) +
-            " (height jump across the wrap seam / mean jump between neighbours: x " +
-            format_double("%.2f", rx) + ", y " + format_double("%.2f", ry) +
-            "; an axis is periodic at <= 2)");
+        wrap.y = seams.periodic.y;
+    say(exec, Severity::Notice, operation + ": boundary " + wrap_name(wrap) + " (" + seams.numbers() + ")");
     return wrap;
 }
 

@@ -24,20 +24,27 @@ std::vector<float> channel0(const OIIO::ImageBuf& img, OIIO::ROI roi, const char
 std::vector<float> height_channel(const OIIO::ImageBuf& height, OIIO::ROI roi, const Execution& exec,
                                   const std::string& operation, float scale = 1.0f);
 
-// Periodic when, along both axes, the height jump across the wrap seam is
-// at most twice the mean jump between neighbours; the two ratios are returned.
-bool seams_continuous(const std::vector<float>& h, int w, int ht, double& ratio_x, double& ratio_y);
-
 // Whether a height wraps along x and along y.
 struct Wrap {
     bool x = false, y = false;
 };
 
+// The seam test of boundary=auto on a height, each axis on its own: the
+// height jump across the axis's wrap seam over the mean jump between
+// neighbours, periodic at most 2. A map under two texels across is
+// periodic on neither axis (ratios 0: a seam needs two texels).
+struct SeamTest {
+    double ratio_x = 0.0, ratio_y = 0.0;
+    Wrap periodic;
+    // The numbers for a notice: "height jump across ...: x R, y R; ...".
+    std::string numbers() const;
+};
+SeamTest seam_test(const std::vector<float>& h, int w, int ht);
+
 // The boundary a check applies to `height` (its pixels h, w x ht), per
 // axis: `requested` unless Auto; then the boundary relief:parameters
-// records (the one the height was integrated with), else the seam test
-// (both axes periodic or both free when both are Auto, else the axis's own
-// ratio). Says which, and why, as `operation`'s Notice.
+// records (the one the height was integrated with), else seam_test() for
+// each axis on Auto. Says which, and why, as `operation`'s Notice.
 Wrap height_wrap(const OIIO::ImageBuf& height, const std::vector<float>& h, int w, int ht,
                  Boundaries requested, const Execution& exec, const std::string& operation);
 
