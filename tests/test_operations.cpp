@@ -509,11 +509,13 @@ TEST_CASE("prepare: set-up ahead, beside a running height, changes nothing but t
     const ImageBuf m = test::image(w + 2, h, 3, wavy_normals(w + 2, h));
     CHECK(relief::height(m, free_edges).initialized());
     CHECK(relief::setup_times().plans - plans < 0.01);
-    // problems are left to the operation
-    const std::string error = relief::geterror();
+    // problems are left to the operation: prepare() sets no error (the read
+    // first clears what an earlier test on this thread left, e.g. a preview
+    // without its font on a machine that lacks fonts-dejavu-core)
+    relief::geterror();
     relief::prepare("9:9", 64, 64);
     relief::prepare("auto", 0, -3);
-    CHECK(relief::geterror() == error);
+    CHECK(relief::geterror().empty());
 }
 
 TEST_CASE("operations: what a front end asks of a call, answered by the table without its name",
