@@ -49,12 +49,16 @@ ImageBuf to_imagebuf(const py::array& input, const relief::ImageSlot& slot, cons
     if (input.ndim() != 2 && input.ndim() != 3)
         throw py::value_error(what + " must be H x W or H x W x C, not " + std::to_string(input.ndim()) +
                               "-dimensional");
-    const py::array a = py::array::ensure(input, py::array::c_style);
-    const int h = int(a.shape(0)), w = int(a.shape(1)), c = a.ndim() == 3 ? int(a.shape(2)) : 1;
-    const std::string problem = relief::input_problem(op, slot, w, h, c);
+    // The shape is checked before anything is copied: a broadcast array
+    // can claim more pixels than the machine holds.
+    const long long h = input.shape(0), w = input.shape(1), c = input.ndim() == 3 ? input.shape(2) : 1;
+    const std::string problem = relief::input_problem(op, slot, w, h, c, int(type.size()));
     if (!problem.empty())
         throw py::value_error(problem);
-    ImageBuf buf(OIIO::ImageSpec(w, h, c, type));
+    const py::array a = py::array::ensure(input, py::array::c_style);
+    if (!a)  // numpy could not make the copy (its MemoryError is set)
+        throw py::error_already_set();
+    ImageBuf buf(OIIO::ImageSpec(int(w), int(h), int(c), type));
     if (!buf.set_pixels(buf.roi(), type, a.data()))
         throw std::runtime_error(what + ": " + buf.geterror());
     for (const auto& [key, value] : metadata)

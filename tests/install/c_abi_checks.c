@@ -88,6 +88,17 @@ int main(int argc, char** argv)
     relief_image empty = {0, H, 3, RELIEF_UINT8, px, NULL};
     refused(r, "height", "", &empty, 1, "both must be > 0");
     CHECK(r->run("height", "", &normals, 1, NULL) == RELIEF_INVALID, "a NULL output is refused");
+    /* Sizes are refused before a pixel is read: each image below claims far
+     * more pixels than `px` holds, so a copy would read past it. */
+    relief_image huge = {100000, 100000, 3, RELIEF_UINT8, px, NULL};
+    refused(r, "height", "", &huge, 1, "a 100000x100000 map is larger than this version handles");
+    relief_image tall = {1, 2147483647, 3, RELIEF_UINT8, px, NULL};
+    refused(r, "height", "", &tall, 1, "a 1x2147483647 map is larger than this version handles");
+    setenv("RELIEF_MEMORY_LIMIT", "64M", 1);
+    relief_image big = {8000, 8000, 3, RELIEF_FLOAT, px, NULL};
+    refused(r, "height", "", &big, 1,
+            "(8000x8000x3) needs 768.0 MB of memory, this machine has 67.1 MB (RELIEF_MEMORY_LIMIT) to copy");
+    unsetenv("RELIEF_MEMORY_LIMIT");
 
     relief_image h;
     CHECK(r->run("height", "normal=opengl:boundary=periodic", &normals, 1, &h) == RELIEF_OK, "height runs");

@@ -161,6 +161,18 @@ class Refusals(unittest.TestCase):
         self.refused(relief.height, np.zeros((8,), np.uint8), contains="H x W or H x W x C")
         self.refused(relief.bake, self.n, contains="bake takes 2 image(s)")
 
+    def test_sizes_are_refused_before_any_copy(self):
+        # 3 floats that claim 30 GB: refused from the shape, never copied
+        huge = np.broadcast_to(np.zeros(3, np.float32), (50000, 50000, 3))
+        self.refused(relief.height, huge, contains="a 50000x50000 map is larger than this version handles")
+        big = np.broadcast_to(np.zeros(3, np.float32), (8000, 8000, 3))
+        os.environ["RELIEF_MEMORY_LIMIT"] = "64M"
+        try:
+            self.refused(relief.height, big,
+                         contains="(8000x8000x3) needs 768.0 MB of memory, this machine has 67.1 MB")
+        finally:
+            del os.environ["RELIEF_MEMORY_LIMIT"]
+
     def test_a_failed_run_raises_runtime_error(self):
         with self.assertRaises(RuntimeError) as e:
             relief.height(self.n, mask="alpha")

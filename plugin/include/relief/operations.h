@@ -65,9 +65,12 @@ RELIEF_API const OperationInfo* find_operation(const std::string& name);
 RELIEF_API std::string range_text(const ModifierInfo& modifier);
 // Why an image of width x height x channels cannot be input `slot` of
 // `operation` ("height: input 'normals' has 7 channel(s); height takes 2 to
-// 4"), or "" when it can. The C ABI and Python check their images with it.
-RELIEF_API std::string input_problem(const std::string& operation, const ImageSlot& slot, int width,
-                                     int height, int channels);
+// 4"), or "" when it can: its shape, the kernels' index range, and, with
+// `bytes_per_channel` > 0, whether this machine has the memory to copy its
+// pixels. The C ABI and Python check their images with it before they copy
+// a pixel, so a size a caller cannot have is refused with the numbers.
+RELIEF_API std::string input_problem(const std::string& operation, const ImageSlot& slot, long long width,
+                                     long long height, long long channels, int bytes_per_channel = 0);
 // The table as a JSON document: {"abi_version": 1, "operations": [...]}.
 RELIEF_API std::string operations_json();
 

@@ -52,7 +52,10 @@ ImageBuf to_imagebuf(const relief_image& in, const relief::ImageSlot& slot, cons
 {
     const std::string what = op + ": input '" + slot.name + "'";
     const TypeDesc type = type_of(in.type);
-    const std::string problem = relief::input_problem(op, slot, in.width, in.height, in.channels);
+    // Before a pixel is copied: a size the kernels cannot index or this
+    // machine cannot hold is the caller's to fix (RELIEF_INVALID).
+    const std::string problem =
+        relief::input_problem(op, slot, in.width, in.height, in.channels, int(type.size()));
     if (!problem.empty())
         throw Refused(problem);
     if (!in.pixels)

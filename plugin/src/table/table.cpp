@@ -2,6 +2,7 @@
 // The operation table: the entries gathered, looked up, parsed from
 // modifiers and run. Each family's entries are in entries_*.cpp, the schema
 // they are written with in schema.h; the JSON listing is operations_json.cpp.
+#include <climits>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -9,6 +10,7 @@
 #include <vector>
 
 #include "error_state.h"
+#include "memory_budget.h"
 #include "schema.h"
 
 namespace relief::table {
@@ -139,8 +141,8 @@ std::vector<std::string> modifier_paths(const OperationCall& call, ModifierType 
 
 }  // namespace
 
-std::string input_problem(const std::string& operation, const ImageSlot& slot, int width, int height,
-                          int channels)
+std::string input_problem(const std::string& operation, const ImageSlot& slot, long long width,
+                          long long height, long long channels, int bytes_per_channel)
 {
     const std::string what = operation + ": input '" + slot.name + "'";
     if (width <= 0 || height <= 0)
@@ -149,6 +151,25 @@ std::string input_problem(const std::string& operation, const ImageSlot& slot, i
     if (channels < slot.min_channels || channels > slot.max_channels)
         return what + " has " + std::to_string(channels) + " channel(s); " + operation + " takes " +
                std::to_string(slot.min_channels) + " to " + std::to_string(slot.max_channels);
+    // (Both below hold for every operation: each indexes texels with 32-bit
+    // ints, and each input is copied once before any work.)
+    if (width > INT_MAX - 2 || height > INT_MAX - 2 || (width + 2) * (height + 2) > (long long)INT_MAX)
+        return what + ": a " + std::to_string(width) + "x" + std::to_string(height) +
+               " map is larger than this version handles ((width + 2) x (height + 2) must stay below "
+               "2^31, e.g. 46338x46338)";
+    if (bytes_per_channel > 0) {
+        const auto bytes =
+            host::Bytes(width) * host::Bytes(height) * host::Bytes(channels) * host::Bytes(bytes_per_channel);
+        std::string why;
+        try {
+            why = host::refuse_host(bytes);
+        } catch (const std::exception& e) {  // a malformed RELIEF_MEMORY_LIMIT
+            why = e.what();
+        }
+        if (!why.empty())
+            return what + " (" + std::to_string(width) + "x" + std::to_string(height) + "x" +
+                   std::to_string(channels) + ") " + why + " to copy";
+    }
     return "";
 }
 
