@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "binary_cache.h"
+#include "cancel.h"
 #include "errors.h"
 #include "kernel_sources.h"
 #include "environment.h"
@@ -346,6 +347,7 @@ cl::NDRange ComputeContext::Impl::group_shape(const cl::Kernel& kernel, std::siz
 std::size_t ComputeContext::Impl::launch(cl::Kernel& kernel, std::size_t items,
                                          std::size_t local_bytes_per_item)
 {
+    stop_if_cancelled();
     const std::size_t g = group_size(kernel, local_bytes_per_item);
     queue.enqueueNDRangeKernel(kernel, cl::NullRange,
                                cl::NDRange(round_up(std::max<std::size_t>(items, 1), g)), cl::NDRange(g));

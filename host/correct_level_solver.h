@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "cancel.h"
 #include "correct_grid.h"
 #include "correct_stage.h"
 #include "errors.h"
@@ -121,6 +122,7 @@ public:
             energy_k_.setArg(a++, stats);
             energy_k_.setArg(a++, cl_int(want));
             energy_k_.setArg(a++, cl_int(first));
+            stop_if_cancelled();
             c_.queue.enqueueNDRangeKernel(energy_k_, cl::NullRange, cl::NDRange(count), cl::NDRange(g));
             add_partials(count / g, sum);
             if (want) {
@@ -145,6 +147,7 @@ public:
         gain_sum_k_.setArg(a++, cl_int(nodes_));
         gain_sum_k_.setArg(a++, partial_);
         gain_sum_k_.setArg(a++, cl::Local((fp64_ ? sizeof(double) : sizeof(float)) * sum_group_));
+        stop_if_cancelled();
         c_.queue.enqueueNDRangeKernel(gain_sum_k_, cl::NullRange, cl::NDRange(round_up(nodes_, sum_group_)),
                                       cl::NDRange(sum_group_));
         double sum = 0.0;
@@ -237,6 +240,7 @@ public:
                 // One tile is 8 / nodes_per_item x 8 work-items; the
                 // kernel finds its tile from its global id, so the group
                 // may be smaller where the device wants it so.
+                stop_if_cancelled();
                 c_.queue.enqueueNDRangeKernel(
                     phase_k_, cl::NullRange,
                     cl::NDRange(std::size_t(tiles_x_) * 8 / nodes_per_item_, std::size_t(tiles_y_) * 8),

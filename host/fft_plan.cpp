@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "binary_cache.h"
+#include "cancel.h"
 #include "errors.h"
 #include "setup_times.h"
 
@@ -246,6 +247,7 @@ public:
         VkFFTLaunchParams launch = {};
         launch.commandQueue = &queue_;
         launch.buffer = &buffer_;
+        stop_if_cancelled();
         VkFFTResult r = VkFFTAppend(&app_, direction, &launch);
         if (r != VKFFT_SUCCESS)
             throw Error("VkFFT transform failed (VkFFT error " + std::to_string(int(r)) + ")");

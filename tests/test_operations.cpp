@@ -198,7 +198,7 @@ TEST_CASE("operations: --help and the JSON show every operation and modifier fro
 {
     const std::string help = cli::usage_text();
     const std::string json = operations_json();
-    CHECK(json.rfind("{\"abi_version\": 1, \"operations\": [", 0) == 0);
+    CHECK(json.rfind("{\"abi_version\": 2, \"operations\": [", 0) == 0);
     for (const OperationInfo& op : operations()) {
         INFO(op.name);
         const std::size_t at = help.find("Modifiers (:key=value) of --" + op.name + ":");

@@ -34,6 +34,40 @@ static void refused(const relief_plugin* r, const char* op, const char* mods, co
     CHECK(out.pixels == NULL && out.metadata == NULL && out.width == 0, "a refused run zeroes its output");
 }
 
+/* What a host hears through relief_callbacks. */
+typedef struct heard {
+    int messages[5];    /* per relief_severity */
+    int progress_calls; /* calls of progress */
+    double first, last; /* the fractions reported first and last */
+    int falls;          /* reports below the one before */
+    int cancel_at;      /* answer non-zero at this call (0: never) */
+    int calls_after;    /* progress calls after the one that cancelled */
+    char error[512];    /* the RELIEF_ERROR message */
+} heard;
+
+static void on_message(int severity, const char* text, void* user)
+{
+    heard* h = (heard*)user;
+    if (severity >= 0 && severity <= 4)
+        ++h->messages[severity];
+    if (severity == RELIEF_ERROR)
+        snprintf(h->error, sizeof h->error, "%s", text);
+}
+
+static int on_progress(double fraction, void* user)
+{
+    heard* h = (heard*)user;
+    if (h->cancel_at && h->progress_calls >= h->cancel_at)
+        ++h->calls_after;
+    if (h->progress_calls == 0)
+        h->first = fraction;
+    else if (fraction < h->last)
+        ++h->falls;
+    h->last = fraction;
+    ++h->progress_calls;
+    return h->cancel_at && h->progress_calls == h->cancel_at;
+}
+
 int main(int argc, char** argv)
 {
     const relief_plugin* r;
@@ -57,7 +91,7 @@ int main(int argc, char** argv)
     r = relief_plugin_entry();
     CHECK(r->run == relief_run && r->last_error == relief_last_error, "the entry holds the C functions");
 #endif
-    CHECK(r->abi_version() == 1, "ABI version 1");
+    CHECK(r->abi_version() == 2, "ABI version 2");
     const char* json = r->operations_json();
     CHECK(strstr(json, "\"name\": \"height\"") && strstr(json, "\"name\": \"correct\""),
           "the table lists height and correct");
@@ -146,6 +180,55 @@ int main(int argc, char** argv)
     free(input_pixels);
     r->image_free(&same);
     r->image_free(NULL);
+
+    /* callbacks: messages at their severity, progress from 0 to 1 */
+    heard h1;
+    memset(&h1, 0, sizeof h1);
+    relief_callbacks cb = {on_message, on_progress, &h1};
+    relief_image told;
+    CHECK(r->run_with("auto", "height", "normal=auto", &normals, 1, &told, &cb) == RELIEF_OK,
+          "run_with runs");
+    CHECK(h1.messages[RELIEF_NOTICE] >= 1, "the detected convention is a notice");
+    CHECK(h1.messages[RELIEF_INFO] >= 1, "details are info");
+    CHECK(h1.messages[RELIEF_ERROR] == 0, "no error");
+    CHECK(h1.progress_calls >= 2 && h1.first == 0.0 && h1.last == 1.0 && h1.falls == 0,
+          "progress rises from 0 to 1");
+    r->image_free(&told);
+    CHECK(r->run_with("auto", "height", NULL, &normals, 1, &told, NULL) == RELIEF_OK, "NULL callbacks: none");
+    r->image_free(&told);
+    relief_callbacks empty_cb = {NULL, NULL, NULL};
+    CHECK(r->run_with("auto", "height", NULL, &normals, 1, &told, &empty_cb) == RELIEF_OK,
+          "NULL members: none");
+    r->image_free(&told);
+
+    /* cancel: a long correction stops at the progress call that answers 1 */
+    enum { CW = 96, CH = 96 };
+    float* steep = malloc(sizeof(float) * CW * CH);
+    for (int i = 0; i < CW * CH; ++i)
+        steep[i] = (float)((i % CW) % 16 < 8 ? 1.0 : 0.0) * 0.5f + (float)((i / CW) % 24) / 48.0f;
+    relief_image cliff = {CW, CH, 1, RELIEF_FLOAT, steep, NULL};
+    heard h2;
+    memset(&h2, 0, sizeof h2);
+    h2.cancel_at = 4;
+    relief_callbacks stop = {on_message, on_progress, &h2};
+    relief_image never;
+    memset(&never, 0x5a, sizeof never);
+    CHECK(r->run_with("auto", "correct", "scale=0.2:levels=1:iterations=500", &cliff, 1, &never, &stop) ==
+              RELIEF_CANCELLED,
+          "a non-zero progress answer cancels");
+    CHECK(never.pixels == NULL && never.metadata == NULL && never.width == 0,
+          "a cancelled run leaves no image");
+    CHECK(strstr(r->last_error(), "correct: cancelled") != NULL, "and says it was cancelled");
+    CHECK(h2.messages[RELIEF_ERROR] == 1 && strcmp(h2.error, r->last_error()) == 0,
+          "the message callback hears why, once");
+    CHECK(h2.progress_calls == 4 && h2.calls_after == 0, "no progress after the cancel");
+    /* cancelled at the first report: before any work */
+    memset(&h2, 0, sizeof h2);
+    h2.cancel_at = 1;
+    CHECK(r->run_with("auto", "correct", "scale=0.2", &cliff, 1, &never, &stop) == RELIEF_CANCELLED,
+          "cancelled at 0");
+    CHECK(h2.progress_calls == 1 && h2.messages[RELIEF_INFO] == 0, "before any work");
+    free(steep);
 
 #ifndef RELIEF_DLOPEN
     /* the device, chosen: one that does not exist fails naming it; the CPU runs */

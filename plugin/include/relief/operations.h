@@ -71,7 +71,7 @@ RELIEF_API std::string range_text(const ModifierInfo& modifier);
 // a pixel, so a size a caller cannot have is refused with the numbers.
 RELIEF_API std::string input_problem(const std::string& operation, const ImageSlot& slot, long long width,
                                      long long height, long long channels, int bytes_per_channel = 0);
-// The table as a JSON document: {"abi_version": 1, "operations": [...]}.
+// The table as a JSON document: {"abi_version": 2, "operations": [...]}.
 RELIEF_API std::string operations_json();
 
 // One call of an operation: its options as parsed from modifiers. Only the

@@ -26,9 +26,11 @@ struct NormalDecoding {
     FloatEncoding float_encoding = FloatEncoding::Signed;
 };
 
-// Info: details (device, counts); Notice: a choice made for the user that
-// they should see (the auto-detected convention); Warning: likely trouble.
-enum class Severity { Info, Notice, Warning };
+// Debug: what the libraries relief uses said (the image library's own
+// diagnostics); Info: details (device, counts); Notice: a choice made for
+// the user that they should see (the auto-detected convention); Warning:
+// likely trouble.
+enum class Severity { Debug, Info, Notice, Warning };
 
 struct Execution {
     // OpenCL device: "auto" (a GPU if there is one, else the CPU), "gpu",
@@ -39,6 +41,11 @@ struct Execution {
     std::function<void(Severity, const std::string&)> on_message;
     // Fraction done in [0, 1] for long operations.
     std::function<void(double)> on_progress;
+    // Asked before each kernel is queued (and the operation's set-up):
+    // true stops the operation there, within one kernel's time. It then
+    // fails with geterror() "<operation>: cancelled", writes nothing and
+    // keeps nothing. Called on the operation's thread.
+    std::function<bool()> cancel;
 };
 
 }  // namespace relief

@@ -1,6 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 /* relief's C ABI: plain C types, no exception crosses it, stable across
- * releases with the same relief_abi_version(). A host links librelief (or
+ * releases: a version only adds (functions, and members at the end of
+ * relief_plugin), so a host built for version N runs with any library whose
+ * relief_abi_version() is N or more (the soname stays librelief.so.1). A
+ * host links librelief (or
  * dlopen()s it by path and calls relief_plugin_entry()), lists the
  * operations with relief_operations_json() and runs them with relief_run().
  *
@@ -22,7 +25,9 @@
 extern "C" {
 #endif
 
-#define RELIEF_ABI_VERSION 1
+/* 1: relief_run, relief_run_on, relief_run_tiles. 2: relief_run_with
+ * (messages, progress and cancel), RELIEF_CANCELLED, relief_plugin.run_with. */
+#define RELIEF_ABI_VERSION 2
 
 /* Pixel types. Integers are UNORM (code / 255 or / 65535), decoded exactly
  * as the command line decodes a file of that type; RELIEF_HALF pixels are
@@ -50,15 +55,46 @@ typedef struct relief_image {
 /* Status codes of relief_run. */
 enum {
     RELIEF_OK = 0,
-    RELIEF_INVALID = 1, /* the operation, a modifier or an input was refused before any work */
-    RELIEF_FAILED = 2   /* the operation refused its images (e.g. correct without a scale for a
+    RELIEF_INVALID = 1,  /* the operation, a modifier or an input was refused before any work */
+    RELIEF_FAILED = 2,   /* the operation refused its images (e.g. correct without a scale for a
                            height that is not relief's) or failed (device, memory, a mask file) */
+    RELIEF_CANCELLED = 3 /* the host's progress callback asked to stop (relief_run_with) */
 };
+
+/* How much a message matters (relief_callbacks.message). */
+typedef enum relief_severity {
+    RELIEF_DEBUG = 0,   /* what the libraries relief uses said (the image library's diagnostics) */
+    RELIEF_INFO = 1,    /* details: the device, what a stage chose, counts, times */
+    RELIEF_NOTICE = 2,  /* a choice made for the caller that they should see (the detected
+                           green convention, a boundary found by boundary=auto) */
+    RELIEF_WARNING = 3, /* likely trouble: an ambiguous convention, NaNs replaced, float
+                           normals that look unsigned */
+    RELIEF_ERROR = 4    /* why the run failed: what relief_last_error() then returns */
+} relief_severity;
+
+/* What a host hears from relief_run_with. Any member may be NULL. Both
+ * functions are called on the thread that called relief_run_with, during
+ * the call; `text` is valid only during the call; `user` is passed back.
+ * relief itself writes nothing to stdout or stderr: without a message
+ * callback its messages go nowhere (the result's metadata keeps what the
+ * operation chose).
+ *   message:  one line of text, `severity` a relief_severity.
+ *   progress: `fraction` done, 0 first and 1 last, rising; returning
+ *             non-zero cancels: relief stops before the next kernel it
+ *             would queue, frees what it holds, writes no output and
+ *             returns RELIEF_CANCELLED (bench_cancel: a 1024^2 correction
+ *             returns 8 ms after the answer, median of 5, at most 15 ms,
+ *             on a 2-core CPU device). */
+typedef struct relief_callbacks {
+    void (*message)(int severity, const char* text, void* user);
+    int (*progress)(double fraction, void* user);
+    void* user;
+} relief_callbacks;
 
 /* RELIEF_ABI_VERSION of the library actually loaded. */
 RELIEF_API int relief_abi_version(void);
 
-/* The operation table as JSON: {"abi_version": 1, "operations": [{"name",
+/* The operation table as JSON: {"abi_version": 2, "operations": [{"name",
  * "summary", "inputs", "outputs", "modifiers": [{"name", "type" (choice,
  * integer, number, file), "choices", "min", "max", "min_open", "max_open",
  * "unit", "default", "applies_to", "meaning"}]}]}. Owned by the library. */
@@ -81,6 +117,12 @@ RELIEF_API int relief_run(const char* operation, const char* modifiers, const re
  * the run (RELIEF_FAILED) with a message naming it. */
 RELIEF_API int relief_run_on(const char* device, const char* operation, const char* modifiers,
                              const relief_image* inputs, int n_inputs, relief_image* output);
+
+/* relief_run_on with a host's callbacks (NULL: none, as relief_run_on).
+ * `device` as relief_run_on. Added in ABI version 2. */
+RELIEF_API int relief_run_with(const char* device, const char* operation, const char* modifiers,
+                               const relief_image* inputs, int n_inputs, relief_image* output,
+                               const relief_callbacks* callbacks);
 
 /* Runs `operation` once over the `n_tiles` tiles of a UDIM set
  * ("height": udim=auto|joint|each, see relief/udim.h): tiles[i] is the number
@@ -108,6 +150,9 @@ typedef struct relief_plugin {
     int (*run)(const char*, const char*, const relief_image*, int, relief_image*);
     void (*image_free)(relief_image*);
     const char* (*last_error)(void);
+    /* ABI version 2 on: read only when abi_version() >= 2 */
+    int (*run_with)(const char*, const char*, const char*, const relief_image*, int, relief_image*,
+                    const relief_callbacks*);
 } relief_plugin;
 
 RELIEF_API const relief_plugin* relief_plugin_entry(void);

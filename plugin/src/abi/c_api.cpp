@@ -133,12 +133,71 @@ relief::OperationCall parse_call(const char* device, const char* operation, cons
     return call;
 }
 
+// A run its caller's progress callback stopped.
+struct CancelledRun : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+// The host's callbacks as an operation's Execution: messages at their
+// severity, progress passed on, and a non-zero answer from progress kept as
+// the cancel the operation asks about before each kernel.
+class HostCallbacks {
+public:
+    explicit HostCallbacks(const relief_callbacks* callbacks)
+    {
+        if (callbacks)
+            cb_ = *callbacks;
+    }
+
+    relief::Execution execution(const char* device)
+    {
+        relief::Execution exec;
+        exec.device = device;
+        if (cb_.message)
+            exec.on_message = [this](relief::Severity s, const std::string& text) { say(severity(s), text); };
+        if (cb_.progress) {
+            exec.on_progress = [this](double fraction) { progress(fraction); };
+            exec.cancel = [this] { return cancelled_; };
+        }
+        return exec;
+    }
+    // Reports `fraction` done; false once the host has asked to cancel.
+    bool progress(double fraction)
+    {
+        if (cb_.progress && !cancelled_ && cb_.progress(fraction, cb_.user) != 0)
+            cancelled_ = true;
+        return !cancelled_;
+    }
+    bool cancelled() const { return cancelled_; }
+    void say(relief_severity severity, const std::string& text) const
+    {
+        if (cb_.message)
+            cb_.message(int(severity), text.c_str(), cb_.user);
+    }
+
+private:
+    static relief_severity severity(relief::Severity s)
+    {
+        switch (s) {
+        case relief::Severity::Debug: return RELIEF_DEBUG;
+        case relief::Severity::Info: return RELIEF_INFO;
+        case relief::Severity::Notice: return RELIEF_NOTICE;
+        case relief::Severity::Warning: return RELIEF_WARNING;
+        }
+        return RELIEF_INFO;
+    }
+    relief_callbacks cb_{};
+    bool cancelled_ = false;
+};
+
 // Runs the body of a C entry point that makes images: RELIEF_OK when it
-// returns, RELIEF_INVALID for a refusal, RELIEF_FAILED otherwise, the
-// message left for relief_last_error() and `leave_nothing` run so that no
-// output is half made.
+// returns, RELIEF_INVALID for a refusal, RELIEF_CANCELLED when the host's
+// progress callback stopped it, RELIEF_FAILED otherwise, the message left
+// for relief_last_error() (and given to the host's message callback, if
+// any, as RELIEF_ERROR) and `leave_nothing` run so that no output is half
+// made.
 template <class Body, class Cleanup>
-int run_entry(const char* entry, Body body, Cleanup leave_nothing)
+int run_entry(const char* entry, const HostCallbacks* host, Body body, Cleanup leave_nothing)
 {
     c_last_error.clear();
     int status = RELIEF_FAILED;
@@ -148,13 +207,28 @@ int run_entry(const char* entry, Body body, Cleanup leave_nothing)
     } catch (const Refused& e) {
         c_last_error = e.what();
         status = RELIEF_INVALID;
+    } catch (const CancelledRun& e) {
+        c_last_error = e.what();
+        status = RELIEF_CANCELLED;
     } catch (const std::exception& e) {
         c_last_error = e.what();
     } catch (...) {
         c_last_error = std::string(entry) + ": unknown failure";
     }
     leave_nothing();
+    if (host)
+        host->say(RELIEF_ERROR, c_last_error);
     return status;
+}
+
+// Why an operation that returned false failed: the host's cancel, or the
+// operation's error.
+[[noreturn]] void operation_failed(const HostCallbacks& host, const std::string& op)
+{
+    const std::string error = relief::geterror();
+    if (host.cancelled())
+        throw CancelledRun(error.empty() ? op + ": cancelled" : error);
+    throw std::runtime_error(error);
 }
 
 }  // namespace
@@ -185,8 +259,16 @@ int relief_run(const char* operation, const char* modifiers, const relief_image*
 int relief_run_on(const char* device, const char* operation, const char* modifiers,
                   const relief_image* inputs, int n_inputs, relief_image* output)
 {
+    return relief_run_with(device, operation, modifiers, inputs, n_inputs, output, nullptr);
+}
+
+int relief_run_with(const char* device, const char* operation, const char* modifiers,
+                    const relief_image* inputs, int n_inputs, relief_image* output,
+                    const relief_callbacks* callbacks)
+{
+    HostCallbacks host(callbacks);
     return run_entry(
-        "relief_run",
+        "relief_run", &host,
         [&] {
             if (!output)
                 throw Refused("relief_run: output is NULL");
@@ -206,11 +288,12 @@ int relief_run_on(const char* device, const char* operation, const char* modifie
             // Only now: `output` may be one of the inputs.
             *output = relief_image{};
             ImageBuf result;
-            relief::Execution exec;
-            exec.device = device;
-            if (!relief::run_operation(result, call, ptrs, exec))
-                throw std::runtime_error(relief::geterror());
+            if (!host.progress(0.0))
+                throw CancelledRun(op + ": cancelled");
+            if (!relief::run_operation(result, call, ptrs, host.execution(device)))
+                operation_failed(host, op);
             to_c_image(result, output);
+            host.progress(1.0);
         },
         [&] {
             if (output)
@@ -223,7 +306,7 @@ int relief_run_tiles(const char* device, const char* operation, const char* modi
 {
     bool zeroed = false;  // outputs hold nothing of the caller's any more
     return run_entry(
-        "relief_run_tiles",
+        "relief_run_tiles", nullptr,
         [&] {
             if (!outputs)
                 throw Refused("relief_run_tiles: outputs is NULL");
@@ -281,7 +364,7 @@ const char* relief_last_error(void)
 const relief_plugin* relief_plugin_entry(void)
 {
     static const relief_plugin plugin = {relief_abi_version, relief_operations_json, relief_run,
-                                         relief_image_free, relief_last_error};
+                                         relief_image_free,  relief_last_error,      relief_run_with};
     return &plugin;
 }
 

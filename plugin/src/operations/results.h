@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "cancel.h"
 #include "relief/options.h"
 #include "relief/validate.h"
 #include "slope_stage.h"
@@ -18,6 +19,16 @@ namespace relief::detail {
 
 // Validates `roi` against `image` (undefined = the whole image).
 OIIO::ROI resolve_roi(const OIIO::ImageBuf& image, OIIO::ROI roi);
+
+// While an operation runs: exec.cancel, asked once now and then before
+// each kernel (host/cancel.h).
+class CancelScope : host::CancelCheck {
+public:
+    explicit CancelScope(const Execution& exec) : host::CancelCheck(exec.cancel)
+    {
+        host::stop_if_cancelled();
+    }
+};
 
 // Passes one line to exec.on_message, if any.
 void say(const Execution& exec, Severity severity, const std::string& message);

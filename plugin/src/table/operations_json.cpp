@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "relief/relief_c.h"
 #include "schema.h"
 
 namespace relief {
@@ -58,7 +59,7 @@ std::string json_slots(const std::vector<ImageSlot>& slots)
 std::string operations_json()
 {
     std::ostringstream j;
-    j << "{\"abi_version\": 1, \"operations\": [";
+    j << "{\"abi_version\": " << RELIEF_ABI_VERSION << ", \"operations\": [";
     bool first_op = true;
     for (const OperationInfo& op : operations()) {
         j << (first_op ? "\n" : ",\n") << "  {\"name\": " << json_string(op.name)
