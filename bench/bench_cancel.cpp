@@ -81,8 +81,9 @@ int main(int argc, char** argv)
         }
         const double stop = std::chrono::duration<double>(end - w.asked).count();
         stops.push_back(stop);
-        std::printf("%dx%d correction, cancel answered at %.2f s (progress call %d): returned %.1f ms later\n",
-                    n, n, std::chrono::duration<double>(w.asked - w.start).count(), w.calls, stop * 1e3);
+        std::printf(
+            "%dx%d correction, cancel answered at %.2f s (progress call %d): returned %.1f ms later\n", n, n,
+            std::chrono::duration<double>(w.asked - w.start).count(), w.calls, stop * 1e3);
     }
     std::sort(stops.begin(), stops.end());
     std::printf("median: %.1f ms from the cancel to the return (%d runs)\n", stops[stops.size() / 2] * 1e3,

@@ -9,7 +9,9 @@
 
 #include <OpenImageIO/imagebuf.h>
 
+#include <chrono>
 #include <cstring>
+#include <optional>
 #include <map>
 #include <string>
 #include <utility>
@@ -116,11 +118,104 @@ std::vector<const ImageBuf*> pointers(const std::vector<ImageBuf>& bufs)
     return p;
 }
 
+// A running operation's link to Python. Messages and progress reach their
+// callables with the GIL taken; a callable that raises, a progress answer
+// that is true, or Ctrl-C (a pending signal, looked for at most every
+// 50 ms before a kernel) cancels the operation at its next kernel, and
+// raise_if_stopped() then raises what stopped it.
+class PythonCallbacks {
+public:
+    PythonCallbacks(py::object messages, py::object progress)
+        : messages_(std::move(messages)), progress_(std::move(progress))
+    {
+    }
+
+    relief::Execution execution(const std::string& device)
+    {
+        relief::Execution exec;
+        exec.device = device;
+        if (!messages_.is_none())
+            exec.on_message = [this](relief::Severity s, const std::string& text) {
+                call([&] { messages_(severity_name(s), text); });
+            };
+        if (!progress_.is_none())
+            exec.on_progress = [this](double fraction) {
+                call([&] {
+                    if (py::bool_(progress_(fraction)))
+                        asked_ = true;
+                });
+            };
+        exec.cancel = [this] {
+            const auto now = std::chrono::steady_clock::now();
+            if (!stop_ && now - signals_looked_at_ > std::chrono::milliseconds(50)) {
+                signals_looked_at_ = now;
+                py::gil_scoped_acquire gil;
+                if (PyErr_CheckSignals() != 0)
+                    keep(py::error_already_set());
+            }
+            return stop_ || asked_;
+        };
+        return exec;
+    }
+
+    // With the GIL: what stopped the operation, raised; else its failure
+    // as RuntimeError (`error`), if it failed.
+    void raise_if_stopped(bool ok, const std::string& error)
+    {
+        if (raised_)
+            throw std::move(*raised_);
+        if (!ok && asked_)
+            throw Cancelled(error);
+        if (!ok)
+            throw std::runtime_error(error);
+    }
+
+    // relief.CancelledError: the progress callable asked to stop.
+    struct Cancelled : std::runtime_error {
+        using std::runtime_error::runtime_error;
+    };
+
+private:
+    static const char* severity_name(relief::Severity s)
+    {
+        switch (s) {
+        case relief::Severity::Debug: return "debug";
+        case relief::Severity::Info: return "info";
+        case relief::Severity::Notice: return "notice";
+        case relief::Severity::Warning: return "warning";
+        }
+        return "info";
+    }
+    template <class Body>
+    void call(Body body)
+    {
+        if (stop_)
+            return;
+        py::gil_scoped_acquire gil;
+        try {
+            body();
+        } catch (py::error_already_set& e) {
+            keep(std::move(e));
+        }
+    }
+    void keep(py::error_already_set&& e)
+    {
+        raised_.emplace(std::move(e));
+        stop_ = true;
+    }
+
+    py::object messages_, progress_;
+    std::optional<py::error_already_set> raised_;
+    bool stop_ = false, asked_ = false;
+    std::chrono::steady_clock::time_point signals_looked_at_{};
+};
+
 // One operation: inputs (arrays and their metadata), modifiers as text ->
 // (float32 array H x W x C, metadata).
 py::tuple run(const std::string& op, const std::vector<py::array>& arrays,
               const std::vector<std::map<std::string, std::string>>& metadata,
-              const std::vector<std::pair<std::string, std::string>>& modifiers, const std::string& device)
+              const std::vector<std::pair<std::string, std::string>>& modifiers, const std::string& device,
+              py::object messages, py::object progress)
 {
     const relief::OperationCall call = parse_call(op, modifiers);
     const relief::OperationInfo& info = *relief::find_operation(op);
@@ -128,8 +223,8 @@ py::tuple run(const std::string& op, const std::vector<py::array>& arrays,
         throw py::value_error(op + " takes " + std::to_string(info.inputs.size()) + " image(s), got " +
                               std::to_string(arrays.size()));
     const std::vector<ImageBuf> bufs = to_imagebufs(op, arrays, metadata, false);
-    relief::Execution exec;
-    exec.device = device;
+    PythonCallbacks callbacks(std::move(messages), std::move(progress));
+    const relief::Execution exec = callbacks.execution(device);
     ImageBuf out;
     bool ok;
     std::string error;
@@ -139,8 +234,7 @@ py::tuple run(const std::string& op, const std::vector<py::array>& arrays,
         if (!ok)
             error = relief::geterror();
     }
-    if (!ok)
-        throw std::runtime_error(error);
+    callbacks.raise_if_stopped(ok, error);
     return py::make_tuple(to_numpy(out), metadata_of(out));
 }
 
@@ -150,7 +244,7 @@ py::list run_tiles(const std::string& op, const std::vector<int>& numbers,
                    const std::vector<py::array>& arrays,
                    const std::vector<std::map<std::string, std::string>>& metadata,
                    const std::vector<std::pair<std::string, std::string>>& modifiers,
-                   const std::string& device)
+                   const std::string& device, py::object messages, py::object progress)
 {
     const relief::OperationCall call = parse_call(op, modifiers);
     if (relief::find_operation(op)->inputs.size() != 1)
@@ -159,8 +253,8 @@ py::list run_tiles(const std::string& op, const std::vector<int>& numbers,
         throw py::value_error(op + ": " + std::to_string(numbers.size()) + " tile number(s) for " +
                               std::to_string(arrays.size()) + " image(s)");
     const std::vector<ImageBuf> bufs = to_imagebufs(op, arrays, metadata, true);
-    relief::Execution exec;
-    exec.device = device;
+    PythonCallbacks callbacks(std::move(messages), std::move(progress));
+    const relief::Execution exec = callbacks.execution(device);
     std::vector<ImageBuf> out;
     bool ok;
     std::string error;
@@ -170,8 +264,7 @@ py::list run_tiles(const std::string& op, const std::vector<int>& numbers,
         if (!ok)
             error = relief::geterror();
     }
-    if (!ok)
-        throw std::runtime_error(error);
+    callbacks.raise_if_stopped(ok, error);
     py::list results;
     for (const ImageBuf& img : out)
         results.append(py::make_tuple(to_numpy(img), metadata_of(img)));
@@ -237,9 +330,11 @@ PYBIND11_MODULE(_relief, m)
     m.attr("version") = relief::version();
     m.def("operations_json", &relief::operations_json);
     m.def("run", &run, py::arg("operation"), py::arg("arrays"), py::arg("metadata"), py::arg("modifiers"),
-          py::arg("device") = "auto");
+          py::arg("device") = "auto", py::arg("messages") = py::none(), py::arg("progress") = py::none());
+    py::register_exception<PythonCallbacks::Cancelled>(m, "CancelledError", PyExc_RuntimeError);
     m.def("run_tiles", &run_tiles, py::arg("operation"), py::arg("numbers"), py::arg("arrays"),
-          py::arg("metadata"), py::arg("modifiers"), py::arg("device") = "auto");
+          py::arg("metadata"), py::arg("modifiers"), py::arg("device") = "auto",
+          py::arg("messages") = py::none(), py::arg("progress") = py::none());
     m.def("read", &read_file, py::arg("path"));
     m.def("write", &write_file, py::arg("path"), py::arg("array"), py::arg("metadata"),
           py::arg("type") = "float", py::arg("compression") = "");

@@ -21,16 +21,44 @@ where the command line's bake kind=auto would go by the name (a one-channel
 True/False for on/off; device="auto"|"gpu"|"cpu"|"P:D". A value the table
 refuses raises ValueError with relief's message; a failed run RuntimeError.
 The GIL is released while the device works.
+
+Every operation also takes progress= (called with the fraction done, 0 to
+1; returning True cancels: relief.CancelledError) and messages= (called
+with the severity, "debug", "info", "notice" or "warning", and one line of
+text). Warnings also go through warnings.warn as relief.ReliefWarning, so
+the warnings filters apply (an "error" filter stops the operation and
+raises). Ctrl-C stops a running operation at its next kernel and raises
+KeyboardInterrupt; so does any exception raised in a callback.
 """
 import json as _json
 import os as _os
+import warnings as _warnings
 
 import numpy as _np
 
 from . import _relief
 
 __version__ = _relief.version
-__all__ = ["Image", "height_udim", "operations", "prepare", "read", "write"]
+__all__ = ["CancelledError", "Image", "ReliefWarning", "height_udim", "operations", "prepare", "read", "write"]
+
+CancelledError = _relief.CancelledError
+CancelledError.__doc__ = "An operation stopped because its progress callable returned True."
+
+
+class ReliefWarning(UserWarning):
+    """Likely trouble with an input that relief went on with: an ambiguous
+    green convention, NaNs replaced, float normals that look unsigned."""
+
+
+def _listener(messages):
+    # (stacklevel 3: this function, the operation's wrapper, its caller)
+    def on_message(severity, text):
+        if severity == "warning":
+            _warnings.warn(text, ReliefWarning, stacklevel=3)
+        if messages is not None:
+            messages(severity, text)
+
+    return on_message
 
 
 class Image(_np.ndarray):
@@ -74,15 +102,17 @@ def _operation(info):
     name = info["name"]
     inputs = [slot["name"] for slot in info["inputs"]]
 
-    def run(*images, device="auto", **modifiers):
+    def run(*images, device="auto", progress=None, messages=None, **modifiers):
         if len(images) != len(inputs):
             raise ValueError(f"{name} takes {len(inputs)} image(s) ({', '.join(inputs)}), got {len(images)}")
         metadata = [dict(getattr(image, "metadata", None) or {}) for image in images]
         pixels, meta = _relief.run(name, [_pixels(i) for i in images], metadata,
-                                   [(k, _text(k, v)) for k, v in modifiers.items()], device)
+                                   [(k, _text(k, v)) for k, v in modifiers.items()], device,
+                                   _listener(messages), progress)
         return Image(pixels, meta)
 
-    lines = [f"{name}({', '.join(inputs)}, **modifiers) -> relief.Image", "", info["summary"] + ".", "",
+    lines = [f"{name}({', '.join(inputs)}, device='auto', progress=None, messages=None, **modifiers)"
+             " -> relief.Image", "", info["summary"] + ".", "",
              "Modifiers:"]
     for m in info["modifiers"]:
         values = "|".join(m["choices"]) if m["type"] == "choice" else m["type"]
@@ -101,20 +131,21 @@ for _info in operations():
 del _info
 
 
-def height_udim(tiles, device="auto", **modifiers):
+def height_udim(tiles, device="auto", progress=None, messages=None, **modifiers):
     """height over the tiles of a UDIM set at once: tiles maps each tile
     number (1001 + u + 10 v, v up: 1011 sits above 1001) to its normal map,
     as a dict or (number, array) pairs. Returns a dict from the same numbers
     to relief.Image heights. udim="auto" (the default) joins the tiles whose
     slopes continue across their shared edge, "joint" solves the set as one
     surface (missing tiles weighted 0), "each" every tile alone; the other
-    keywords are height's."""
+    keywords are height's, progress= and messages= as for every operation."""
     pairs = list(tiles.items()) if isinstance(tiles, dict) else list(tiles)
     numbers = [int(n) for n, _ in pairs]
     images = [image for _, image in pairs]
     metadata = [dict(getattr(image, "metadata", None) or {}) for image in images]
     results = _relief.run_tiles("height", numbers, [_pixels(i) for i in images], metadata,
-                                [(k, _text(k, v)) for k, v in modifiers.items()], device)
+                                [(k, _text(k, v)) for k, v in modifiers.items()], device,
+                                _listener(messages), progress)
     return {n: Image(pixels, meta) for n, (pixels, meta) in zip(numbers, results)}
 
 

@@ -3,11 +3,13 @@
 /usr/bin/python3 -m unittest; PYTHONPATH points at the package, RELIEF_CLI
 at the command line, RELIEF_TEST_DATA at examples/data)."""
 import os
+import signal
 import subprocess
 import tempfile
 import threading
 import time
 import unittest
+import warnings
 
 import numpy as np
 
@@ -466,6 +468,84 @@ class Udim(unittest.TestCase):
             relief.height_udim({1001: self.tiles[1001], 1002: self.tiles[1002][:100]}, udim="joint")
         with self.assertRaisesRegex(ValueError, "udim"):
             relief.height_udim(self.tiles, udim="sometimes")
+
+
+class Callbacks(unittest.TestCase):
+    """progress=, messages=, ReliefWarning, and what stops an operation."""
+
+    flat = np.dstack([np.zeros((64, 64, 2), np.float32), np.ones((64, 64), np.float32)])
+    # steep columns: a correction of many iterations
+    cliffs = (np.indices((256, 256)).sum(0) % 32 > 16).astype(np.float32)
+
+    def test_messages_and_progress_reach_their_callables(self):
+        heard = []
+        relief.height(self.flat, normal="opengl", messages=lambda s, t: heard.append((s, t)),
+                      progress=lambda f: heard.append(("progress", f)))
+        fractions = [f for s, f in heard if s == "progress"]
+        self.assertEqual((fractions[0], fractions[-1]), (0.0, 1.0))
+        self.assertEqual(fractions, sorted(fractions))
+        self.assertIn(("info", "method: poisson (the default; method=rays for rays)"), heard)
+        self.assertTrue(any(s == "notice" and t.startswith("boundary: periodic") for s, t in heard))
+        steps = []
+        relief.correct(self.cliffs, scale=0.3, levels=1, iterations=20, progress=steps.append)
+        self.assertGreater(len(steps), 20)  # one a sweep, besides 0 and 1
+        self.assertEqual(steps, sorted(steps))
+
+    def test_warnings_are_relief_warnings(self):
+        heard = []
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            relief.height(self.flat, messages=lambda s, t: heard.append(s))
+        self.assertEqual([w.category for w in caught], [relief.ReliefWarning])
+        self.assertIn("normal convention is ambiguous", str(caught[0].message))
+        self.assertEqual(caught[0].filename, __file__)  # points at the caller
+        self.assertIn("warning", heard)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", relief.ReliefWarning)
+            with self.assertRaises(relief.ReliefWarning):
+                relief.height(self.flat)
+
+    def test_a_true_answer_from_progress_cancels(self):
+        seen = []
+
+        def stop_early(f):
+            seen.append(f)
+            return f > 0.05
+
+        with self.assertRaises(relief.CancelledError) as e:
+            relief.correct(self.cliffs, scale=0.3, levels=1, iterations=500, progress=stop_early)
+        self.assertEqual(str(e.exception), "correct: cancelled")
+        self.assertIsInstance(e.exception, RuntimeError)
+        self.assertLess(seen[-1], 0.2)  # nothing was reported after it
+        with self.assertRaises(relief.CancelledError):  # before any work
+            relief.height(self.flat, progress=lambda f: True)
+
+    def test_an_exception_in_a_callback_stops_the_operation_and_is_raised(self):
+        calls = []
+
+        def fails(f):
+            calls.append(f)
+            if f > 0.05:
+                raise KeyError("from the callback")
+
+        with self.assertRaises(KeyError):
+            relief.correct(self.cliffs, scale=0.3, levels=1, iterations=500, progress=fails)
+        self.assertLess(calls[-1], 0.2)
+        with self.assertRaises(ZeroDivisionError):
+            relief.height(self.flat, normal="opengl", messages=lambda s, t: 1 / 0)
+
+    def test_ctrl_c_stops_a_running_operation(self):
+        big = np.tile(self.cliffs, (4, 4))  # 1024^2: seconds of correction
+        timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+        start = time.monotonic()
+        timer.start()
+        with self.assertRaises(KeyboardInterrupt):
+            relief.correct(big, scale=0.3)
+        stopped = time.monotonic() - start
+        self.assertGreaterEqual(stopped, 0.5)
+        self.assertLess(stopped, 1.5)
+        # and relief works on
+        self.assertEqual(relief.height(self.flat, normal="opengl").shape, (64, 64, 1))
 
 
 class Threads(unittest.TestCase):

@@ -135,8 +135,10 @@ RELIEF_API bool parse_modifiers(OperationCall& call, const std::string& operatio
                                 const std::vector<std::pair<std::string, std::string>>& modifiers);
 
 // Runs `call` on `inputs` (as many as the table's inputs, in that order),
-// with `exec` (device, messages, progress). Reads mask_file/fix_file when
-// given. Returns false and sets geterror() on failure.
+// with `exec` (device, messages, progress, cancel). Progress is 0 first and
+// 1 last, whatever steps the operation reports between. Reads
+// mask_file/fix_file when given. Returns false and sets geterror() on
+// failure ("<operation>: cancelled" when exec.cancel stopped it).
 RELIEF_API bool run_operation(OIIO::ImageBuf& dst, const OperationCall& call,
                               const std::vector<const OIIO::ImageBuf*>& inputs, const Execution& exec = {});
 

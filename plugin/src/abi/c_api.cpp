@@ -288,12 +288,9 @@ int relief_run_with(const char* device, const char* operation, const char* modif
             // Only now: `output` may be one of the inputs.
             *output = relief_image{};
             ImageBuf result;
-            if (!host.progress(0.0))
-                throw CancelledRun(op + ": cancelled");
             if (!relief::run_operation(result, call, ptrs, host.execution(device)))
                 operation_failed(host, op);
             to_c_image(result, output);
-            host.progress(1.0);
         },
         [&] {
             if (output)

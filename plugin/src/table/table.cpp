@@ -244,7 +244,15 @@ bool run_operation(ImageBuf& dst, const OperationCall& call, const std::vector<c
             if (!inputs[i])
                 throw std::invalid_argument(op.info.name + ": input '" + op.info.inputs[i].name +
                                             "' is missing (null)");
-        return op.run(dst, with_execution(call, exec), inputs);
+        // Every operation reports 0 and 1, also those too quick for steps of
+        // their own; a cancel asked at 0 stops it before any work.
+        if (exec.on_progress)
+            exec.on_progress(0.0);
+        if (!op.run(dst, with_execution(call, exec), inputs))
+            return false;
+        if (exec.on_progress)
+            exec.on_progress(1.0);
+        return true;
     } catch (const std::exception& e) {
         detail::set_error(e.what());
         return false;
@@ -266,7 +274,13 @@ bool run_operation_on_tiles(std::vector<ImageBuf>& dst, const OperationCall& cal
         for (const ImageBuf* in : inputs)
             if (!in)
                 throw std::invalid_argument(op.info.name + ": a tile's image is missing (null)");
-        return op.run_tiles(dst, with_execution(call, exec), tiles, inputs);
+        if (exec.on_progress)
+            exec.on_progress(0.0);
+        if (!op.run_tiles(dst, with_execution(call, exec), tiles, inputs))
+            return false;
+        if (exec.on_progress)
+            exec.on_progress(1.0);
+        return true;
     } catch (const std::exception& e) {
         detail::set_error(e.what());
         return false;
