@@ -157,6 +157,8 @@ public:
             auto next = std::make_shared<int>(10);
             std::string name = s.text.substr(0, s.text.find(':'));
             e.on_progress = [name, next](double f) {
+                if (f >= 1.0 && *next == 10)
+                    return;  // an operation without steps of its own: done, no percentages
                 while (f * 100.0 >= *next && *next <= 100) {
                     std::fprintf(stderr, "relief: %s: %d%%\n", name.c_str(), *next);
                     *next += 10;
