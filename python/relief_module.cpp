@@ -41,10 +41,36 @@ TypeDesc pixel_type(const py::array& a)
                           py::cast<std::string>(py::str(static_cast<const py::handle&>(d))));
 }
 
+// A metadata value as Python has it: one integer or one number as such,
+// anything else (text, arrays, matrices) as its text.
+py::object typed_value(const OIIO::ParamValue& p)
+{
+    const TypeDesc t = p.type();
+    if (p.nvalues() == 1 && t.aggregate == TypeDesc::SCALAR && t.arraylen == 0) {
+        if (t.basetype == TypeDesc::INT || t.basetype == TypeDesc::UINT || t.basetype == TypeDesc::INT16 ||
+            t.basetype == TypeDesc::UINT16 || t.basetype == TypeDesc::INT8 || t.basetype == TypeDesc::UINT8)
+            return py::int_(p.get_int());
+        if (t.basetype == TypeDesc::FLOAT || t.basetype == TypeDesc::HALF || t.basetype == TypeDesc::DOUBLE)
+            return py::float_(p.get_float());
+    }
+    return py::str(p.get_string());
+}
+
+// key = value on `spec` in the value's type: int, float or text (bool as int).
+void set_attribute(OIIO::ImageSpec& spec, const std::string& key, const py::handle& value)
+{
+    if (py::isinstance<py::bool_>(value) || py::isinstance<py::int_>(value))
+        spec.attribute(key, int(value.cast<long long>()));
+    else if (py::isinstance<py::float_>(value))
+        spec.attribute(key, value.cast<float>());
+    else
+        spec.attribute(key, std::string(py::str(value)));
+}
+
 // H x W or H x W x C, any strides -> an ImageBuf in the array's own type
 // (copied, so no numpy memory is touched once the GIL is released).
 ImageBuf to_imagebuf(const py::array& input, const relief::ImageSlot& slot, const std::string& op,
-                     const std::map<std::string, std::string>& metadata)
+                     const py::dict& metadata)
 {
     const TypeDesc type = pixel_type(input);
     const std::string what = op + ": input '" + slot.name + "'";
@@ -64,7 +90,7 @@ ImageBuf to_imagebuf(const py::array& input, const relief::ImageSlot& slot, cons
     if (!buf.set_pixels(buf.roi(), type, a.data()))
         throw std::runtime_error(what + ": " + buf.geterror());
     for (const auto& [key, value] : metadata)
-        buf.specmod().attribute(key, value);
+        set_attribute(buf.specmod(), py::str(key), value);
     return buf;
 }
 
@@ -77,12 +103,12 @@ py::array_t<float> to_numpy(const ImageBuf& img)
     return out;
 }
 
-std::map<std::string, std::string> metadata_of(const ImageBuf& img)
+std::map<std::string, py::object> metadata_of(const ImageBuf& img)
 {
-    std::map<std::string, std::string> m;
+    std::map<std::string, py::object> m;
     for (const auto& p : img.spec().extra_attribs)
         if (p.name().string().rfind("relief:", 0) == 0)
-            m[p.name().string()] = p.get_string();
+            m[p.name().string()] = typed_value(p);
     return m;
 }
 
@@ -99,14 +125,13 @@ relief::OperationCall parse_call(const std::string& op,
 // The arrays as images of the operation's input slots (slot i of `slots`,
 // or slot 0 for every array when `one_slot`).
 std::vector<ImageBuf> to_imagebufs(const std::string& op, const std::vector<py::array>& arrays,
-                                   const std::vector<std::map<std::string, std::string>>& metadata,
-                                   bool one_slot)
+                                   const std::vector<py::dict>& metadata, bool one_slot)
 {
     const relief::OperationInfo& info = *relief::find_operation(op);
     std::vector<ImageBuf> bufs;
     for (std::size_t i = 0; i < arrays.size(); ++i)
         bufs.push_back(to_imagebuf(arrays[i], info.inputs[one_slot ? 0 : i], op,
-                                   i < metadata.size() ? metadata[i] : std::map<std::string, std::string>{}));
+                                   i < metadata.size() ? metadata[i] : py::dict()));
     return bufs;
 }
 
@@ -213,7 +238,7 @@ private:
 // One operation: inputs (arrays and their metadata), modifiers as text ->
 // (float32 array H x W x C, metadata).
 py::tuple run(const std::string& op, const std::vector<py::array>& arrays,
-              const std::vector<std::map<std::string, std::string>>& metadata,
+              const std::vector<py::dict>& metadata,
               const std::vector<std::pair<std::string, std::string>>& modifiers, const std::string& device,
               py::object messages, py::object progress)
 {
@@ -241,8 +266,7 @@ py::tuple run(const std::string& op, const std::vector<py::array>& arrays,
 // One operation over the tiles of a UDIM set at once (relief/udim.h):
 // tile numbers and one array each -> a list of (array, metadata), in order.
 py::list run_tiles(const std::string& op, const std::vector<int>& numbers,
-                   const std::vector<py::array>& arrays,
-                   const std::vector<std::map<std::string, std::string>>& metadata,
+                   const std::vector<py::array>& arrays, const std::vector<py::dict>& metadata,
                    const std::vector<std::pair<std::string, std::string>>& modifiers,
                    const std::string& device, py::object messages, py::object progress)
 {
@@ -295,15 +319,14 @@ py::tuple read_file(const std::string& path)
     py::array out(py::dtype(dtype), {py::ssize_t(s.height), py::ssize_t(s.width), py::ssize_t(s.nchannels)});
     if (!img.get_pixels(img.roi(), t, out.mutable_data()))
         throw std::runtime_error(path + ": " + img.geterror());
-    std::map<std::string, std::string> meta;
+    std::map<std::string, py::object> meta;
     for (const auto& p : s.extra_attribs)
-        meta[p.name().string()] = p.get_string();
+        meta[p.name().string()] = typed_value(p);
     return py::make_tuple(out, meta);
 }
 
-void write_file(const std::string& path, const py::array& input,
-                const std::map<std::string, std::string>& metadata, const std::string& type,
-                const std::string& compression)
+void write_file(const std::string& path, const py::array& input, const py::dict& metadata,
+                const std::string& type, const std::string& compression)
 {
     relief::ImageSlot any{"image", 1, 4096, ""};
     const ImageBuf img = to_imagebuf(input, any, "write", metadata);

@@ -297,6 +297,18 @@ TEST_CASE("a float map stored in [0, 1] read as signed warns to use range=unsign
     REQUIRE_FALSE(out.has_error());
     CHECK(warned.empty());
     CHECK(max_diff(pixels(out), g) < 2e-5);
+    // signed data does not warn: the same field, and a flat map (x = y = 0,
+    // blue 1: every value in [0, 1])
+    o.normals.float_encoding = FloatEncoding::Signed;
+    REQUIRE_FALSE(
+        relief::slopes(
+            test::normal_image(g, kField.width, kField.height, Green::OpenGL, TypeDesc::FLOAT, 3, false), o)
+            .has_error());
+    std::vector<float> flat(3 * std::size_t(kField.width) * kField.height, 0.0f);
+    for (std::size_t i = 2; i < flat.size(); i += 3)
+        flat[i] = 1.0f;
+    REQUIRE_FALSE(relief::slopes(test::image(kField.width, kField.height, 3, flat), o).has_error());
+    CHECK(warned.empty());
 }
 
 TEST_CASE("the normal map goes to the device in chunks: same slopes, same counts", "[ddm]")

@@ -12,7 +12,12 @@ line's modifiers as keywords (the same names and values):
     relief.write("height.exr", height)
 
 Inputs are numpy arrays (H x W or H x W x C) of uint8 or uint16 (UNORM, as
-an 8/16-bit file decodes), float16 or float32. Results are float32 H x W x C
+an 8/16-bit file decodes), float16 or float32, or OpenImageIO.ImageBuf
+images (read in their stored type, with their metadata: an 8-bit file's
+ImageBuf decodes as the file does). Float normals are signed [-1, 1];
+float data in [0, 1] (OpenImageIO's get_pixels(FLOAT) of an 8-bit file)
+needs range="unsigned", and relief warns when a map looks like it.
+Metadata values are numbers where they are numbers. Results are float32 H x W x C
 arrays of type relief.Image, an ndarray that carries the result's metadata
 (relief:method, relief:boundary, ...) in .metadata, as a file would: bake's
 wrap=auto and write's integer mapping read it. Arrays have no file name:
@@ -62,7 +67,7 @@ def _listener(messages):
 
 
 class Image(_np.ndarray):
-    """A numpy array with the image's metadata (a dict of strings)."""
+    """A numpy array with the image's metadata (a dict: numbers as numbers, the rest as text)."""
 
     def __new__(cls, array, metadata=None):
         obj = _np.asarray(array).view(cls)
@@ -89,7 +94,35 @@ def _text(key, value):
     raise ValueError(f"{key}={value!r}: give a string, a number or True/False")
 
 
+def _is_imagebuf(image):
+    return type(image).__name__ == "ImageBuf" and type(image).__module__.startswith("OpenImageIO")
+
+
+def _from_imagebuf(buf):
+    """(pixels, metadata) of an OpenImageIO.ImageBuf: the pixels in their
+    stored type where relief reads that type as stored (uint8, uint16: UNORM,
+    as a file of that type decodes; half; float), else as float32."""
+    import OpenImageIO as oiio
+
+    if buf.has_error or not buf.initialized:
+        raise ValueError(f"the ImageBuf has no pixels: {buf.geterror() or 'not initialised'}")
+    spec = buf.spec()
+    stored = {"uint8": oiio.UINT8, "uint16": oiio.UINT16, "half": oiio.HALF}.get(str(spec.format), oiio.FLOAT)
+    pixels = buf.get_pixels(stored)
+    if pixels is None:
+        raise ValueError(f"cannot read the ImageBuf's pixels: {buf.geterror()}")
+    return pixels, {a.name: a.value for a in spec.extra_attribs}
+
+
+def _metadata(image):
+    if _is_imagebuf(image):
+        return _from_imagebuf(image)[1]
+    return dict(getattr(image, "metadata", None) or {})
+
+
 def _pixels(array):
+    if _is_imagebuf(array):
+        array = _from_imagebuf(array)[0]
     a = _np.asarray(array)
     if a.dtype == _np.float64:  # numpy's default float: relief computes in float32
         a = a.astype(_np.float32)
@@ -105,7 +138,7 @@ def _operation(info):
     def run(*images, device="auto", progress=None, messages=None, **modifiers):
         if len(images) != len(inputs):
             raise ValueError(f"{name} takes {len(inputs)} image(s) ({', '.join(inputs)}), got {len(images)}")
-        metadata = [dict(getattr(image, "metadata", None) or {}) for image in images]
+        metadata = [_metadata(image) for image in images]
         pixels, meta = _relief.run(name, [_pixels(i) for i in images], metadata,
                                    [(k, _text(k, v)) for k, v in modifiers.items()], device,
                                    _listener(messages), progress)
@@ -142,7 +175,7 @@ def height_udim(tiles, device="auto", progress=None, messages=None, **modifiers)
     pairs = list(tiles.items()) if isinstance(tiles, dict) else list(tiles)
     numbers = [int(n) for n, _ in pairs]
     images = [image for _, image in pairs]
-    metadata = [dict(getattr(image, "metadata", None) or {}) for image in images]
+    metadata = [_metadata(image) for image in images]
     results = _relief.run_tiles("height", numbers, [_pixels(i) for i in images], metadata,
                                 [(k, _text(k, v)) for k, v in modifiers.items()], device,
                                 _listener(messages), progress)
@@ -171,5 +204,5 @@ def write(path, image, type="float", compression=""):
     one). type: float, half, uint16 or uint8; relief's signed results
     (heights, slopes, offsets: metadata relief:method) are mapped to integers
     as data = (value - 0.5) * scale, the scale stored in the file."""
-    _relief.write(_os.fspath(path), _pixels(image), dict(getattr(image, "metadata", None) or {}),
+    _relief.write(_os.fspath(path), _pixels(image), _metadata(image),
                   type, compression)

@@ -12,6 +12,7 @@ import unittest
 import warnings
 
 import numpy as np
+import OpenImageIO as oiio
 
 import relief
 
@@ -546,6 +547,45 @@ class Callbacks(unittest.TestCase):
         self.assertLess(stopped, 1.5)
         # and relief works on
         self.assertEqual(relief.height(self.flat, normal="opengl").shape, (64, 64, 1))
+
+
+class OpenImageIOInput(unittest.TestCase):
+    """OpenImageIO's own Python images, and the float data it makes."""
+
+    def test_an_imagebuf_is_read_as_its_file(self):
+        buf = oiio.ImageBuf(NORMAL)
+        from_buf = relief.height(buf, normal="opengl")
+        from_file = relief.height(relief.read(NORMAL), normal="opengl")
+        self.assertTrue(np.array_equal(from_buf, from_file))
+        self.assertEqual(from_buf.metadata, from_file.metadata)
+        with self.assertRaises(ValueError):
+            relief.height(oiio.ImageBuf(os.path.join(DATA, "no such file.png")))
+
+    def test_metadata_values_keep_their_types(self):
+        h = relief.height(relief.read(NORMAL), normal="opengl")
+        self.assertIsInstance(h.metadata["relief:invalid_normals"], int)
+        self.assertIsInstance(h.metadata["relief:method"], str)
+        offsets = relief.correct(h, scale=0.05, levels=1, iterations=2)
+        self.assertIsInstance(offsets.metadata["relief:scale"], float)
+        self.assertAlmostEqual(offsets.metadata["relief:scale"], 0.05, places=6)
+        # typed values go back in: bake's wrap=auto reads the boundary
+        heard = []
+        relief.bake(relief.read(NORMAL), offsets, messages=lambda s, t: heard.append(t))
+        self.assertTrue(any("clamp" in t or "wrapping" in t for t in heard), heard)
+
+    def test_float_data_in_0_1_warns_to_use_range_unsigned(self):
+        as_float = oiio.ImageBuf(NORMAL).get_pixels(oiio.FLOAT)  # [0, 1], as OpenImageIO reads 8 bit
+        self.assertEqual(as_float.dtype, np.float32)
+        truth = relief.height(relief.read(NORMAL), normal="opengl")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            wrong = relief.height(as_float, normal="opengl")
+            right = relief.height(as_float, normal="opengl", range="unsigned")
+        self.assertEqual(len(caught), 1)
+        self.assertIs(caught[0].category, relief.ReliefWarning)
+        self.assertIn("decode it with range=unsigned", str(caught[0].message))
+        self.assertGreater(np.abs(wrong - truth).max(), 10.0)  # texels
+        self.assertLess(np.abs(right - truth).max(), 0.05)
 
 
 class Threads(unittest.TestCase):

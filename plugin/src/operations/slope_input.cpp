@@ -76,8 +76,8 @@ DerivedSlopes derive_slopes(const ImageBuf& normals, ROI roi, const NormalDecodi
     // The map is decoded a band of rows at a time, from the image's own
     // pixel type: a whole map widened to floats would be 12 bytes a texel.
     const bool check_signed = is_float(stored) && decoding.float_encoding == FloatEncoding::Signed;
-    float lo = 0.0f;
-    double mean_x = 0.0, mean_y = 0.0;
+    float lo = 0.0f, hi = 0.0f;
+    double mean_x = 0.0, mean_y = 0.0, blue_up = 0.0;
     const host::NormalRows rows = [&](int first, int count, float* out) {
         ROI read = roi;
         read.ybegin = roi.ybegin + first;
@@ -89,8 +89,14 @@ DerivedSlopes derive_slopes(const ImageBuf& normals, ROI roi, const NormalDecodi
         if (check_signed)
             for (std::size_t i = 0, e = std::size_t(count) * p.width * p.channels; i < e; i += p.channels) {
                 lo = std::min({lo, out[i], out[i + 1]});
+                hi = std::max({hi, out[i], out[i + 1]});
                 mean_x += out[i];
                 mean_y += out[i + 1];
+                if (p.channels == 3) {
+                    lo = std::min(lo, out[i + 2]);
+                    hi = std::max(hi, out[i + 2]);
+                    blue_up += out[i + 2] > 0.5f;
+                }
             }
     };
 
@@ -98,14 +104,18 @@ DerivedSlopes derive_slopes(const ImageBuf& normals, ROI roi, const NormalDecodi
     say(exec, Severity::Info, "device: " + out.context->device().describe());
     out.slopes = host::derive_slopes(*out.context, rows, p, out.stats);
     if (check_signed) {
-        // Signed maps centre x and y on 0; a map stored in [0, 1] centres
-        // them on 0.5 and has no negative component. Decoding that as
-        // signed would tilt every texel.
+        // Signed maps centre x and y on 0; a map stored in [0, 1] (what
+        // OpenImageIO's get_pixels(FLOAT) makes of an 8-bit file) centres
+        // them on 0.5, has every value in [0, 1] and blue mostly above 0.5.
+        // Decoding that as signed would tilt every texel. (A flat signed map,
+        // x = y = 0, is not taken for one: its x and y centre on 0.)
         const double count = double(p.width) * double(p.height);
-        if (lo >= 0.0f && mean_x / count > 0.25 && mean_y / count > 0.25)
+        if (lo >= 0.0f && hi <= 1.0f && mean_x / count > 0.25 && mean_y / count > 0.25 &&
+            (p.channels < 3 || blue_up > 0.5 * count))
             say(exec, Severity::Warning,
-                "float normal map has no negative x or y component and centres on 0.5; if it "
-                "is stored in [0, 1], decode it with range=unsigned");
+                "float normal map has every value in [0, 1] and x and y centred on 0.5: it looks "
+                "stored unsigned, as 8-bit data read as float is; decode it with range=unsigned "
+                "(as signed [-1, 1] data, as now, every texel tilts)");
     }
 
     const auto& s = out.stats;
