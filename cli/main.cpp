@@ -58,6 +58,12 @@ int run(int argc, char** argv)
     }
     if (prog.verbose && age >= 0)
         std::fprintf(stderr, "relief: process start (loading libraries, before main): %.2f s\n", age);
+    // The image libraries' own lines ("libpng error: ...") only with -v:
+    // relief says why a file failed itself, once.
+    if (prog.verbose)
+        relief::set_library_messages([](relief::Severity, const std::string& line) {
+            std::fprintf(stderr, "relief: (image library) %s\n", line.c_str());
+        });
     try {
         if (prog.list_devices)
             return list_devices();

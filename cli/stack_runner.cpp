@@ -270,11 +270,7 @@ private:
             std::fprintf(stderr, "relief: %s%s\n", prog_.label.c_str(), msg.c_str());
     }
 
-    bool read(OIIO::ImageBuf& img, const std::string& path) const
-    {
-        QuietLibraries quiet(prog_.verbose);
-        return relief::read_image(img, path);
-    }
+    bool read(OIIO::ImageBuf& img, const std::string& path) const { return relief::read_image(img, path); }
 
     void write(const Step& s)
     {

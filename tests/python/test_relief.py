@@ -5,6 +5,7 @@ at the command line, RELIEF_TEST_DATA at examples/data)."""
 import os
 import signal
 import subprocess
+import sys
 import tempfile
 import threading
 import time
@@ -547,6 +548,26 @@ class Callbacks(unittest.TestCase):
         self.assertLess(stopped, 1.5)
         # and relief works on
         self.assertEqual(relief.height(self.flat, normal="opengl").shape, (64, 64, 1))
+
+
+class Quiet(unittest.TestCase):
+    """relief writes nothing to stdout or stderr: the image library's own
+    lines reach messages= as debug, or nowhere."""
+
+    def test_a_damaged_file_prints_nothing_and_its_library_line_is_a_debug_message(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            bad = os.path.join(tmp, "cut.png")
+            with open(NORMAL, "rb") as f, open(bad, "wb") as out:
+                out.write(f.read()[:5000])
+            code = f"import relief\ntry:\n    relief.read({bad!r})\nexcept RuntimeError:\n    pass\n"
+            r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+            self.assertEqual((r.returncode, r.stdout, r.stderr), (0, "", ""))
+            heard = []
+            n = relief.read(NORMAL)
+            with self.assertRaises(RuntimeError) as e:
+                relief.height(n, normal="opengl", mask=bad, messages=lambda s, t: heard.append((s, t)))
+            self.assertIn("hit end of file", str(e.exception))
+            self.assertIn(("debug", "libpng error: IDAT: Read error: hit end of file"), heard)
 
 
 class OpenImageIOInput(unittest.TestCase):

@@ -67,4 +67,11 @@ RELIEF_API bool write_image(const OIIO::ImageBuf& image, const std::string& path
 // read (a PNG's closing chunk checked), not the whole image.
 RELIEF_API std::string recorded_digest(const std::string& path);
 
+// Where the image libraries' own diagnostics go ("libpng error: ...",
+// "OIIO DEBUG: ..."), as Severity::Debug lines, when no operation is
+// running on the thread (an operation's go to its Execution::on_message).
+// relief captures them from stderr around each call into those libraries
+// and never lets them through: without a handler they are dropped.
+RELIEF_API void set_library_messages(std::function<void(Severity, const std::string&)> handler);
+
 }  // namespace relief

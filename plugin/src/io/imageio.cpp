@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "error_state.h"
+#include "library_output.h"
 #include "memory_budget.h"  // host/: no OpenCL types
 #include "relief/output_files.h"
 #include "temporary_file.h"
@@ -56,6 +57,7 @@ std::string input_file_problem(const std::string& path)
 
 bool read_image(ImageBuf& dst, const std::string& path)
 {
+    const detail::LibraryOutput quiet;  // the image libraries print nothing
     if (const std::string why = input_file_problem(path); !why.empty()) {
         detail::set_error("cannot read '" + path + "': " + why);
         return false;
@@ -277,6 +279,7 @@ bool pixels_complete(OIIO::ImageInput& in, const std::string& path, const std::s
 
 std::string recorded_digest(const std::string& path)
 {
+    const detail::LibraryOutput quiet;  // the image libraries print nothing
     // Meshes (--mesh) record it near their start: an OBJ or PLY comment
     // "relief:digest=HEX", glTF's asset.extras "relief:digest":"HEX".
     const std::string ext = lowercase(fs::path(path).extension().string());
@@ -349,6 +352,7 @@ bool check_output_path(const std::string& path)
 
 bool write_image(const ImageBuf& image, const std::string& path, const WriteOptions& options)
 {
+    const detail::LibraryOutput quiet;  // the image libraries print nothing
     if (!check_output_path(path))
         return false;
     if (!image.initialized() || image.has_error()) {

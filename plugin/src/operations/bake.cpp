@@ -108,7 +108,7 @@ bool bake(ImageBuf& dst, const ImageBuf& texture, const ImageBuf& offsets, const
           ROI roi, int /*nthreads*/)
 {
     try {
-        const detail::CancelScope cancel_scope(options.exec);
+        const detail::OperationScope scope(options.exec);
         detail::require_valid(options);
         roi = detail::resolve_roi(texture, roi);
         const int w = roi.width(), h = roi.height(), nch = texture.nchannels();

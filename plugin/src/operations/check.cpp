@@ -27,7 +27,7 @@ ImageBuf normals(const ImageBuf& height, const NormalsOptions& options, ROI roi,
 bool normals(ImageBuf& dst, const ImageBuf& height, const NormalsOptions& options, ROI roi, int)
 {
     try {
-        const detail::CancelScope cancel_scope(options.exec);
+        const detail::OperationScope scope(options.exec);
         detail::require_valid(options);
         roi = detail::resolve_roi(height, roi);
         const int w = roi.width(), ht = roi.height();
@@ -64,7 +64,7 @@ ImageBuf tessellation(const ImageBuf& height, const TessellationOptions& options
 bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptions& options, ROI roi, int)
 {
     try {
-        const detail::CancelScope cancel_scope(options.exec);
+        const detail::OperationScope scope(options.exec);
         detail::require_valid(options);
         roi = detail::resolve_roi(height, roi);
         const int w = roi.width(), ht = roi.height();

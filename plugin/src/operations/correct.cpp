@@ -84,7 +84,7 @@ ImageBuf correct(const ImageBuf& height, const CorrectOptions& options, ROI roi,
 bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& options, ROI roi, int /*nthreads*/)
 {
     try {
-        const detail::CancelScope cancel_scope(options.exec);
+        const detail::OperationScope scope(options.exec);
         const auto t0 = std::chrono::steady_clock::now();
         detail::require_valid(options);
         roi = detail::resolve_roi(height, roi);

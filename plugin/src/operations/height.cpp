@@ -237,7 +237,7 @@ ImageBuf height(const ImageBuf& normals, const HeightOptions& options, ROI roi, 
 bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options, ROI roi, int /*nthreads*/)
 {
     try {
-        const detail::CancelScope cancel_scope(options.exec);
+        const detail::OperationScope scope(options.exec);
         const auto t0 = std::chrono::steady_clock::now();
         detail::require_valid(options);
         roi = detail::resolve_roi(normals, roi);

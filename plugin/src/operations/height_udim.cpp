@@ -293,7 +293,7 @@ bool height_udim(std::vector<ImageBuf>& dst, const std::vector<UdimTile>& tiles,
 {
     dst.clear();
     try {
-        const detail::CancelScope cancel_scope(options.exec);
+        const detail::OperationScope scope(options.exec);
         detail::require_valid(options);
         const std::map<int, std::size_t> at = index_tiles(tiles);
         std::vector<int> numbers;

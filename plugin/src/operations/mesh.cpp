@@ -69,7 +69,7 @@ void check_mesh_memory(const std::vector<int>& levels, bool gltf)
 bool build_mesh(Mesh& mesh, const OIIO::ImageBuf& height, const TessellationOptions& options, bool gltf)
 {
     try {
-        const detail::CancelScope cancel_scope(options.exec);
+        const detail::OperationScope scope(options.exec);
         detail::require_valid(options);
         const OIIO::ROI roi = detail::resolve_roi(height, {});
         const int w = roi.width(), ht = roi.height();
@@ -158,7 +158,7 @@ bool displaced_mesh(Mesh& mesh, const OIIO::ImageBuf& height, const Tessellation
 bool mesh(OIIO::ImageBuf& dst, const OIIO::ImageBuf& height, const MeshOptions& options)
 {
     try {
-        const detail::CancelScope cancel_scope(options.tessellation.exec);
+        const detail::OperationScope scope(options.tessellation.exec);
         detail::require_valid(options);
         Mesh m;
         const std::string ext = std::filesystem::path(options.out).extension().string();

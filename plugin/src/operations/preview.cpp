@@ -256,7 +256,7 @@ ImageBuf preview(const ImageBuf& normals, const ImageBuf& height, const PreviewO
 bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, const PreviewOptions& o)
 {
     try {
-        const detail::CancelScope cancel_scope(o.exec);
+        const detail::OperationScope scope(o.exec);
         detail::require_valid(o);
         const ROI roi = detail::resolve_roi(normals, {});
         const ROI hroi = detail::resolve_roi(height, {});

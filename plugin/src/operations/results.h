@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "cancel.h"
+#include "io/library_output.h"
 #include "relief/options.h"
 #include "relief/validate.h"
 #include "slope_stage.h"
@@ -21,10 +22,12 @@ namespace relief::detail {
 OIIO::ROI resolve_roi(const OIIO::ImageBuf& image, OIIO::ROI roi);
 
 // While an operation runs: exec.cancel, asked once now and then before
-// each kernel (host/cancel.h).
-class CancelScope : host::CancelCheck {
+// each kernel (host/cancel.h), and exec.on_message, where the image
+// libraries' output goes (io/library_output.h).
+class OperationScope : host::CancelCheck, LibraryOutputSink {
 public:
-    explicit CancelScope(const Execution& exec) : host::CancelCheck(exec.cancel)
+    explicit OperationScope(const Execution& exec)
+        : host::CancelCheck(exec.cancel), LibraryOutputSink(exec.on_message)
     {
         host::stop_if_cancelled();
     }

@@ -23,7 +23,7 @@ ImageBuf slopes(const ImageBuf& normals, const SlopeOptions& options, ROI roi, i
 bool slopes(ImageBuf& dst, const ImageBuf& normals, const SlopeOptions& options, ROI roi, int /*nthreads*/)
 {
     try {
-        const detail::CancelScope cancel_scope(options.exec);
+        const detail::OperationScope scope(options.exec);
         detail::require_valid(options);
         roi = detail::resolve_roi(normals, roi);
         auto derived = detail::derive_slopes(normals, roi, options.normals, options.exec);

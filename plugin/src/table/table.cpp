@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "error_state.h"
+#include "io/library_output.h"
 #include "memory_budget.h"
 #include "schema.h"
 
@@ -244,6 +245,8 @@ bool run_operation(ImageBuf& dst, const OperationCall& call, const std::vector<c
             if (!inputs[i])
                 throw std::invalid_argument(op.info.name + ": input '" + op.info.inputs[i].name +
                                             "' is missing (null)");
+        // (The mask and fix files are read here, before the operation.)
+        const detail::LibraryOutputSink library_output(exec.on_message);
         // Every operation reports 0 and 1, also those too quick for steps of
         // their own; a cancel asked at 0 stops it before any work.
         if (exec.on_progress)
