@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "names.h"
+
 namespace relief::cli {
 
 struct Job {
@@ -20,26 +22,6 @@ struct Job {
     std::vector<int> tiles;
     std::vector<std::vector<std::string>> tile_args;
 };
-
-// One argument list of expand_names(), with where it came from.
-struct Expansion {
-    std::vector<std::string> args;
-    int tile = 0;                      // its UDIM tile (0: none)
-    std::vector<std::string> pattern;  // the words before the tile was put in (frames are)
-};
-
-// oiiotool-style names. In every argument, <UDIM> stands for each UDIM tile
-// (1001-1999) that exists for the first input argument holding it; with
-// --frames A-B[,C-D...] (removed from the result), # alone stands for a
-// 4-digit frame number, a run of # or @ for one digit each (#### and @@@@ =
-// 4), %0Nd or %d as in printf, %% for a literal %. Returns one argument
-// list per frame and tile (frames outer; each frame's tiles are those that
-// exist for it), or `args` alone when nothing is to expand. Without
-// --frames, # @ and % are literal. Throws UsageError (a malformed or
-// repeated --frames, --frames without a frame token, <UDIM> with no
-// existing tile).
-std::vector<std::vector<std::string>> expand_names(const std::vector<std::string>& args);
-std::vector<Expansion> expand_names_with_tiles(const std::vector<std::string>& args);
 
 // Jobs of one line's expansions (`base` gives the line and error; indices
 // from `first_index`): one job per list, except that the tiles of one line
