@@ -182,14 +182,18 @@ Arguments are read left to right over a stack of images, like oiiotool:
                         modifier, and relief's kernels); only headers are read
   --dry-run             list the jobs as --log lines on stdout (status
                         pending, or skipped where --update would skip), run none
-  --frames A-B[,C-D...] run once per frame: in every file name # alone is the
+  --frames A-B[,C-D...] run once per frame (A-BxS: every S-th from A; A-ByS:
+                        the others): in every file name # alone is the
                         frame number in 4 digits, a run of # or @ one digit
                         each (@@@ = 3 digits), %04d as printf; %# and %@ are
                         a literal # and @; folder names are kept as they are
-Names: <UDIM> in an argument runs once per UDIM tile (1001-1999) that exists
-for the first input file name holding it, e.g.
+Names: a tile token in an argument runs once per UDIM tile that exists for
+the first input file name holding one: <UDIM> (1001-1999), <UVTILE> (u1_v1,
+Mudbox), <u> <v> (from 0), <U> <V> (from 1), as OpenImageIO's textures, e.g.
   relief 'in/n.<UDIM>.png' --height -o 'out/h.<UDIM>.exr'
-Such runs, and --batch, share one device context and report per job.
+An output without the token of the tiles or frames it is run over would be
+written by each: it is refused. Such runs, and --batch, share one device
+context and report per job.
 Files: a run that would write over a file it reads (or write one file twice)
 is refused before any work; an image over its own input is allowed. Outputs
 are written to a hidden temporary file and renamed when whole; SIGTERM and

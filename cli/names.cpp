@@ -15,15 +15,17 @@ namespace relief::cli {
 
 namespace {
 
-// "1-10,20,30-32" -> every frame, in the order given. Throws UsageError.
+// "1-10,20,30-32", with oiiotool's steps: "1-10x3" every third frame from
+// the first (1 4 7 10), "1-10y3" the others (2 3 5 6 8 9) -> every frame,
+// in the order given. Throws UsageError.
 std::vector<int> parse_frames(const std::string& text)
 {
     constexpr long long kLimit = 1000000000;  // |frame| <= 10^9: no overflow below
     std::vector<int> frames;
     const auto bad = [&text] {
         return UsageError("--frames " + text +
-                          ": write ranges like 1-10,20,30-32 (A <= B, |frames| <= 10^9, "
-                          "at most 100000 frames)");
+                          ": write ranges like 1-10,20,30-32 or 1-9x2 (every second frame; y2: "
+                          "the others) (A <= B, step >= 1, |frames| <= 10^9, at most 100000 frames)");
     };
     const auto number = [&](const char* from, const char* to) {
         long long v = 0;
@@ -34,19 +36,35 @@ std::vector<int> parse_frames(const std::string& text)
     };
     for (std::size_t pos = 0; pos <= text.size();) {
         const std::size_t comma = std::min(text.find(',', pos), text.size());
-        const std::string part = text.substr(pos, comma - pos);
+        std::string part = text.substr(pos, comma - pos);
+        long long step = 1;
+        bool others = false;  // y: the frames the x step leaves out
+        if (const std::size_t x = part.find_first_of("xy"); x != std::string::npos) {
+            others = part[x] == 'y';
+            step = number(part.data() + x + 1, part.data() + part.size());
+            part.resize(x);
+            if (step < 1)
+                throw bad();
+        }
         const std::size_t dash = part.empty() ? std::string::npos : part.find('-', 1);
         const char* begin = part.data();
         const char* end = begin + part.size();
         const char* mid = dash == std::string::npos ? end : begin + dash;
         const long long first = number(begin, mid);
         const long long last = dash == std::string::npos ? first : number(mid + 1, end);
-        if (last < first || frames.size() + std::size_t(last - first) >= 100000)
+        if (last < first)
             throw bad();
-        for (long long f = first; f <= last; ++f)
+        for (long long f = first; f <= last; ++f) {
+            if (((f - first) % step == 0) == others)
+                continue;
+            if (frames.size() >= 100000)
+                throw bad();
             frames.push_back(int(f));
+        }
         pos = comma + 1;
     }
+    if (frames.empty())  // (a y step of 1 leaves none)
+        throw bad();
     return frames;
 }
 
@@ -106,12 +124,99 @@ std::string with_frame(const std::string& arg, int frame, bool& found)
     return out;
 }
 
-std::string with_udim(std::string arg, int tile)
+// The tile tokens, as OpenImageIO's texture system names them: <UDIM> is
+// 1001 + u + 10 v; <UVTILE> is u<U>_v<V> (Mudbox's u1_v1); <u> <v> count
+// tiles from 0, <U> <V> from 1. Tiles are held as UDIM numbers throughout.
+const std::string kTileTokens[] = {"<UDIM>", "<UVTILE>", "<u>", "<v>", "<U>", "<V>"};
+
+bool has_tile_token(const std::string& arg)
 {
-    const std::string token = "<UDIM>";
-    for (std::size_t at; (at = arg.find(token)) != std::string::npos;)
-        arg.replace(at, token.size(), std::to_string(tile));
-    return arg;
+    return std::any_of(std::begin(kTileTokens), std::end(kTileTokens),
+                       [&](const std::string& t) { return arg.find(t) != std::string::npos; });
+}
+
+std::string tile_text(const std::string& token, int tile)
+{
+    const int u = (tile - 1001) % 10, v = (tile - 1001) / 10;
+    if (token == "<UDIM>")
+        return std::to_string(tile);
+    if (token == "<UVTILE>")
+        return "u" + std::to_string(u + 1) + "_v" + std::to_string(v + 1);
+    if (token == "<u>" || token == "<U>")
+        return std::to_string(token == "<U>" ? u + 1 : u);
+    return std::to_string(token == "<V>" ? v + 1 : v);
+}
+
+std::string with_udim(const std::string& arg, int tile)
+{
+    std::string out;
+    for (std::size_t i = 0; i < arg.size();) {
+        const auto* token =
+            std::find_if(std::begin(kTileTokens), std::end(kTileTokens),
+                         [&](const std::string& t) { return arg.compare(i, t.size(), t) == 0; });
+        if (token != std::end(kTileTokens)) {
+            out += tile_text(*token, tile);
+            i += token->size();
+        } else {
+            out += arg[i++];
+        }
+    }
+    return out;
+}
+
+// The tile a file name is of, read against its pattern (tokens at
+// `pieces` boundaries: pieces[k] + token k + pieces[k + 1] ...): 0 when the
+// name is not one of the pattern's tiles. A number is read greedily (1 to 4
+// digits) and the name is then rebuilt from the tile, so leading zeros and
+// tokens that disagree (<u> 3 and <U> 5) do not match.
+int tile_of(const std::string& name, const std::string& pattern, const std::vector<std::string>& pieces,
+            const std::vector<std::string>& tokens)
+{
+    int u = 0, v = 0;
+    std::size_t at = 0;
+    const auto digits = [&](int& value) {
+        std::size_t n = 0;
+        while (n < 4 && at + n < name.size() && std::isdigit(static_cast<unsigned char>(name[at + n])))
+            ++n;
+        if (n == 0)
+            return false;
+        value = std::stoi(name.substr(at, n));
+        at += n;
+        return true;
+    };
+    const auto literal = [&](const std::string& text) {
+        if (name.compare(at, text.size(), text) != 0)
+            return false;
+        at += text.size();
+        return true;
+    };
+    for (std::size_t k = 0; k < tokens.size(); ++k) {
+        if (!literal(pieces[k]))
+            return 0;
+        const std::string& t = tokens[k];
+        int a = 0, b = 0;
+        if (t == "<UDIM>") {
+            if (!digits(a) || a < 1001 || a > 1999)
+                return 0;
+            u = (a - 1001) % 10;
+            v = (a - 1001) / 10;
+        } else if (t == "<UVTILE>") {
+            if (!literal("u") || !digits(a) || !literal("_v") || !digits(b) || a < 1 || b < 1)
+                return 0;
+            u = a - 1;
+            v = b - 1;
+        } else if (!digits(a)) {
+            return 0;
+        } else if (t == "<u>" || t == "<U>") {
+            u = t == "<U>" ? a - 1 : a;
+        } else {
+            v = t == "<V>" ? a - 1 : a;
+        }
+    }
+    if (!literal(pieces.back()) || at != name.size() || u < 0 || u > 9 || v < 0 || v > 99)
+        return 0;
+    const int tile = 1001 + u + 10 * v;
+    return with_udim(pattern, tile) == name ? tile : 0;
 }
 
 bool is_input(const std::vector<std::string>& args, std::size_t i)
@@ -136,13 +241,20 @@ public:
         const std::size_t slash = pattern.rfind('/');
         const std::string folder_pattern = slash == std::string::npos ? "" : pattern.substr(0, slash + 1);
         const std::string name_pattern = pattern.substr(folder_pattern.size());
-        std::vector<std::string> pieces;  // the name around its tokens
+        std::vector<std::string> pieces, tokens;  // the name around its tokens, and they
         for (std::size_t from = 0;;) {
-            const std::size_t at = name_pattern.find(kToken, from);
+            std::size_t at = std::string::npos;
+            const std::string* token = nullptr;
+            for (const std::string& t : kTileTokens)
+                if (const std::size_t found = name_pattern.find(t, from); found < at) {
+                    at = found;
+                    token = &t;
+                }
             pieces.push_back(name_pattern.substr(from, at - from));
-            if (at == std::string::npos)
+            if (!token)
                 break;
-            from = at + kToken.size();
+            tokens.push_back(*token);
+            from = at + token->size();
         }
         std::vector<int> found;
         for (const auto& [folder_tile, folder] : folders(folder_pattern)) {
@@ -152,18 +264,12 @@ public:
                     found.push_back(folder_tile);
                 continue;
             }
-            std::size_t length = 4 * (pieces.size() - 1);
-            for (const std::string& p : pieces)
-                length += p.size();
             const std::vector<std::string>& names = listing(folder);
             for (auto it = std::lower_bound(names.begin(), names.end(), pieces[0]);
                  it != names.end() && it->compare(0, pieces[0].size(), pieces[0]) == 0; ++it) {
                 const std::string& name = *it;
-                int tile = 0;
-                const char* digits = name.data() + pieces[0].size();
-                if (name.size() != length || std::from_chars(digits, digits + 4, tile).ptr != digits + 4 ||
-                    tile < 1001 || tile > 1999 || (folder_tile != 0 && tile != folder_tile) ||
-                    with_udim(name_pattern, tile) != name)
+                const int tile = tile_of(name, name_pattern, pieces, tokens);
+                if (tile == 0 || (folder_tile != 0 && tile != folder_tile))
                     continue;
                 std::error_code ec;  // (a dangling link is listed but does not exist)
                 if (std::filesystem::exists(folder + name, ec))
@@ -176,15 +282,13 @@ public:
     }
 
 private:
-    static inline const std::string kToken = "<UDIM>";
-
     // (tile, folder) for each folder the pattern names: tile 0 and the
     // folder itself when it holds no token.
     const std::vector<std::pair<int, std::string>>& folders(const std::string& pattern)
     {
         auto [it, added] = folders_.try_emplace(pattern);
         if (added) {
-            if (pattern.find(kToken) == std::string::npos) {
+            if (!has_tile_token(pattern)) {
                 it->second.emplace_back(0, pattern);
             } else {
                 for (int t = 1001; t <= 1999; ++t) {
@@ -226,7 +330,7 @@ std::vector<Expansion> expand_udim(const std::vector<std::string>& args, TileFin
     bool udim = false;
     std::vector<int> tiles;
     for (std::size_t i = 0; i < args.size(); ++i) {
-        if (args[i].find("<UDIM>") == std::string::npos)
+        if (!has_tile_token(args[i]))
             continue;
         udim = true;
         if (!is_input(args, i))
@@ -241,7 +345,8 @@ std::vector<Expansion> expand_udim(const std::vector<std::string>& args, TileFin
     if (!udim)
         return {{args, 0, args}};
     if (tiles.empty()) {
-        error = "<UDIM> in an output needs an input file name holding <UDIM> (its tiles are the ones made)";
+        error = "a tile token (<UDIM>, <UVTILE>) in an output needs an input file name holding one (its "
+                "tiles are the ones made)";
         return {};
     }
     std::vector<Expansion> jobs;
@@ -251,6 +356,26 @@ std::vector<Expansion> expand_udim(const std::vector<std::string>& args, TileFin
             a = with_udim(a, tile);
     }
     return jobs;
+}
+
+// Refuses expansions that would write one file more than once: an output
+// (-o, --report) named without the token of what the line runs over would
+// be overwritten by each tile or frame, and --update would never settle.
+void refuse_shared_outputs(const std::vector<Expansion>& jobs)
+{
+    if (jobs.size() < 2)
+        return;
+    std::map<std::string, int> writers;
+    for (const Expansion& e : jobs)
+        for (std::size_t i = 0; i + 1 < e.args.size(); ++i)
+            if (e.args[i] == "-o" || e.args[i] == "--report")
+                ++writers[e.args[i] + " " + e.args[i + 1]];
+    for (const auto& [output, count] : writers)
+        if (count > 1)
+            throw UsageError(output + ": " + std::to_string(count) + " of this line's " +
+                             std::to_string(jobs.size()) +
+                             " tiles and frames would each write it; put the tile token (<UDIM>, "
+                             "<UVTILE>) or a frame token (#, %04d) in the name");
 }
 
 }  // namespace
@@ -274,11 +399,11 @@ std::vector<Expansion> expand_names_with_tiles(const std::vector<std::string>& g
         if (given[i] == "--batch" || given[i] == "--log") {
             bool frame_token = false;
             with_frame(given[i + 1], 0, frame_token);
-            if (given[i + 1].find("<UDIM>") != std::string::npos || (frames_given && frame_token))
+            if (has_tile_token(given[i + 1]) || (frames_given && frame_token))
                 throw UsageError(
                     given[i] + " " + given[i + 1] +
-                    ": names one file for the whole run; <UDIM> and frame tokens are not expanded "
-                    "there (with --frames, write %# or %@ for a literal # or @)");
+                    ": names one file for the whole run; tile (<UDIM>, <UVTILE>) and frame tokens are "
+                    "not expanded there (with --frames, write %# or %@ for a literal # or @)");
         }
     frames_given = false;
     for (std::size_t i = 0; i < given.size(); ++i) {
@@ -299,6 +424,7 @@ std::vector<Expansion> expand_names_with_tiles(const std::vector<std::string>& g
         auto jobs = expand_udim(args, finder, error);
         if (!error.empty())
             throw UsageError(error);
+        refuse_shared_outputs(jobs);
         return jobs;
     }
     // Frames outer, tiles inner: each frame's tiles are those that exist for it.
@@ -326,6 +452,7 @@ std::vector<Expansion> expand_names_with_tiles(const std::vector<std::string>& g
             jobs.push_back(std::move(job));
         }
     }
+    refuse_shared_outputs(jobs);
     return jobs;
 }
 

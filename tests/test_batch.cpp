@@ -339,6 +339,76 @@ TEST_CASE("names: <UDIM>, # @ %0Nd and --frames expand as oiiotool's", "[names][
     CHECK(jobs[4].error.empty());
 }
 
+TEST_CASE("names: <UVTILE>, <u> <v> <U> <V> and frame steps expand as OpenImageIO and oiiotool name them",
+          "[names][parse]")
+{
+    using V = std::vector<std::string>;
+    using VV = std::vector<V>;
+    using relief::cli::expand_names;
+    const fs::path d = scratch("uvtile");
+    // u1_v1 is tile 1001, u2_v1 1002, u1_v2 1011; near misses: a leading
+    // zero, u past 10, no v, another suffix
+    for (const char* f : {"n_u1_v1.png", "n_u2_v1.png", "n_u1_v2.png", "n_u01_v1.png", "n_u11_v1.png",
+                          "n_u3.png", "n_u4_v1.png.bak", "m_0_0.png", "m_1_0.png", "m_0_10.png", "k_1_1.png"})
+        std::ofstream(d / f) << "x";
+    const auto in = [&](const char* name) { return (d / name).string(); };
+    CHECK(expand_names({in("n_<UVTILE>.png"), "-o", "o.<UDIM>.exr"}) ==
+          VV{{in("n_u1_v1.png"), "-o", "o.1001.exr"},
+             {in("n_u2_v1.png"), "-o", "o.1002.exr"},
+             {in("n_u1_v2.png"), "-o", "o.1011.exr"}});
+    // the same tile in every token kind
+    CHECK(expand_names({in("m_<u>_<v>.png"), "-o", "o_<UVTILE>_<U>_<V>_<UDIM>.exr"}) ==
+          VV{{in("m_0_0.png"), "-o", "o_u1_v1_1_1_1001.exr"},
+             {in("m_1_0.png"), "-o", "o_u2_v1_2_1_1002.exr"},
+             {in("m_0_10.png"), "-o", "o_u1_v11_1_11_1101.exr"}});
+    CHECK(expand_names({in("k_<U>_<V>.png"), "-o", "o.<UDIM>.exr"}) ==
+          VV{{in("k_1_1.png"), "-o", "o.1001.exr"}});
+    // frames: x steps from the first, y takes the others (oiiotool)
+    const auto frames = [&](const char* spec) {
+        V outs;
+        for (const V& job : expand_names({"f.#.png", "--frames", spec, "-o", "o.%d.exr"}))
+            outs.push_back(job.back());
+        return outs;
+    };
+    CHECK(frames("1-10x3") == V{"o.1.exr", "o.4.exr", "o.7.exr", "o.10.exr"});
+    CHECK(frames("1-10y3") == V{"o.2.exr", "o.3.exr", "o.5.exr", "o.6.exr", "o.8.exr", "o.9.exr"});
+    CHECK(frames("-4--1x2,7") == V{"o.-4.exr", "o.-2.exr", "o.7.exr"});
+    CHECK(frames("5x2") == V{"o.5.exr"});
+    for (const char* bad : {"1-10x0", "1-10x", "1-10z2", "1-10x-2", "1-10xx2", "x2", "1-3y1"})
+        CHECK_THROWS_AS(expand_names({"f.#.png", "--frames", bad}), UsageError);
+}
+
+TEST_CASE("names: an output that every tile or frame would write is refused before any job", "[names][parse]")
+{
+    using V = std::vector<std::string>;
+    using relief::cli::expand_names;
+    const fs::path d = scratch("shared-outputs");
+    for (const char* t : {"1001", "1002"})
+        std::ofstream(d / ("n." + std::string(t) + ".png")) << "x";
+    const std::string in = (d / "n.<UDIM>.png").string();
+    CHECK_THROWS_WITH(expand_names({in, "--height", "-o", "h.exr"}),
+                      "-o h.exr: 2 of this line's 2 tiles and frames would each write it; put the tile token "
+                      "(<UDIM>, <UVTILE>) or a frame token (#, %04d) in the name");
+    CHECK_THROWS_WITH(expand_names({in, "--height", "-o", "h.<UDIM>.exr", "--report", "r.json"}),
+                      Catch::StartsWith("--report r.json: 2 of this line's 2 tiles"));
+    CHECK_THROWS_WITH(expand_names({"f.#.png", "--frames", "1-2", "--height", "-o", "h.exr"}),
+                      Catch::StartsWith("-o h.exr: 2 of this line's 2"));
+    // tiles and frames: the frame token alone is not enough
+    CHECK_THROWS_WITH(expand_names({in, "--frames", "1-2", "--height", "-o", "h.#.exr"}),
+                      Catch::StartsWith("-o h.0001.exr: 2 of this line's 4"));
+    CHECK(expand_names({in, "--frames", "1-2", "--height", "-o", "h.<UDIM>.#.exr"}).size() == 4);
+    CHECK(expand_names({(d / "n.1001.png").string(), "--height", "-o", "h.exr"}).size() == 1);
+    CHECK(expand_names({"f.#.png", "--frames", "3", "--height", "-o", "h.exr"}).size() == 1);
+    // in a manifest the line fails alone, before any job runs
+    std::ofstream(d / "jobs.txt") << "'" << in << "' --slopes -o h.exr\n"
+                                  << "'" << in << "' --slopes -o 'h.<UDIM>.exr'\n";
+    const auto jobs = relief::cli::read_jobs((d / "jobs.txt").string());
+    REQUIRE(jobs.size() == 3);
+    CHECK(jobs[0].error.find("would each write it") != std::string::npos);
+    CHECK(jobs[1].error.empty());
+    CHECK(jobs[2].args.back() == "h.1002.exr");
+}
+
 TEST_CASE("names: the tiles of <UDIM> are the files that exist, the token in a folder or twice in a name",
           "[names][parse]")
 {
