@@ -151,23 +151,4 @@ std::vector<Job> shard_of(const std::vector<Job>& jobs, int index, int count)
     return mine;
 }
 
-std::string json_quote(const std::string& s)
-{
-    std::string out = "\"";
-    for (const char ch : s) {
-        const unsigned char u = static_cast<unsigned char>(ch);
-        if (ch == '"' || ch == '\\') {
-            out += '\\';
-            out += ch;
-        } else if (u < 0x20) {
-            char buf[8];
-            std::snprintf(buf, sizeof buf, "\\u%04x", u);
-            out += buf;
-        } else {
-            out += ch;
-        }
-    }
-    return out + "\"";
-}
-
 }  // namespace relief::cli

@@ -46,7 +46,4 @@ std::vector<Job> read_jobs(const std::string& path);
 // congruent to I mod N, in manifest order.
 std::vector<Job> shard_of(const std::vector<Job>& jobs, int index, int count);
 
-// A JSON string literal.
-std::string json_quote(const std::string& s);
-
 }  // namespace relief::cli

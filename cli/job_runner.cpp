@@ -8,8 +8,10 @@
 
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <set>
 #include <string>
@@ -19,6 +21,7 @@
 
 #include "file_uses.h"
 #include "job_digest.h"
+#include "json_text.h"
 #include "stack_runner.h"
 #include "relief/relief.h"
 
@@ -36,22 +39,41 @@ struct JobRecord {
     std::string message;
 };
 
-std::string json_list(const std::vector<std::string>& v)
+// When a record is written, in UTC (ISO 8601, to the second): logs of
+// many hosts and time zones sort as one.
+std::string utc_now()
 {
-    std::string s = "[";
-    for (std::size_t i = 0; i < v.size(); ++i)
-        s += (i ? ", " : "") + json_quote(v[i]);
-    return s + "]";
+    const std::time_t now = std::time(nullptr);
+    std::tm utc{};
+    gmtime_r(&now, &utc);
+    char text[32];
+    std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
+    return text;
+}
+
+// The machine that ran the job (farms append many hosts' records to one log).
+std::string host_name()
+{
+    char name[256] = {};
+    if (gethostname(name, sizeof name - 1) != 0)
+        return "";
+    return name;
 }
 
 std::string json_line(const JobRecord& r)
 {
-    char seconds[32];
-    std::snprintf(seconds, sizeof seconds, "%.3f", r.seconds);
-    return "{\"job\": " + std::to_string(r.index) + ", \"line\": " + std::to_string(r.line) +
-           ", \"args\": " + json_list(r.args) + ", \"inputs\": " + json_list(r.inputs) +
-           ", \"outputs\": " + json_list(r.outputs) + ", \"status\": \"" + r.status +
-           "\", \"seconds\": " + seconds + ", \"message\": " + json_quote(r.message) + "}";
+    Json line;
+    line["job"] = r.index;
+    line["line"] = r.line;
+    line["args"] = json_bytes(r.args);
+    line["inputs"] = json_bytes(r.inputs);
+    line["outputs"] = json_bytes(r.outputs);
+    line["status"] = r.status;
+    line["seconds"] = std::round(r.seconds * 1000.0) / 1000.0;
+    line["message"] = json_bytes(r.message);
+    line["time"] = utc_now();
+    line["host"] = json_bytes(host_name());
+    return json_text(line);
 }
 
 // Whether every output of the job (its programs: one, or a tile set's)

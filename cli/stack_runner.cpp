@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "job_digest.h"
+#include "json_text.h"
 #include "text_file.h"
 #include "relief/relief.h"
 
@@ -217,11 +218,10 @@ public:
     {
         if (!prog_.report.empty()) {
             // One object per reporting operation, in the order they ran.
-            std::string json = "{";
+            Json json = Json::object();
             for (const auto& [key, object] : report_)
-                json +=
-                    std::string(json.size() > 1 ? ",\n" : "\n") + "  \"" + key + "\": " + indented(object);
-            write_text_atomically(prog_.report, json + "\n}\n", "the report");
+                json[key] = Json::parse(object);
+            write_text_atomically(prog_.report, json_text(json, 2) + "\n", "the report");
         }
         if (prog_.verbose && ahead_.valid()) {
             ahead_.wait();
@@ -303,20 +303,6 @@ private:
             throw RunError(relief::geterror());
         if (prog_.verbose)
             std::fprintf(stderr, "relief: wrote %s\n", s.path.c_str());
-    }
-
-    // A JSON object's text indented one level (after its first line), without its last newline.
-    static std::string indented(std::string object)
-    {
-        while (!object.empty() && object.back() == '\n')
-            object.pop_back();
-        std::string out;
-        for (char c : object) {
-            out += c;
-            if (c == '\n')
-                out += "  ";
-        }
-        return out;
     }
 
     const Program& prog_;

@@ -2,6 +2,7 @@
 // --batch, --shard and --log: manifests of ordinary command lines run in
 // one process, a failed job alone failing, shards covering every job once.
 #include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
 
 #include <OpenImageIO/imagebufalgo.h>
 
@@ -10,11 +11,15 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <random>
 #include <regex>
 #include <set>
 #include <sstream>
 
+#include <unistd.h>
+
 #include "batch.h"
+#include "json_text.h"
 #include "command_line.h"
 #include "relief/imageio.h"
 #include "support/images.h"
@@ -164,38 +169,50 @@ TEST_CASE("batch: jobs run in one process, a failed job alone fails, the log say
 
     const std::vector<std::string> lines = lines_of(log);
     REQUIRE(lines.size() == 5);
-    CHECK(lines[0].rfind("{\"job\": 0, \"line\": 2, \"args\": [\"" + kNormal +
-                             "\", \"--height:normal=opengl\", \"-o\", \"" + (d / "h 0.exr").string() +
-                             "\"], \"inputs\": [\"" + kNormal + "\"], \"outputs\": [\"" +
-                             (d / "h 0.exr").string() + "\"], \"status\": \"ok\", \"seconds\": ",
+    CHECK(lines[0].rfind("{\"job\":0,\"line\":2,\"args\":[\"" + kNormal +
+                             "\",\"--height:normal=opengl\",\"-o\",\"" + (d / "h 0.exr").string() +
+                             "\"],\"inputs\":[\"" + kNormal + "\"],\"outputs\":[\"" +
+                             (d / "h 0.exr").string() + "\"],\"status\":\"ok\",\"seconds\":",
                          0) == 0);
-    CHECK(lines[2].find("\"job\": 2, \"line\": 4,") != std::string::npos);
-    CHECK(lines[2].find("\"status\": \"failed\"") != std::string::npos);
-    CHECK(lines[2].find("\"message\": \"cannot read") != std::string::npos);
-    CHECK(lines[3].find("\"status\": \"failed\"") != std::string::npos);
-    CHECK(lines[4].find("\"status\": \"ok\"") != std::string::npos);
-    CHECK(lines[4].find("\"message\": \"\"}") != std::string::npos);
+    CHECK(lines[2].find("\"job\":2,\"line\":4,") != std::string::npos);
+    CHECK(lines[2].find("\"status\":\"failed\"") != std::string::npos);
+    CHECK(lines[2].find("\"message\":\"cannot read") != std::string::npos);
+    CHECK(lines[3].find("\"status\":\"failed\"") != std::string::npos);
+    CHECK(lines[4].find("\"status\":\"ok\"") != std::string::npos);
+    CHECK(lines[4].find("\"message\":\"\",\"time\":") != std::string::npos);
     // Every record has every field, in order, each of its JSON type; the
     // times are each job's own, in seconds, and add up to at most the batch's.
-    const std::regex record(
-        R"re(\{"job": (\d+), "line": (\d+), "args": \[(".*")\], "inputs": \[(".*")?\], )re"
-        R"re("outputs": \[(".*")?\], "status": "(ok|failed|skipped)", "seconds": (\d+\.\d{3}), )re"
-        R"re("message": "(.*)"\})re");
     double total = 0.0;
     for (std::size_t i = 0; i < lines.size(); ++i) {
         INFO(lines[i]);
-        std::smatch f;
-        REQUIRE(std::regex_match(lines[i], f, record));
-        CHECK(std::stoi(f[1]) == int(i));
-        CHECK(std::stoi(f[2]) == int(i) + 2);  // the manifest's line, after its comment
-        CHECK(f[6].str() == (i == 2 || i == 3 ? "failed" : "ok"));
-        CHECK(f[8].str().empty() == (f[6].str() == "ok"));
-        total += std::stod(f[7]);
+        const auto r = nlohmann::ordered_json::parse(lines[i]);
+        std::vector<std::string> keys;
+        for (const auto& item : r.items())
+            keys.push_back(item.key());
+        CHECK(keys == std::vector<std::string>{"job", "line", "args", "inputs", "outputs", "status",
+                                               "seconds", "message", "time", "host"});
+        // when it ended, in UTC, and where
+        CHECK(std::regex_match(r["time"].get<std::string>(),
+                               std::regex(R"(20\d\d-[01]\d-[0-3]\dT[0-2]\d:[0-5]\d:[0-6]\dZ)")));
+        char host[256] = {};
+        gethostname(host, sizeof host - 1);
+        CHECK(r["host"] == std::string(host));
+        CHECK(r["job"] == int(i));
+        CHECK(r["line"] == int(i) + 2);  // the manifest's line, after its comment
+        CHECK(r["args"].is_array());
+        CHECK(r["inputs"].is_array());
+        CHECK(r["outputs"].is_array());
+        CHECK(r["status"] == (i == 2 || i == 3 ? "failed" : "ok"));
+        REQUIRE(r["seconds"].is_number());
+        const double seconds = r["seconds"];
+        CHECK(seconds * 1000.0 == Approx(std::round(seconds * 1000.0)));  // to the millisecond
+        CHECK(r["message"].get<std::string>().empty() == (r["status"] == "ok"));
+        total += seconds;
     }
     CHECK(total > 0.0);
     CHECK(total <= wall);
-    CHECK(lines[1].find("\"inputs\": [\"" + kDem + "\"], \"outputs\": [\"" + (d / "h1.exr").string() +
-                        "\"]") != std::string::npos);
+    CHECK(lines[1].find("\"inputs\":[\"" + kDem + "\"],\"outputs\":[\"" + (d / "h1.exr").string() + "\"]") !=
+          std::string::npos);
 
     // all jobs fine: exit 0
     std::ofstream(d / "good.txt") << kDem << " --slopes -o " << (d / "g.exr").string() << "\n";
@@ -235,7 +252,7 @@ TEST_CASE("batch: three shards of six jobs cover each job exactly once", "[batch
         CHECK(r.err.find("2 ok, 0 skipped, 0 failed of 2 job(s) (shard " + std::to_string(s) + "/3 of 6)") !=
               std::string::npos);
         for (const std::string& l : lines_of(log)) {
-            const int job = std::stoi(l.substr(std::string("{\"job\": ").size()));
+            const int job = std::stoi(l.substr(std::string("{\"job\":").size()));
             CHECK(job % 3 == s);
             done.insert(job);
         }
@@ -260,7 +277,7 @@ std::vector<std::string> statuses(const fs::path& log)
 {
     std::vector<std::string> s;
     for (const std::string& l : lines_of(log)) {
-        const std::size_t at = l.find("\"status\": \"") + 11;
+        const std::size_t at = l.find("\"status\":\"") + 10;
         s.push_back(l.substr(at, l.find('"', at) - at));
     }
     return s;
@@ -523,9 +540,9 @@ TEST_CASE("names: a <UDIM> set whose --height joins its tiles is one job, its di
     CHECK(r.err.find("1 ok, 0 skipped, 0 failed of 1 job(s)") != std::string::npos);
     const std::vector<std::string> log = lines_of(d / "log.jsonl");
     REQUIRE(log.size() == 1);
-    CHECK(log[0].find("\"inputs\": [\"n.1001.png\", \"n.1002.png\", \"n.1011.png\", \"n.1012.png\"]") !=
+    CHECK(log[0].find("\"inputs\":[\"n.1001.png\",\"n.1002.png\",\"n.1011.png\",\"n.1012.png\"]") !=
           std::string::npos);
-    CHECK(log[0].find("\"args\": [\"n.<UDIM>.png\"") != std::string::npos);
+    CHECK(log[0].find("\"args\":[\"n.<UDIM>.png\"") != std::string::npos);
     // each tile: the whole map's solve, cut
     REQUIRE(run("whole.png --height:boundary=periodic -o whole.exr").rc == 0);
     OIIO::ImageBuf expected((d / "whole.exr").string());
@@ -542,7 +559,7 @@ TEST_CASE("names: a <UDIM> set whose --height joins its tiles is one job, its di
         other.set_write_format(OIIO::TypeDesc::UINT8);
         REQUIRE(other.write((d / "n.1012.png").string()));
     }
-    CHECK(run(line + " --update --dry-run").out.find("\"status\": \"pending\"") != std::string::npos);
+    CHECK(run(line + " --update --dry-run").out.find("\"status\":\"pending\"") != std::string::npos);
     CHECK(run(line + " --update").err.find("1 ok, 0 skipped") != std::string::npos);
     CHECK(relief::recorded_digest((d / "h.1001.exr").string()) != before);
     // udim=each: one job per tile, as before
@@ -623,7 +640,7 @@ TEST_CASE("update: a job is skipped exactly when its outputs record the digest i
     manifest(":normal=opengl", "half");
     auto dry = relief::test::run_cli("--batch jobs.txt --update --dry-run", "cd '" + d.string() + "' &&");
     CHECK(dry.rc == 0);
-    CHECK(dry.out.find("\"status\": \"pending\"") != std::string::npos);
+    CHECK(dry.out.find("\"status\":\"pending\"") != std::string::npos);
     CHECK(dry.err.find("3 pending, 1 skipped, 0 failed of 4 job(s) (dry run)") != std::string::npos);
     CHECK(fs::last_write_time(d / "h0.exr") == h0_time);  // a dry run writes nothing
     r = run();
@@ -677,14 +694,56 @@ TEST_CASE("update: a job is skipped exactly when its outputs record the digest i
     CHECK(statuses((run(), log)) == S{"ok"});
 }
 
-TEST_CASE("batch: --log strings are JSON: quotes, backslashes and control characters escaped",
-          "[batch][parse]")
+TEST_CASE(
+    "batch: --log strings are JSON: escapes, UTF-8 as it is, other bytes as \\udcXX that give them back",
+    "[batch][parse]")
 {
-    using relief::cli::json_quote;
-    CHECK(json_quote("") == "\"\"");
-    CHECK(json_quote("a b.exr") == "\"a b.exr\"");
-    CHECK(json_quote("say \"hi\"") == "\"say \\\"hi\\\"\"");
-    CHECK(json_quote("C:\\maps\\n.png") == "\"C:\\\\maps\\\\n.png\"");
-    CHECK(json_quote(std::string("tab\there\nnl\x01\x1f")) == "\"tab\\u0009here\\u000anl\\u0001\\u001f\"");
-    CHECK(json_quote("\x7f and caf\xc3\xa9") == "\"\x7f and caf\xc3\xa9\"");  // bytes >= 0x20 as they are
+    using relief::cli::json_bytes;
+    using relief::cli::json_text;
+    const auto text = [](const std::string& s) { return json_text(json_bytes(s)); };
+    CHECK(text("") == "\"\"");
+    CHECK(text("a b.exr") == "\"a b.exr\"");
+    CHECK(text("say \"hi\"") == "\"say \\\"hi\\\"\"");
+    CHECK(text("C:\\maps\\n.png") == "\"C:\\\\maps\\\\n.png\"");
+    CHECK(text(std::string("tab\there\nnl\x01\x1f")) == "\"tab\\there\\nnl\\u0001\\u001f\"");
+    CHECK(text("\x7f and caf\xc3\xa9") == "\"\x7f and caf\xc3\xa9\"");  // UTF-8 as it is
+    // bytes that are not UTF-8: each one \udcXX (Python's surrogateescape)
+    CHECK(text("n\xff\xfe.png") == "\"n\\udcff\\udcfe.png\"");
+    CHECK(text("\xc3(") == "\"\\udcc3(\"");                      // a lead byte without its follower
+    CHECK(text("\xed\xa0\x80") == "\"\\udced\\udca0\\udc80\"");  // a surrogate is not UTF-8
+    CHECK(text("\xc0\xaf") == "\"\\udcc0\\udcaf\"");             // nor an overlong form
+    // the plane-16 code points that stand for such bytes inside: as their bytes too
+    CHECK(text("\xf4\x8f\xbf\xbf") == "\"\\udcf4\\udc8f\\udcbf\\udcbf\"");
+    CHECK(text("\xf4\x8f\xbd\xbf") == "\"\xf4\x8f\xbd\xbf\"");  // U+10FF7F, just below them: as it is
+    // every byte string comes back, reading \udcXX as the byte XX (what
+    // Python's json.loads and os.fsencode do) and the rest as JSON
+    const auto read_back = [](const std::string& json) {
+        std::string bytes, fragment;
+        const auto flush = [&] {
+            bytes += nlohmann::json::parse("\"" + fragment + "\"").get<std::string>();
+            fragment.clear();
+        };
+        for (std::size_t k = 1; k + 1 < json.size(); ++k) {
+            if (json[k] == '\\' && json.compare(k + 1, 3, "udc") == 0) {
+                flush();
+                bytes += char(std::stoi(json.substr(k + 4, 2), nullptr, 16));
+                k += 5;
+            } else if (json[k] == '\\') {
+                fragment += json.substr(k, 2);
+                ++k;
+            } else {
+                fragment += json[k];
+            }
+        }
+        flush();
+        return bytes;
+    };
+    std::mt19937 rng(7);
+    for (int round = 0; round < 2000; ++round) {
+        std::string bytes(rng() % 12, ' ');
+        for (char& c : bytes)
+            c = char(rng() % 4 == 0 ? 0x80 + rng() % 0x80 : rng() % 3 == 0 ? 0xf4 : 0x01 + rng() % 0x7f);
+        INFO("round " << round);
+        CHECK(read_back(text(bytes)) == bytes);
+    }
 }

@@ -1116,16 +1116,16 @@ TEST_CASE("mesh and tessellation outputs: --update skips an unchanged mesh, inte
                        (d / "levels.png").string() + "'");
     };
     REQUIRE(run("0.02").rc == 0);
-    CHECK(test::slurp(log).find("\"status\": \"ok\"") != std::string::npos);
+    CHECK(test::slurp(log).find("\"status\":\"ok\"") != std::string::npos);
     REQUIRE(run("0.02").rc == 0);
-    CHECK(test::slurp(log).find("\"status\": \"skipped\"") != std::string::npos);
+    CHECK(test::slurp(log).find("\"status\":\"skipped\"") != std::string::npos);
     CHECK(recorded_digest((d / "m.ply").string()).size() == 32);
     // Another error recomputes; the mesh alone gone recomputes too.
     REQUIRE(run("0.03").rc == 0);
-    CHECK(test::slurp(log).find("\"status\": \"ok\"") != std::string::npos);
+    CHECK(test::slurp(log).find("\"status\":\"ok\"") != std::string::npos);
     fs::remove(d / "m.ply");
     REQUIRE(run("0.03").rc == 0);
-    CHECK(test::slurp(log).find("\"status\": \"ok\"") != std::string::npos);
+    CHECK(test::slurp(log).find("\"status\":\"ok\"") != std::string::npos);
     CHECK(fs::exists(d / "m.ply"));
     // The 8-bit level map holds the levels as codes (values k/255).
     const auto codes = test::file_pixels(d / "levels.png");

@@ -3,6 +3,7 @@
 // parser, --help, the JSON of the C ABI, the API's range checks and
 // run_operation() all follow.
 #include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstdlib>
@@ -197,8 +198,10 @@ TEST_CASE("operations: --help and the JSON show every operation and modifier fro
           "[operations][cli]")
 {
     const std::string help = cli::usage_text();
-    const std::string json = operations_json();
-    CHECK(json.rfind("{\"abi_version\": 2, \"operations\": [", 0) == 0);
+    const auto json = nlohmann::json::parse(operations_json());
+    CHECK(json["abi_version"] == 2);
+    REQUIRE(json["operations"].size() == operations().size());
+    std::size_t op_at = 0;
     for (const OperationInfo& op : operations()) {
         INFO(op.name);
         const std::size_t at = help.find("Modifiers (:key=value) of --" + op.name + ":");
@@ -206,20 +209,31 @@ TEST_CASE("operations: --help and the JSON show every operation and modifier fro
         CHECK(help.find("--" + op.name + "[:MODS]") != std::string::npos);
         const std::size_t next = help.find("Modifiers (:key=value) of", at + 1);
         const std::string section = help.substr(at, next == std::string::npos ? next : next - at);
-        CHECK(json.find("{\"name\": \"" + op.name + "\"") != std::string::npos);
+        const auto& op_json = json["operations"][op_at++];
+        CHECK(op_json["name"] == op.name);
+        REQUIRE(op_json["modifiers"].size() == op.modifiers.size());
+        std::size_t m_at = 0;
         for (const ModifierInfo& m : op.modifiers) {
             INFO(m.name);
             CHECK(section.find(" " + m.name + "=") != std::string::npos);
-            CHECK(json.find("{\"name\": \"" + m.name + "\"") != std::string::npos);
-            CHECK(json.find("\"default\": \"" + m.default_value + "\"") != std::string::npos);
+            const auto& m_json = op_json["modifiers"][m_at++];
+            CHECK(m_json["name"] == m.name);
+            CHECK(m_json["default"] == m.default_value);
         }
     }
     CHECK(help.find("rays=J              ray directions per texel; an integer in [1, 4096]") !=
           std::string::npos);
     CHECK(help.find("  with method=rays:\n") != std::string::npos);
-    CHECK(json.find(
-              "{\"name\": \"rays\", \"type\": \"integer\", \"choices\": [], \"min\": 1, \"max\": 4096,") !=
-          std::string::npos);
+    const auto height_op = std::find_if(json["operations"].begin(), json["operations"].end(),
+                                        [](const auto& op) { return op["name"] == "height"; });
+    REQUIRE(height_op != json["operations"].end());
+    const auto& rays = (*height_op)["modifiers"];
+    const auto it = std::find_if(rays.begin(), rays.end(), [](const auto& m) { return m["name"] == "rays"; });
+    REQUIRE(it != rays.end());
+    CHECK((*it)["type"] == "integer");
+    CHECK((*it)["choices"].empty());
+    CHECK((*it)["min"] == 1);
+    CHECK((*it)["max"] == 4096);
 }
 
 TEST_CASE("operations: modifier strings parse as on the command line", "[operations][parse]")

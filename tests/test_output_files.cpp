@@ -252,10 +252,10 @@ TEST_CASE("output files: batches sharing one --log append whole lines, none lost
         while (std::getline(f, line)) {
             ++lines;
             // whole records: one object per line, its job and its status
-            REQUIRE(line.rfind("{\"job\": ", 0) == 0);
+            REQUIRE(line.rfind("{\"job\":", 0) == 0);
             REQUIRE(line.back() == '}');
-            CHECK(line.find("\"status\": \"failed\"") != std::string::npos);
-            seen.insert(std::stoi(line.substr(8)));
+            CHECK(line.find("\"status\":\"failed\"") != std::string::npos);
+            seen.insert(std::stoi(line.substr(7)));
         }
         CHECK(lines == writers * jobs);
         for (int i = 0; i < jobs; ++i)
@@ -365,12 +365,12 @@ TEST_CASE("output files: --update recomputes an output cut short, whatever keeps
             CHECK(r.rc == 0);
             return slurp(d / "log.jsonl");
         };
-        CHECK(run().find("\"status\": \"ok\"") != std::string::npos);
-        CHECK(run().find("\"status\": \"skipped\"") != std::string::npos);
+        CHECK(run().find("\"status\":\"ok\"") != std::string::npos);
+        CHECK(run().find("\"status\":\"skipped\"") != std::string::npos);
         const auto size = fs::file_size(d / name);
         fs::resize_file(d / name, size / 2);  // the header and the digest stay
         CHECK(relief::recorded_digest((d / name).string()).empty());
-        CHECK(run().find("\"status\": \"ok\"") != std::string::npos);
+        CHECK(run().find("\"status\":\"ok\"") != std::string::npos);
         CHECK(fs::file_size(d / name) == size);
     }
 }
@@ -426,9 +426,9 @@ TEST_CASE(
     int records = 0;
     while (std::getline(f, line)) {
         ++records;
-        CHECK(line.rfind("{\"job\": ", 0) == 0);
+        CHECK(line.rfind("{\"job\":", 0) == 0);
         CHECK(line.back() == '}');
-        CHECK(line.find("\"status\": \"failed\"") == std::string::npos);
+        CHECK(line.find("\"status\":\"failed\"") == std::string::npos);
     }
     CHECK(records == 7);
 }
@@ -492,8 +492,8 @@ TEST_CASE(
         INFO(r.err);
         CHECK(r.rc == 0);
         std::vector<int> jobs;
-        for (std::size_t at = 0; (at = r.out.find("{\"job\": ", at)) != std::string::npos; at += 8)
-            jobs.push_back(std::stoi(r.out.substr(at + 8)));
+        for (std::size_t at = 0; (at = r.out.find("{\"job\":", at)) != std::string::npos; at += 7)
+            jobs.push_back(std::stoi(r.out.substr(at + 7)));
         return jobs;
     };
     CHECK(jobs_of("0/3") == std::vector<int>{0, 2, 3});

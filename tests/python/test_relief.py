@@ -2,7 +2,9 @@
 """Tests of the Python package `relief` (run by ctest with Debian's
 /usr/bin/python3 -m unittest; PYTHONPATH points at the package, RELIEF_CLI
 at the command line, RELIEF_TEST_DATA at examples/data)."""
+import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -568,6 +570,38 @@ class Quiet(unittest.TestCase):
                 relief.height(n, normal="opengl", mask=bad, messages=lambda s, t: heard.append((s, t)))
             self.assertIn("hit end of file", str(e.exception))
             self.assertIn(("debug", "libpng error: IDAT: Read error: hit end of file"), heard)
+
+
+class NonUtf8Names(unittest.TestCase):
+    """A file name that is not UTF-8 keeps every --log line valid JSON and comes
+    back exactly: its other bytes are \\udcXX, Python's surrogateescape."""
+
+    def test_the_log_gives_the_bytes_back_and_relief_slurm_counts_the_job(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            t = os.fsencode(tmp)
+            name, out = os.path.join(t, b"n\xff\xfe.png"), os.path.join(t, b"h\xff.exr")
+            shutil.copy(NORMAL, name)
+            jobs, logs = os.path.join(t, b"jobs.txt"), os.path.join(t, b"logs")
+            os.mkdir(logs)
+            with open(jobs, "wb") as f:
+                f.write(b"'" + name + b"' --height:normal=opengl -o '" + out + b"'\n")
+                f.write(b"'" + os.path.join(t, b"missing\xff.png") + b"' --height -o x.exr\n")
+            log = os.path.join(logs, b"task-0.jsonl")
+            r = subprocess.run([os.fsencode(CLI), b"--batch", jobs, b"--log", log], capture_output=True)
+            self.assertEqual(r.returncode, 1, r.stderr)
+            with open(log, "rb") as f:
+                text = f.read().decode("utf-8")  # valid UTF-8
+            first, second = [json.loads(line) for line in text.splitlines()]
+            self.assertEqual(os.fsencode(first["inputs"][0]), name)
+            self.assertEqual(os.fsencode(first["outputs"][0]), out)
+            self.assertEqual(first["status"], "ok")
+            self.assertIn(b"missing\xff.png", os.fsencode(second["message"]))
+            slurm = os.path.join(os.path.dirname(CLI), "relief-slurm")
+            s = subprocess.run([slurm, "status", jobs, "--log-dir", logs], capture_output=True)
+            self.assertEqual(s.returncode, 1, s.stderr)
+            self.assertEqual(s.stderr, b"")
+            self.assertIn(b"2 job(s): 1 ok, 0 skipped, 1 failed, 0 missing", s.stdout.splitlines()[-1])
+            self.assertIn(b"missing\xff.png", s.stdout)  # printed as the name's own bytes
 
 
 class OpenImageIOInput(unittest.TestCase):

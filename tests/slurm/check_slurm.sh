@@ -143,7 +143,7 @@ got=$(statuses "$logs")
 "$relief_slurm" status jobs.txt --log-dir "$logs" | tail -1 | grep -q "8 job(s): 8 ok, 0 skipped, 0 failed, 0 missing" ||
   fail "status after the first run: $("$relief_slurm" status jobs.txt --log-dir "$logs")"
 # each task took the jobs of its shard
-grep -q '"job": 5' "$logs/task-1.jsonl" || fail "task 1 did not run job 5"
+grep -q '"job":5,' "$logs/task-1.jsonl" || fail "task 1 did not run job 5"
 
 # two outputs lost (a node died, a disk was cleaned): only those recompute
 before=$(stat -c %y out/h0.exr)

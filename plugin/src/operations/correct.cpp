@@ -3,6 +3,8 @@
 #include "relief/validate.h"
 #include "relief/correct.h"
 
+#include <nlohmann/json.hpp>
+
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -44,36 +46,34 @@ const char* search_name(CorrectSearch s)
 
 std::string CorrectReport::to_json() const
 {
-    std::ostringstream s;
-    s.precision(9);
-    auto stats = [&](const char* name, const DistortionSummary& d) {
-        s << "\"" << name << "\": {\"mean\": " << d.mean << ", \"p95\": " << d.p95 << ", \"max\": " << d.max
-          << "}";
+    using Json = nlohmann::ordered_json;
+    const auto stats = [](const DistortionSummary& d) {
+        return Json{{"mean", d.mean}, {"p95", d.p95}, {"max", d.max}};
     };
-    s << "{\n  \"width\": " << width << ", \"height\": " << height << ",\n";
-    s << "  \"skipped\": " << (skipped ? "true" : "false") << ",\n";
-    s << "  \"boundary\": \"" << boundary << "\", \"nodes\": \"" << nodes << "\", \"scale\": " << scale
-      << ",\n";
-    s << "  \"energy_before\": " << energy_before << ", \"energy_after\": " << energy_after << ",\n";
-    s << "  \"iterations\": " << iterations << ",\n  \"levels\": [";
-    for (std::size_t i = 0; i < levels.size(); ++i) {
-        const auto& l = levels[i];
-        s << (i ? ",\n    " : "\n    ") << "{\"width\": " << l.width << ", \"height\": " << l.height
-          << ", \"iterations\": " << l.iterations << ", \"energy_start\": " << l.energy_start
-          << ", \"energy_end\": " << l.energy_end << ", \"converged\": " << (l.converged ? "true" : "false")
-          << ", \"tiles_run\": " << l.tiles_run << ", \"seconds\": " << l.seconds << "}";
-    }
-    s << (levels.empty() ? "],\n" : "\n  ],\n");
-    s << "  \"anisotropy\": {";
-    stats("before", anisotropy_before);
-    s << ", ";
-    stats("after", anisotropy_after);
-    s << "},\n  \"area_ratio\": {";
-    stats("before", area_before);
-    s << ", ";
-    stats("after", area_after);
-    s << "},\n  \"seconds\": " << seconds << "\n}\n";
-    return s.str();
+    Json j;
+    j["width"] = width;
+    j["height"] = height;
+    j["skipped"] = skipped;
+    j["boundary"] = boundary;
+    j["nodes"] = nodes;
+    j["scale"] = scale;
+    j["energy_before"] = energy_before;
+    j["energy_after"] = energy_after;
+    j["iterations"] = iterations;
+    j["levels"] = Json::array();
+    for (const auto& l : levels)
+        j["levels"].push_back({{"width", l.width},
+                               {"height", l.height},
+                               {"iterations", l.iterations},
+                               {"energy_start", l.energy_start},
+                               {"energy_end", l.energy_end},
+                               {"converged", l.converged},
+                               {"tiles_run", l.tiles_run},
+                               {"seconds", l.seconds}});
+    j["anisotropy"] = {{"before", stats(anisotropy_before)}, {"after", stats(anisotropy_after)}};
+    j["area_ratio"] = {{"before", stats(area_before)}, {"after", stats(area_after)}};
+    j["seconds"] = seconds;
+    return j.dump(2) + "\n";
 }
 
 ImageBuf correct(const ImageBuf& height, const CorrectOptions& options, ROI roi, int nthreads)

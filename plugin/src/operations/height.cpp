@@ -3,6 +3,8 @@
 #include "relief/validate.h"
 #include "relief/height.h"
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <chrono>
 #include <climits>
@@ -198,16 +200,18 @@ void detail::check_height_memory(const HeightOptions& options, int w, int h, std
 
 std::string HeightReport::to_json() const
 {
-    std::ostringstream s;
-    s.precision(9);
-    s << "{\n  \"width\": " << width << ", \"height\": " << height << ",\n";
-    s << "  \"method\": \"" << method << "\", \"normal_convention\": \"" << normal_convention
-      << "\", \"boundary\": \"" << boundary << "\",\n";
-    s << "  \"round_trip\": {\"angular_error_deg\": {\"mean\": " << angular_error_mean
-      << ", \"p95\": " << angular_error_p95 << ", \"max\": " << angular_error_max
-      << "}, \"residual_share\": " << residual_share << "},\n";
-    s << "  \"seconds\": " << seconds << "\n}\n";
-    return s.str();
+    nlohmann::ordered_json j;
+    j["width"] = width;
+    j["height"] = height;
+    j["method"] = method;
+    j["normal_convention"] = normal_convention;
+    j["boundary"] = boundary;
+    j["round_trip"] = {
+        {"angular_error_deg",
+         {{"mean", angular_error_mean}, {"p95", angular_error_p95}, {"max", angular_error_max}}},
+        {"residual_share", residual_share}};
+    j["seconds"] = seconds;
+    return j.dump(2) + "\n";
 }
 
 std::string describe(const HeightOptions& o)

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // The operation table as a JSON document (relief::operations_json), what
 // the C ABI and Python hand to programs that build their own front ends.
-#include <cstdio>
-#include <sstream>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -13,22 +14,7 @@ namespace relief {
 
 namespace {
 
-std::string json_string(const std::string& s)
-{
-    std::string out = "\"";
-    for (const char ch : s) {
-        const unsigned char u = static_cast<unsigned char>(ch);
-        if (ch == '"' || ch == '\\')
-            out += std::string("\\") + ch;
-        else if (u < 0x20) {
-            char buf[8];
-            std::snprintf(buf, sizeof buf, "\\u%04x", u);
-            out += buf;
-        } else
-            out += ch;
-    }
-    return out + "\"";
-}
+using Json = nlohmann::ordered_json;
 
 const char* type_name(ModifierType t)
 {
@@ -43,51 +29,55 @@ const char* type_name(ModifierType t)
     return "?";
 }
 
-std::string json_slots(const std::vector<ImageSlot>& slots)
+Json json_slots(const std::vector<ImageSlot>& slots)
 {
-    std::string s = "[";
-    for (std::size_t i = 0; i < slots.size(); ++i)
-        s += std::string(i ? ", " : "") + "{\"name\": " + json_string(slots[i].name) +
-             ", \"min_channels\": " + std::to_string(slots[i].min_channels) +
-             ", \"max_channels\": " + std::to_string(slots[i].max_channels) +
-             ", \"meaning\": " + json_string(slots[i].meaning) + "}";
-    return s + "]";
+    Json list = Json::array();
+    for (const ImageSlot& slot : slots)
+        list.push_back({{"name", slot.name},
+                        {"min_channels", slot.min_channels},
+                        {"max_channels", slot.max_channels},
+                        {"meaning", slot.meaning}});
+    return list;
+}
+
+// A bound as a JSON number (JSON has no infinity: an open-ended one is null).
+Json bound(double v)
+{
+    return std::isfinite(v) ? Json(v) : Json(nullptr);
 }
 
 }  // namespace
 
 std::string operations_json()
 {
-    std::ostringstream j;
-    j << "{\"abi_version\": " << RELIEF_ABI_VERSION << ", \"operations\": [";
-    bool first_op = true;
+    Json ops = Json::array();
     for (const OperationInfo& op : operations()) {
-        j << (first_op ? "\n" : ",\n") << "  {\"name\": " << json_string(op.name)
-          << ", \"summary\": " << json_string(op.summary) << ",\n   \"inputs\": " << json_slots(op.inputs)
-          << ",\n   \"outputs\": " << json_slots(op.outputs) << ",\n   \"modifiers\": [";
-        first_op = false;
-        bool first = true;
+        Json modifiers = Json::array();
         for (const ModifierInfo& m : op.modifiers) {
-            j << (first ? "\n" : ",\n") << "    {\"name\": " << json_string(m.name) << ", \"type\": \""
-              << type_name(m.type) << "\"";
-            first = false;
-            j << ", \"choices\": [";
-            for (std::size_t i = 0; i < m.choices.size(); ++i)
-                j << (i ? ", " : "") << json_string(m.choices[i]);
-            j << "]";
-            if (m.type == ModifierType::Integer || m.type == ModifierType::Number)
-                j << ", \"min\": " << table::number_text(m.min) << ", \"max\": " << table::number_text(m.max)
-                  << ", \"min_open\": " << (m.min_open ? "true" : "false")
-                  << ", \"max_open\": " << (m.max_open ? "true" : "false")
-                  << ", \"unit\": " << json_string(m.unit);
-            j << ", \"default\": " << json_string(m.default_value)
-              << ", \"applies_to\": " << json_string(m.applies_to)
-              << ", \"meaning\": " << json_string(m.meaning) << "}";
+            Json j;
+            j["name"] = m.name;
+            j["type"] = type_name(m.type);
+            j["choices"] = m.choices;
+            if (m.type == ModifierType::Integer || m.type == ModifierType::Number) {
+                j["min"] = bound(m.min);
+                j["max"] = bound(m.max);
+                j["min_open"] = m.min_open;
+                j["max_open"] = m.max_open;
+                j["unit"] = m.unit;
+            }
+            j["default"] = m.default_value;
+            j["applies_to"] = m.applies_to;
+            j["meaning"] = m.meaning;
+            modifiers.push_back(std::move(j));
         }
-        j << "]}";
+        ops.push_back({{"name", op.name},
+                       {"summary", op.summary},
+                       {"inputs", json_slots(op.inputs)},
+                       {"outputs", json_slots(op.outputs)},
+                       {"modifiers", std::move(modifiers)}});
     }
-    j << "\n]}\n";
-    return j.str();
+    const Json doc = {{"abi_version", RELIEF_ABI_VERSION}, {"operations", std::move(ops)}};
+    return doc.dump(2) + "\n";
 }
 
 }  // namespace relief
