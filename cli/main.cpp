@@ -53,7 +53,11 @@ int run(int argc, char** argv)
         return 0;
     }
     if (prog.version) {
+        // The first line is the version (help2man, scripts); then what it
+        // runs on: the libraries and each OpenCL platform.
         std::printf("relief %s\n", relief::version());
+        for (const std::string& line : relief::component_versions())
+            std::printf("  %s\n", line.c_str());
         return 0;
     }
     if (prog.verbose && age >= 0)

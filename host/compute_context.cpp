@@ -120,6 +120,7 @@ std::vector<DeviceInfo> list_devices()
             info.platform_index = int(p);
             info.device_index = int(d);
             info.platform = plats[p].getInfo<CL_PLATFORM_NAME>();
+            info.platform_version = plats[p].getInfo<CL_PLATFORM_VERSION>();
             info.name = devs[d].getInfo<CL_DEVICE_NAME>();
             const cl_device_type type = devs[d].getInfo<CL_DEVICE_TYPE>();
             info.is_gpu = (type & CL_DEVICE_TYPE_GPU) != 0;

@@ -11,8 +11,9 @@ namespace relief::host {
 struct DeviceInfo {
     int platform_index = -1;
     int device_index = -1;
-    std::string platform;  // platform name
-    std::string name;      // device name
+    std::string platform;          // platform name
+    std::string platform_version;  // CL_PLATFORM_VERSION: "OpenCL 3.0 PoCL 3.1 ..."
+    std::string name;              // device name
     bool is_gpu = false;
     bool is_cpu = false;
     // A simulator (Oclgrind) rather than hardware: it reports itself as a

@@ -425,4 +425,10 @@ float* read_real_result(ComputeContext::Impl& c, cl::Buffer& grid, cl::Buffer& s
     return out;
 }
 
+std::string vkfft_version()
+{
+    const int v = VkFFTGetVersion();  // X.XX.XX
+    return std::to_string(v / 10000) + "." + std::to_string(v / 100 % 100) + "." + std::to_string(v % 100);
+}
+
 }  // namespace relief::host

@@ -4,6 +4,7 @@
 #include <catch2/catch.hpp>
 
 #include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imageio.h>
 
 #include <algorithm>
 #include <cmath>
@@ -265,7 +266,30 @@ TEST_CASE("cli: --help and --version exit 0", "[cli]")
     CHECK(h.out.find("--height") != std::string::npos);
     auto v = run_cli("--version");
     CHECK(v.rc == 0);
-    CHECK(v.out.find("relief ") == 0);
+    CHECK(v.out.rfind(std::string("relief ") + relief::version() + "\n", 0) == 0);
+    // what it runs on: the libraries' versions and each OpenCL platform's
+    const int oiio = OIIO::openimageio_version();
+    CHECK(v.out.find("\n  OpenImageIO " + std::to_string(oiio / 10000) + "." +
+                     std::to_string(oiio / 100 % 100) + "." + std::to_string(oiio % 100) + "\n") !=
+          std::string::npos);
+    CHECK(v.out.find("\n  OpenColorIO 2.") != std::string::npos);
+    CHECK(v.out.find("\n  VkFFT 1.") != std::string::npos);
+    for (const auto& d : relief::list_devices())
+        CHECK(v.out.find("\n  OpenCL platform " + d.id.substr(0, d.id.find(':')) + ": " + d.platform +
+                         " (OpenCL ") != std::string::npos);
+}
+
+TEST_CASE("cli: every image relief writes says so in its Software attribute", "[cli][io]")
+{
+    const auto d = relief::test::scratch("cli/software");
+    const std::string normal = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
+    for (const char* name : {"h.exr", "h.png", "h.tif"}) {
+        const std::string out = (d / name).string();
+        REQUIRE(run_cli("'" + normal + "' --height -o '" + out + "'").rc == 0);
+        auto in = OIIO::ImageInput::open(out);
+        REQUIRE(in);
+        CHECK(in->spec().get_string_attribute("Software") == std::string("relief ") + relief::version());
+    }
 }
 
 namespace {

@@ -1,10 +1,14 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "relief/devices.h"
 
+#include <OpenImageIO/imageio.h>
+
 #include <exception>
 
 #include "compute_context.h"
 #include "error_state.h"
+#include "fft_plan.h"
+#include "io/colour.h"
 #include "poisson_stage.h"
 #include "setup_times.h"
 
@@ -16,11 +20,32 @@ std::vector<DeviceDescription> list_devices()
     try {
         for (const auto& d : host::list_devices())
             out.push_back({std::to_string(d.platform_index) + ":" + std::to_string(d.device_index),
-                           d.platform, d.name, d.is_gpu, d.has_fp64});
+                           d.platform, d.platform_version, d.name, d.is_gpu, d.has_fp64});
     } catch (const std::exception& e) {
         detail::set_error(e.what());
     }
     return out;
+}
+
+std::vector<std::string> component_versions()
+{
+    const int oiio = OIIO::openimageio_version();  // 20407: 2.4.7
+    std::vector<std::string> lines = {"OpenImageIO " + std::to_string(oiio / 10000) + "." +
+                                          std::to_string(oiio / 100 % 100) + "." + std::to_string(oiio % 100),
+                                      "OpenColorIO " + detail::ocio_version(),
+                                      "VkFFT " + host::vkfft_version()};
+    try {
+        int last = -1;
+        for (const auto& d : host::list_devices())
+            if (d.platform_index != last) {
+                last = d.platform_index;
+                lines.push_back("OpenCL platform " + std::to_string(d.platform_index) + ": " + d.platform +
+                                " (" + d.platform_version + ")");
+            }
+    } catch (const std::exception& e) {
+        lines.push_back(std::string("OpenCL: ") + e.what());
+    }
+    return lines;
 }
 
 SetupTimes setup_times()

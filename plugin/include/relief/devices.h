@@ -11,6 +11,7 @@ namespace relief {
 struct DeviceDescription {
     std::string id;  // "<platform>:<device>", what Execution::device accepts
     std::string platform;
+    std::string platform_version;  // "OpenCL 3.0 PoCL 3.1 ..."
     std::string name;
     bool is_gpu = false;
     bool has_fp64 = false;
@@ -18,6 +19,12 @@ struct DeviceDescription {
 
 // Every OpenCL device; empty (and geterror() set) when there is none.
 RELIEF_API std::vector<DeviceDescription> list_devices();
+
+// What this relief runs on, one line each, for --version and bug reports:
+// "OpenImageIO 2.4.7", "OpenColorIO 2.1.2", "VkFFT 1.2.26", then each
+// OpenCL platform, "OpenCL platform 0: Portable Computing Language (OpenCL
+// 3.0 PoCL 3.1 ...)", or why there is none.
+RELIEF_API std::vector<std::string> component_versions();
 
 // Seconds this process has spent, since it started, setting up compute
 // rather than computing: opening the device (platforms, context, queue),

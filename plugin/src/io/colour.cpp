@@ -99,4 +99,9 @@ std::string colour_engine()
     return "OCIO raw config with the sRGB curve (gamma 2.4, offset 0.055; set $OCIO for a studio config)";
 }
 
+std::string ocio_version()
+{
+    return OCIO::GetVersion();
+}
+
 }  // namespace relief::detail

@@ -18,4 +18,7 @@ void from_linear(std::vector<float>& px, int nch, const std::string& space);
 // "OCIO config <file>" or "built-in sRGB curve (no $OCIO)".
 std::string colour_engine();
 
+// The OpenColorIO library loaded, "2.1.2".
+std::string ocio_version();
+
 }  // namespace relief::detail

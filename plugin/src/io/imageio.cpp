@@ -22,6 +22,7 @@
 #include "library_output.h"
 #include "memory_budget.h"  // host/: no OpenCL types
 #include "relief/output_files.h"
+#include "relief/version.h"
 #include "temporary_file.h"
 
 namespace relief {
@@ -210,6 +211,7 @@ std::string write_file(const ImageBuf& image, const fs::path& target, detail::Te
     spec.channelformats.clear();
     if (!compression.empty())
         spec.attribute("compression", compression);
+    spec.attribute("Software", std::string("relief ") + version());  // what made the file
     const std::string digest = spec.get_string_attribute("relief:digest");
     if (!digest.empty() && ext != ".exr" && ext != ".png") {
         // These formats drop custom attributes but keep the description
