@@ -547,7 +547,7 @@ class Callbacks(unittest.TestCase):
             relief.correct(big, scale=0.3)
         stopped = time.monotonic() - start
         self.assertGreaterEqual(stopped, 0.5)
-        self.assertLess(stopped, 1.5)
+        self.assertLess(stopped, 3.0)  # the whole correction takes about 20 s here
         # and relief works on
         self.assertEqual(relief.height(self.flat, normal="opengl").shape, (64, 64, 1))
 
