@@ -523,6 +523,12 @@ class Callbacks(unittest.TestCase):
         self.assertLess(seen[-1], 0.2)  # nothing was reported after it
         with self.assertRaises(relief.CancelledError):  # before any work
             relief.height(self.flat, progress=lambda f: True)
+        # rays clipped at the edges: the walk's kernels stop too
+        seen.clear()
+        normals = relief.normals(self.cliffs * 30.0, boundary="free")
+        with self.assertRaises(relief.CancelledError):
+            relief.height(normals, method="rays", boundary="clip", normal="opengl", progress=stop_early)
+        self.assertLess(seen[-1], 0.5)
 
     def test_an_exception_in_a_callback_stops_the_operation_and_is_raised(self):
         calls = []
