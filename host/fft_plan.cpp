@@ -15,6 +15,7 @@
 #include "cancel.h"
 #include "errors.h"
 #include "setup_times.h"
+#include "vkfft_version.h"
 
 // VkFFT builds its kernels from source at every plan, and on PoCL every
 // clBuildProgram from source runs Clang's preprocessor (about 0.02 s each,

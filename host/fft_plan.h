@@ -67,7 +67,4 @@ private:
 float* read_real_result(ComputeContext::Impl& c, cl::Buffer& grid, cl::Buffer& spare, std::size_t stride,
                         int w, int h, bool transposed, const std::function<float*()>& sink);
 
-// The VkFFT relief is built with, "1.2.26".
-std::string vkfft_version();
-
 }  // namespace relief::host

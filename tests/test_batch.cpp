@@ -694,9 +694,9 @@ TEST_CASE("update: a job is skipped exactly when its outputs record the digest i
     CHECK(statuses((run(), log)) == S{"ok"});
 }
 
-TEST_CASE(
-    "batch: --log strings are JSON: escapes, UTF-8 as it is, other bytes as \\udcXX that give them back",
-    "[batch][parse]")
+TEST_CASE("batch: --log strings are JSON: escapes, UTF-8 as it is, other bytes as surrogate escapes that "
+          "give them back",
+          "[batch][parse]")
 {
     using relief::cli::json_bytes;
     using relief::cli::json_text;

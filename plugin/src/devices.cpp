@@ -7,10 +7,10 @@
 
 #include "compute_context.h"
 #include "error_state.h"
-#include "fft_plan.h"
 #include "io/colour.h"
 #include "poisson_stage.h"
 #include "setup_times.h"
+#include "vkfft_version.h"
 
 namespace relief {
 
