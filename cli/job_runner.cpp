@@ -6,6 +6,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -13,15 +14,20 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
+#include <future>
+#include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <system_error>
 #include <utility>
 #include <vector>
 
+#include "console.h"
 #include "file_uses.h"
 #include "job_digest.h"
 #include "json_text.h"
+#include "read_ahead.h"
 #include "stack_runner.h"
 #include "relief/relief.h"
 
@@ -95,12 +101,9 @@ bool up_to_date(const std::vector<Program>& progs, const std::string& digest)
     return true;
 }
 
-// Runs one parsed job (one program, or one per tile of a set that `tiles`
-// numbers); fills its record instead of throwing.
-void run_job(const std::vector<Program>& progs, const std::vector<int>& tiles, JobRecord& rec)
+// The files a job reads and writes, for its record.
+void list_files(const std::vector<Program>& progs, JobRecord& rec)
 {
-    const auto t0 = std::chrono::steady_clock::now();
-    const Program& prog = progs.front();
     for (const Program& p : progs) {
         for (const Step& s : p.steps) {
             if (s.kind == Step::Kind::Read)
@@ -114,6 +117,19 @@ void run_job(const std::vector<Program>& progs, const std::vector<int>& tiles, J
         if (!p.report.empty())
             rec.outputs.push_back(p.report);
     }
+}
+
+// Runs one parsed job (one program, or one per tile of a set that `tiles`
+// numbers); fills its record instead of throwing. Returns its deferred
+// writes (overlap.defer_writes), whose outcome is the record's: "ok" until
+// they fail.
+DeferredWrites run_job(const std::vector<Program>& progs, const std::vector<int>& tiles, JobRecord& rec,
+                       const JobOverlap& overlap = {})
+{
+    const auto t0 = std::chrono::steady_clock::now();
+    const Program& prog = progs.front();
+    list_files(progs, rec);
+    DeferredWrites rest;
     try {
         // A dry run without --update lists the jobs without reading their inputs.
         const std::string digest = prog.dry_run && !prog.update ? std::string()
@@ -125,16 +141,14 @@ void run_job(const std::vector<Program>& progs, const std::vector<int>& tiles, J
         } else if (prog.dry_run) {
             rec.status = "pending";
         } else {
-            if (tiles.empty())
-                run_steps(prog, digest);
-            else
-                run_tile_steps(progs, tiles, digest);
+            rest = tiles.empty() ? run_steps(prog, digest, overlap) : run_tile_steps(progs, tiles, digest, overlap);
             rec.status = "ok";
         }
     } catch (const std::exception& e) {
         rec.message = e.what();
     }
     rec.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return rest;
 }
 
 // The --log file: one JSON line per job, appended as each job ends, so a
@@ -242,6 +256,31 @@ std::vector<Dependency> check_files(const Program& top, const std::vector<Job>& 
     return check_file_uses(uses);
 }
 
+// Starts reading job `next`'s images ahead (its read steps; not its mask
+// or fixation files, read at their operation), or returns null: a job that
+// reads an earlier job's output, or that does not parse (it fails in its
+// turn, as it would have).
+std::unique_ptr<ReadAhead> read_ahead(const Program& top, const Job& next, const std::string& manifest,
+                                      const std::set<int>& readers)
+{
+    if (readers.count(next.index) || !next.error.empty())
+        return nullptr;
+    std::vector<std::string> paths;
+    try {
+        for (const Program& p : job_programs(top, next, manifest))
+            for (const Step& s : p.steps)
+                if (s.kind == Step::Kind::Read)
+                    paths.push_back(s.path);
+    } catch (const std::exception&) {
+        return nullptr;
+    }
+    if (paths.empty())
+        return nullptr;
+    auto reads = std::make_unique<ReadAhead>();
+    reads->start(std::move(paths));
+    return reads;
+}
+
 }  // namespace
 
 // Jobs in this process, one after the other, sharing the device context and
@@ -264,46 +303,128 @@ int run_jobs(const Program& top, const std::vector<Job>& all, const std::string&
     const std::vector<Job> jobs = shard_of(chained, top.shard_index, top.shard_count);
     JobLog log(top.dry_run ? std::string() : top.log);
     int ok = 0, skipped = 0, failed = 0, pending = 0;
-    for (const Job& job : jobs) {
-        JobRecord rec;
-        rec.index = job.index;
-        rec.line = job.line;
-        rec.args = job.args;
-        rec.message = job.error;
-        try {
-            run_job(job_programs(top, job, manifest, !(top.dry_run && readers.count(job.index))), job.tiles,
-                    rec);
-        } catch (const UsageError& e) {
-            rec.message = e.what();
-        }
+    // A job's end: its lines on stderr, its --log record.
+    auto report = [&](const JobRecord& rec) {
         const std::string where =
-            manifest.empty() ? std::string("command line") : manifest + ":" + std::to_string(job.line);
+            manifest.empty() ? std::string("command line") : manifest + ":" + std::to_string(rec.line);
         if (rec.status == "failed") {
             ++failed;
-            std::fprintf(stderr, "relief: job %d (%s): error: %s\n", job.index, where.c_str(),
-                         rec.message.c_str());
+            say("relief: job %d (%s): error: %s\n", rec.index, where.c_str(), rec.message.c_str());
         } else {
             ++(rec.status == "ok" ? ok : rec.status == "skipped" ? skipped : pending);
             if (top.verbose)
-                std::fprintf(stderr, "relief: job %d (%s): %s, %.3f s\n", job.index, where.c_str(),
-                             rec.status.c_str(), rec.seconds);
+                say("relief: job %d (%s): %s, %.3f s\n", rec.index, where.c_str(), rec.status.c_str(),
+                    rec.seconds);
         }
         if (top.dry_run) {
             std::printf("%s\n", json_line(rec).c_str());
             std::fflush(stdout);
         }
         log.add(rec);
+    };
+    // Jobs overlap (a real run of two or more): while the device works on
+    // job k, job k+1's images are read and decoded on one thread and job
+    // k-1's trailing outputs written on another. At most three jobs' images
+    // are in memory at once: one read ahead, one at work, one being
+    // written. Each job's lines come out together and in job order (held
+    // back while the job before is still writing), and its record is
+    // written once its outputs are. A job that reads an earlier job's
+    // output waits for every write before it, and is not read ahead.
+    const bool overlap = !top.dry_run && jobs.size() > 1;
+    struct Behind {  // a job whose outputs are being written
+        JobRecord rec;
+        std::shared_ptr<std::vector<Program>> progs;  // what its writes refer to
+        std::string messages;                         // what its writes said
+        double seconds = 0.0;                         // the writes' own time
+        std::future<void> writes;
+    };
+    std::optional<Behind> behind;
+    double read_time = 0.0, read_wait = 0.0, write_time = 0.0, write_wait = 0.0;
+    auto end_behind = [&] {
+        if (!behind)
+            return;
+        const auto w0 = std::chrono::steady_clock::now();
+        behind->writes.wait();
+        write_wait += std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+        write_time += behind->seconds;
+        say_text(behind->messages);
+        const JobRecord rec = behind->rec;
+        behind.reset();
+        report(rec);
+    };
+    std::unique_ptr<ReadAhead> next_reads;
+    for (std::size_t k = 0; k < jobs.size(); ++k) {
+        const Job& job = jobs[k];
+        const bool reader = readers.count(job.index) > 0;
+        if (reader)
+            end_behind();
+        JobRecord rec;
+        rec.index = job.index;
+        rec.line = job.line;
+        rec.args = job.args;
+        rec.message = job.error;
+        const std::unique_ptr<ReadAhead> reads = std::move(next_reads);
+        auto progs = std::make_shared<std::vector<Program>>();
+        DeferredWrites rest;
+        std::string held;  // this job's lines while the job before it writes
+        {
+            std::optional<HeldMessages> hold;
+            if (behind)
+                hold.emplace(held);
+            if (overlap && !top.update && k + 1 < jobs.size())
+                next_reads = read_ahead(top, jobs[k + 1], manifest, readers);
+            try {
+                *progs = job_programs(top, job, manifest, !(top.dry_run && reader));
+                rest = run_job(*progs, job.tiles, rec, {reads.get(), overlap});
+            } catch (const UsageError& e) {
+                rec.message = e.what();
+            }
+        }
+        if (reads) {
+            read_time += reads->read_seconds();
+            read_wait += reads->wait_seconds();
+        }
+        end_behind();
+        say_text(held);
+        if (!rest) {
+            report(rec);
+            continue;
+        }
+        behind.emplace();
+        behind->rec = rec;
+        behind->progs = progs;
+        Behind& b = *behind;
+        b.writes = std::async(std::launch::async, [&b, rest = std::move(rest)] {
+            HeldMessages hold(b.messages);
+            const auto w0 = std::chrono::steady_clock::now();
+            try {
+                rest();
+            } catch (const std::exception& e) {
+                b.rec.status = "failed";
+                b.rec.message = e.what();
+            }
+            b.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+            b.rec.seconds += b.seconds;
+        });
+    }
+    end_behind();
+    if (overlap && top.verbose) {
+        const double files = read_time + write_time, waited = read_wait + write_wait;
+        say("relief: overlap: %.3f s of reading ahead and %.3f s of writing behind, %.3f s of it (%.0f%%) "
+            "beside the device's work (%.3f s waited for)\n",
+            read_time, write_time, std::max(0.0, files - waited),
+            files > 0.0 ? 100.0 * std::max(0.0, files - waited) / files : 0.0, waited);
     }
     const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    std::fprintf(stderr, "relief: %s%s: ", manifest.empty() ? "jobs" : "batch ", manifest.c_str());
+    say("relief: %s%s: ", manifest.empty() ? "jobs" : "batch ", manifest.c_str());
     if (top.dry_run)
-        std::fprintf(stderr, "%d pending, %d skipped, %d failed of %zu job(s) (dry run)", pending, skipped,
+        say("%d pending, %d skipped, %d failed of %zu job(s) (dry run)", pending, skipped,
                      failed, jobs.size());
     else
-        std::fprintf(stderr, "%d ok, %d skipped, %d failed of %zu job(s)", ok, skipped, failed, jobs.size());
+        say("%d ok, %d skipped, %d failed of %zu job(s)", ok, skipped, failed, jobs.size());
     if (top.shard_count > 1)
-        std::fprintf(stderr, " (shard %d/%d of %zu)", top.shard_index, top.shard_count, all.size());
-    std::fprintf(stderr, ", %.2f s\n", sec);
+        say(" (shard %d/%d of %zu)", top.shard_index, top.shard_count, all.size());
+    say(", %.2f s\n", sec);
     return failed ? 1 : 0;
 }
 
@@ -320,7 +441,7 @@ void run_command_line(const Program& prog, const std::vector<std::string>& args)
     if (rec.status == "failed")
         throw RunError(rec.message);
     if (rec.status == "skipped" && prog.verbose)
-        std::fprintf(stderr, "relief: up to date (every output records this run's relief:digest)\n");
+        say("relief: up to date (every output records this run's relief:digest)\n");
 }
 
 }  // namespace relief::cli

@@ -10,6 +10,7 @@
 
 #include "batch.h"
 #include "command_line.h"
+#include "console.h"
 #include "job_runner.h"
 #include "process.h"
 #include "stack_runner.h"
@@ -19,6 +20,7 @@ namespace {
 
 using relief::cli::Program;
 using relief::cli::RunError;
+using relief::cli::say;
 
 int list_devices()
 {
@@ -43,7 +45,7 @@ int run(int argc, char** argv)
         // (a missing one fails alone); here only the options count.
         prog = relief::cli::parse_command_line(expanded.front().args, expanded.size() == 1);
     } catch (const relief::cli::UsageError& e) {
-        std::fprintf(stderr, "relief: error: %s\n", e.what());
+        say("relief: error: %s\n", e.what());
         return 2;
     }
     if (prog.help) {
@@ -61,12 +63,12 @@ int run(int argc, char** argv)
         return 0;
     }
     if (prog.verbose && age >= 0)
-        std::fprintf(stderr, "relief: process start (loading libraries, before main): %.2f s\n", age);
+        say("relief: process start (loading libraries, before main): %.2f s\n", age);
     // The image libraries' own lines ("libpng error: ...") only with -v:
     // relief says why a file failed itself, once.
     if (prog.verbose)
         relief::set_library_messages([](relief::Severity, const std::string& line) {
-            std::fprintf(stderr, "relief: (image library) %s\n", line.c_str());
+            say("relief: (image library) %s\n", line.c_str());
         });
     try {
         if (prog.list_devices)
@@ -74,7 +76,7 @@ int run(int argc, char** argv)
         if (!prog.batch.empty())
             return run_jobs(prog, relief::cli::read_jobs(prog.batch), prog.batch);
         if (prog.steps.empty()) {
-            std::fputs(relief::cli::usage_text().c_str(), stderr);
+            relief::cli::say_text(relief::cli::usage_text());
             return 2;
         }
         if (expanded.size() > 1 || expanded.front().args != args || prog.dry_run)
@@ -83,13 +85,13 @@ int run(int argc, char** argv)
             return run_jobs(prog, relief::cli::jobs_of(expanded, {}, 0), "");
         relief::cli::run_command_line(prog, args);
         if (prog.verbose)
-            std::fprintf(stderr, "relief: done %.2f s after the process started (then its exit)\n",
+            say("relief: done %.2f s after the process started (then its exit)\n",
                          relief::cli::process_age());
     } catch (const relief::cli::UsageError& e) {  // the --batch file's own syntax
-        std::fprintf(stderr, "relief: error: %s\n", e.what());
+        say("relief: error: %s\n", e.what());
         return 2;
     } catch (const std::exception& e) {
-        std::fprintf(stderr, "relief: error: %s\n", e.what());
+        say("relief: error: %s\n", e.what());
         return 1;
     }
     return 0;
@@ -99,6 +101,7 @@ int run(int argc, char** argv)
 
 int main(int argc, char** argv)
 {
+    relief::cli::open_console();
     relief::cli::remove_temporary_files_on_termination();
     relief::cli::leave(run(argc, argv));
 }

@@ -17,6 +17,7 @@
 #include <utility>
 #include <vector>
 
+#include "console.h"
 #include "job_digest.h"
 #include "json_text.h"
 #include "text_file.h"
@@ -64,18 +65,24 @@ class StackRunner {
 public:
     // `first_output`: the number of the first file it writes among its
     // job's (a tile set's later tiles follow the earlier ones').
-    StackRunner(const Program& prog, std::string digest, int first_output = 0)
-        : prog_(prog), digest_(std::move(digest)), outputs_(first_output)
+    StackRunner(const Program& prog, std::string digest, int first_output = 0, ReadAhead* ahead = nullptr)
+        : prog_(prog), digest_(std::move(digest)), outputs_(first_output), ahead_reads_(ahead)
     {
     }
 
-    void run()
+    // Runs the steps before `tail`; returns the rest (steps from `tail`
+    // on, then finish()), to be run later if `tail` is not the end.
+    std::function<void()> run(std::size_t tail)
     {
         const double prepared = relief::setup_times().prepared;
         prepare_ahead();
-        for (const Step& s : prog_.steps)
-            timed(s, [&] { run_step(s); });
-        finish(prepared);
+        for (std::size_t k = 0; k < tail; ++k)
+            timed(prog_.steps[k], [&] { run_step(prog_.steps[k]); });
+        return [this, tail, prepared] {
+            for (std::size_t k = tail; k < prog_.steps.size(); ++k)
+                timed(prog_.steps[k], [&] { run_step(prog_.steps[k]); });
+            finish(prepared);
+        };
     }
 
     // A step, and with -v its time: `work` runs it.
@@ -92,13 +99,13 @@ public:
         const double device = after.device - before.device, programs = after.programs - before.programs,
                      plans = after.plans - before.plans;
         if (s.kind == Step::Kind::Operation)
-            std::fprintf(stderr,
+            say(
                          "relief: %s%s: %.3f s (device set-up %.3f, kernel builds %.3f, FFT plans %.3f, "
                          "the map's own work %.3f)\n",
                          prog_.label.c_str(), s.text.c_str(), sec, device, programs, plans,
                          sec - device - programs - plans);
         else
-            std::fprintf(stderr, "relief: %s%s: %.3f s\n", prog_.label.c_str(),
+            say("relief: %s%s: %.3f s\n", prog_.label.c_str(),
                          s.kind == Step::Kind::Read ? ("read " + s.path).c_str() : s.text.c_str(), sec);
     }
 
@@ -161,7 +168,7 @@ public:
                 if (f >= 1.0 && *next == 10)
                     return;  // an operation without steps of its own: done, no percentages
                 while (f * 100.0 >= *next && *next <= 100) {
-                    std::fprintf(stderr, "relief: %s: %d%%\n", name.c_str(), *next);
+                    say("relief: %s: %d%%\n", name.c_str(), *next);
                     *next += 10;
                 }
             };
@@ -174,11 +181,18 @@ public:
         switch (s.kind) {
         case Step::Kind::Read: {
             OIIO::ImageBuf img;
-            if (!read(img, s.path))
+            bool ok = false;
+            std::string error, messages;
+            if (ahead_reads_ && ahead_reads_->take(s.path, img, ok, error, messages)) {
+                say_text(messages);
+                if (!ok)
+                    throw RunError(error);
+            } else if (!read(img, s.path)) {
                 throw RunError(relief::geterror());
+            }
             if (prog_.verbose) {
                 const auto& spec = img.spec();
-                std::fprintf(stderr, "relief: read %s: %dx%d, %d channel(s), %s\n", s.path.c_str(),
+                say("relief: read %s: %dx%d, %d channel(s), %s\n", s.path.c_str(),
                              spec.width, spec.height, spec.nchannels, img.nativespec().format.c_str());
             }
             stack_.push_back(std::move(img));
@@ -225,7 +239,7 @@ public:
         }
         if (prog_.verbose && ahead_.valid()) {
             ahead_.wait();
-            std::fprintf(stderr, "relief: %sset up ahead, beside the read: %.3f s\n", prog_.label.c_str(),
+            say("relief: %sset up ahead, beside the read: %.3f s\n", prog_.label.c_str(),
                          relief::setup_times().prepared - prepared);
         }
     }
@@ -265,9 +279,9 @@ private:
     void message(Severity s, const std::string& msg) const
     {
         if (s == Severity::Warning)
-            std::fprintf(stderr, "relief: %swarning: %s\n", prog_.label.c_str(), msg.c_str());
+            say("relief: %swarning: %s\n", prog_.label.c_str(), msg.c_str());
         else if (s == Severity::Notice || prog_.verbose)
-            std::fprintf(stderr, "relief: %s%s\n", prog_.label.c_str(), msg.c_str());
+            say("relief: %s%s\n", prog_.label.c_str(), msg.c_str());
     }
 
     bool read(OIIO::ImageBuf& img, const std::string& path) const { return relief::read_image(img, path); }
@@ -285,7 +299,7 @@ private:
         const int half_max = top.spec().get_int_attribute("relief:half_max_texels", 0);
         if (w.format == OIIO::TypeDesc::HALF && half_max > 0 &&
             std::max(top.spec().width, top.spec().height) > half_max)
-            std::fprintf(stderr,
+            say(
                          "relief: warning: %s: half values above %d texels are coarser than 1/8 "
                          "texel; prefer float\n",
                          s.path.c_str(), half_max);
@@ -297,12 +311,12 @@ private:
             stack_.back().specmod().attribute("relief:digest", digest);
         // The integer mapping is needed to read the file back: always say it.
         w.on_message = [](Severity, const std::string& m) {
-            std::fprintf(stderr, "relief: %s\n", m.c_str());
+            say("relief: %s\n", m.c_str());
         };
         if (!relief::write_image(stack_.back(), s.path, w))
             throw RunError(relief::geterror());
         if (prog_.verbose)
-            std::fprintf(stderr, "relief: wrote %s\n", s.path.c_str());
+            say("relief: wrote %s\n", s.path.c_str());
     }
 
     const Program& prog_;
@@ -311,57 +325,88 @@ private:
     // --report allows one operation of each report.
     std::vector<std::pair<std::string, std::string>> report_;
     int outputs_ = 0;          // outputs (-o images, --mesh files) written so far
+    ReadAhead* ahead_reads_;   // this job's images read ahead, or null
     std::future<void> ahead_;  // prepare_ahead(); its destructor waits for it
     std::vector<OIIO::ImageBuf> stack_;
 };
 
 }  // namespace
 
-void run_steps(const Program& prog, const std::string& digest)
+std::size_t trailing_writes(const std::vector<Step>& steps)
 {
-    StackRunner(prog, digest).run();
+    std::size_t k = steps.size();
+    while (k > 0 && steps[k - 1].kind == Step::Kind::Write)
+        --k;
+    return k;
 }
 
-void run_tile_steps(const std::vector<Program>& tiles, const std::vector<int>& numbers,
-                    const std::string& digest)
+DeferredWrites run_steps(const Program& prog, const std::string& digest, const JobOverlap& overlap)
+{
+    auto runner = std::make_shared<StackRunner>(prog, digest, 0, overlap.ahead);
+    const std::size_t tail = overlap.defer_writes ? trailing_writes(prog.steps) : prog.steps.size();
+    std::function<void()> rest = runner->run(tail);
+    if (tail == prog.steps.size()) {
+        rest();
+        return {};
+    }
+    return [runner, rest] { rest(); };
+}
+
+DeferredWrites run_tile_steps(const std::vector<Program>& tiles, const std::vector<int>& numbers,
+                              const std::string& digest, const JobOverlap& overlap)
 {
     // One runner per tile, step by step in lockstep: an operation that
     // joins tiles takes every tile's top at once; every other step runs
     // tile by tile. (The tiles' programs differ only in their file names.)
-    std::vector<std::unique_ptr<StackRunner>> runners;
+    auto runners = std::make_shared<std::vector<std::unique_ptr<StackRunner>>>();
     int first_output = 0;
     for (const Program& p : tiles) {
-        runners.push_back(std::make_unique<StackRunner>(p, digest, first_output));
+        runners->push_back(std::make_unique<StackRunner>(p, digest, first_output, overlap.ahead));
         first_output += int(output_files(p).size());
     }
     const double prepared = relief::setup_times().prepared;
     const std::vector<Step>& steps = tiles.front().steps;
-    for (std::size_t k = 0; k < steps.size(); ++k) {
+    const std::size_t tail = overlap.defer_writes ? trailing_writes(steps) : steps.size();
+    // The steps from `tail` on, tile by tile, and each tile's report.
+    auto rest = [runners, &tiles, tail, prepared] {
+        for (std::size_t t = 0; t < runners->size(); ++t) {
+            StackRunner& r = *(*runners)[t];
+            for (std::size_t k = tail; k < tiles[t].steps.size(); ++k)
+                r.timed(tiles[t].steps[k], [&] { r.run_step(tiles[t].steps[k]); });
+        }
+        for (auto& r : *runners)
+            r->finish(prepared);
+    };
+    auto& rs = *runners;
+    for (std::size_t k = 0; k < tail; ++k) {
         const Step& s = steps[k];
         if (s.kind != Step::Kind::Operation || !relief::joins_tiles(s)) {
-            for (std::size_t t = 0; t < runners.size(); ++t)
-                runners[t]->timed(tiles[t].steps[k], [&] { runners[t]->run_step(tiles[t].steps[k]); });
+            for (std::size_t t = 0; t < rs.size(); ++t)
+                rs[t]->timed(tiles[t].steps[k], [&] { rs[t]->run_step(tiles[t].steps[k]); });
             continue;
         }
-        StackRunner& first = *runners.front();
+        StackRunner& first = *rs.front();
         first.timed(s, [&] {
-            std::vector<OIIO::ImageBuf> mask(runners.size()), fix(runners.size()), in(runners.size()), out;
-            std::vector<std::string> report(runners.size());
+            std::vector<OIIO::ImageBuf> mask(rs.size()), fix(rs.size()), in(rs.size()), out;
+            std::vector<std::string> report(rs.size());
             std::vector<relief::OperationCall> calls;
             std::vector<const OIIO::ImageBuf*> inputs;
-            for (std::size_t t = 0; t < runners.size(); ++t) {
-                calls.push_back(runners[t]->prepare_call(tiles[t].steps[k], mask[t], fix[t], report[t]));
-                in[t] = runners[t]->pop();
+            for (std::size_t t = 0; t < rs.size(); ++t) {
+                calls.push_back(rs[t]->prepare_call(tiles[t].steps[k], mask[t], fix[t], report[t]));
+                in[t] = rs[t]->pop();
                 inputs.push_back(&in[t]);
             }
             if (!relief::run_operation_on_tiles(out, calls.front(), numbers, inputs, first.execution(s)))
                 throw RunError(relief::geterror());
-            for (std::size_t t = 0; t < runners.size(); ++t)
-                runners[t]->push_result(std::move(out[t]), calls[t], report.front());
+            for (std::size_t t = 0; t < rs.size(); ++t)
+                rs[t]->push_result(std::move(out[t]), calls[t], report.front());
         });
     }
-    for (auto& r : runners)
-        r->finish(prepared);
+    if (tail == steps.size()) {
+        rest();
+        return {};
+    }
+    return rest;
 }
 
 }  // namespace relief::cli

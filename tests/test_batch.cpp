@@ -285,6 +285,82 @@ std::vector<std::string> statuses(const fs::path& log)
 
 }  // namespace
 
+TEST_CASE("batch: jobs overlap (reads ahead, writes behind), yet each job's lines, record and failure "
+          "stay its own",
+          "[batch][cli]")
+{
+    const fs::path d = scratch("overlap");
+    // A damaged file (job 1, read ahead while job 0 computes) and a write
+    // that fails (job 2's 2 MiB of uncompressed slopes under a 1.5 MiB file
+    // size limit, written behind while job 3 computes); job 4 reads job 3's
+    // output, so it must wait for that write.
+    {
+        std::ifstream in(kNormal, std::ios::binary);
+        std::string bytes(3000, '\0');
+        in.read(bytes.data(), std::streamsize(bytes.size()));
+        std::ofstream(d / "damaged.png", std::ios::binary) << bytes;
+    }
+    const fs::path m = d / "jobs.txt";
+    {
+        std::ofstream f(m);
+        f << kNormal << " --height -o " << (d / "a.exr").string() << "\n";
+        f << (d / "damaged.png").string() << " --height -o " << (d / "b.exr").string() << "\n";
+        f << kNormal << " --slopes -o " << (d / "c.exr").string() << "\n";
+        f << kDem << " --slopes -o " << (d / "e.exr").string() << "\n";
+        f << (d / "e.exr").string() << " --height -o " << (d / "g.exr").string() << "\n";
+    }
+    const std::string limit = "trap '' XFSZ; prlimit --fsize=1572864";
+    const fs::path log = d / "log.jsonl";
+    auto r = run_cli("-v --batch '" + m.string() + "' --log '" + log.string() + "'", limit);
+    INFO(r.err);
+    CHECK(r.rc == 1);
+    CHECK(statuses(log) == std::vector<std::string>{"ok", "failed", "failed", "ok", "ok"});
+    CHECK(r.err.find("3 ok, 0 skipped, 2 failed of 5 job(s)") != std::string::npos);
+    // The failures say what the same job says on its own.
+    for (const auto& [job, args] :
+         {std::pair{1, (d / "damaged.png").string() + " --height -o " + (d / "b1.exr").string()},
+          std::pair{2, kNormal + " --slopes -o " + (d / "c.exr").string()}}) {
+        const auto single = run_cli(args, limit);
+        CHECK(single.rc == 1);
+        const std::string why = single.err.substr(single.err.find("relief: error: ") + 8);
+        CHECK(r.err.find("relief: job " + std::to_string(job) + " (" + m.string() + ":" + std::to_string(job + 1) +
+                         "): " + why) != std::string::npos);
+    }
+    CHECK_FALSE(fs::exists(d / "b.exr"));
+    CHECK_FALSE(fs::exists(d / "c.exr"));
+    for (const auto& f : fs::directory_iterator(d))  // no temporary left behind
+        CHECK(f.path().filename().string().find(".tmp") == std::string::npos);
+    // Each job's lines come together and in job order, its last the
+    // status line that ends it.
+    int last = -1;
+    std::istringstream lines(r.err);
+    for (std::string l; std::getline(lines, l);) {
+        int job = -1;
+        if (std::sscanf(l.c_str(), "relief: job %d", &job) != 1)
+            continue;
+        INFO(l);
+        CHECK(job >= last);
+        last = job;
+    }
+    CHECK(last == 4);
+    // -v says how much file work went beside the device's: some of each.
+    double ahead = 0, behind = 0;
+    const std::size_t at = r.err.find("relief: overlap: ");
+    REQUIRE(at != std::string::npos);
+    REQUIRE(std::sscanf(r.err.c_str() + at, "relief: overlap: %lf s of reading ahead and %lf s of writing behind",
+                        &ahead, &behind) == 2);
+    CHECK(ahead > 0.0);
+    CHECK(behind > 0.0);
+    // Every output equals its single run, the chained one included.
+    for (const auto& [args, name] : {std::pair{kNormal + " --height", "a.exr"}, std::pair{kDem + " --slopes", "e.exr"},
+                                     std::pair{(d / "e.exr").string() + " --height", "g.exr"}}) {
+        INFO(name);
+        const fs::path single = d / ("single-" + std::string(name));
+        REQUIRE(run_cli(args + " -o '" + single.string() + "'").rc == 0);
+        CHECK(relief::test::file_pixels(d / name) == relief::test::file_pixels(single));
+    }
+}
+
 TEST_CASE("names: <UDIM>, # @ %0Nd and --frames expand as oiiotool's", "[names][parse]")
 {
     using V = std::vector<std::string>;

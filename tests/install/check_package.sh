@@ -12,6 +12,12 @@ src=$(cd "$(dirname "$0")/../.." && pwd)
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 fail() { echo "check_package: $*" >&2; exit 1; }
+# A program not built with the sanitizers that loads librelief gets ASan's
+# runtime first through $RELIEF_HOST_PRELOAD (the sanitizer build only:
+# cpack, lintian and the compiler must not).
+run() {
+  if [ -n "${RELIEF_HOST_PRELOAD:-}" ]; then LD_PRELOAD=$RELIEF_HOST_PRELOAD "$@"; else "$@"; fi
+}
 cpack --config "$build/CPackConfig.cmake" -G DEB -B "$tmp" >/dev/null
 version=$(sed -n 's/^relief (\([^)]*\)).*/\1/p' "$src/packaging/changelog" | head -1)
 arch=$(dpkg --print-architecture)
@@ -73,7 +79,7 @@ root=$tmp/root
 for p in librelief1 librelief-dev relief; do dpkg-deb -x "$(deb $p)" "$root"; done
 LD_LIBRARY_PATH="$root/usr/lib/$multiarch" "$root/usr/bin/relief" --version
 export PKG_CONFIG_LIBDIR="$root/usr/lib/$multiarch/pkgconfig" PKG_CONFIG_PATH=
-cc -Wall -Wextra -Werror "$src/tests/install/c_abi_checks.c" $(pkg-config --cflags --libs relief) -o "$tmp/c_host"
-"$tmp/c_host"
+cc -Wall -Wextra -Werror "$src/tests/install/c_abi_checks.c" $(pkg-config --cflags --libs relief) -o run "$tmp/c_host"
+run "$tmp/c_host"
 ! pkg-config --exists relief-cxx || fail "relief-cxx resolved without OpenImageIO's pkg-config file"
 echo "check_package: the packages hold"
