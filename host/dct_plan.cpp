@@ -1,12 +1,30 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "dct_plan.h"
 
+#include <cmath>
+#include <vector>
+
 namespace relief::host {
+
+namespace {
+
+// (cos, sin)(pi k / 2n) for k < n, as float2.
+cl::Buffer twiddles(ComputeContext::Impl& c, std::size_t n)
+{
+    std::vector<cl_float2> w(n);
+    for (std::size_t k = 0; k < n; ++k) {
+        const double a = M_PI * double(k) / (2.0 * double(n));
+        w[k] = {{float(std::cos(a)), float(std::sin(a))}};
+    }
+    return c.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(cl_float2) * n, "the DCT", w.data());
+}
+
+}  // namespace
 
 DctPlan::DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, const FftOf& fft_of, Axes axes)
     : c_(c), n0_(n0), n1_(n1), axes_(axes),
       work_(c.buffer(CL_MEM_READ_WRITE, sizeof(float) * FftPlan::row_stride(n0) * n1, "the DCT")),
-      fft_(fft_of(work_))
+      fft_(fft_of(work_)), twiddles0_(twiddles(c, n0)), twiddles1_(twiddles(c, n1))
 {
     cl::Program& prog = c.program("dct.cl");
     const bool both = axes == Axes::Both;
@@ -26,6 +44,10 @@ DctPlan::DctPlan(ComputeContext::Impl& c, std::size_t n0, std::size_t n1, const 
     pre_.setArg(1, cl_int(n0));
     pre_.setArg(2, cl_int(n1));
     pre_.setArg(3, work_);
+    for (cl::Kernel* k : {&post_, &pre_}) {
+        k->setArg(4, twiddles0_);
+        k->setArg(5, twiddles1_);
+    }
 }
 
 void DctPlan::forward(cl::Buffer& buffer)

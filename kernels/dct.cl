@@ -56,17 +56,22 @@ inline float re_rotated(float c, float s, float2 z)
     return c * z.x - s * z.y;
 }
 
-__kernel void dct_forward_post(__global const float2* V, int n0, int n1, __global float* X)
+// The twiddles w0[k] = (cos, sin)(pi k / 2n0), w1 likewise along axis 1
+// (host/dct_plan.cpp, from double), combined by the angle-sum rules: a
+// table read costs less than a cospi()/sinpi() call.
+__kernel void dct_forward_post(__global const float2* V, int n0, int n1, __global float* X,
+                               __global const float2* w0, __global const float2* w1)
 {
     int k0, k1, gid = relief_grid_cell(n0, n1, &k0, &k1);
     if (gid < 0)
         return;
-    // Twiddle angles in units of pi: a0 = k0 / 2n0, a1 = k1 / 2n1.
-    float a0 = (float)k0 / (2.0f * n0), a1 = (float)k1 / (2.0f * n1);
+    // a0 = pi k0 / 2n0, a1 = pi k1 / 2n1
+    float2 t0 = w0[k0], t1 = w1[k1];
+    float cc = t0.x * t1.x, ss = t0.y * t1.y, sc = t0.y * t1.x, cs = t0.x * t1.y;
     float2 p = dct_spectrum(V, k0, k1, n0, n1);
     float2 q = dct_spectrum(V, k0, n1 - k1, n0, n1);
-    X[gid] = 0.5f * (re_rotated(cospi(a0 + a1), -sinpi(a0 + a1), p) +
-                     re_rotated(cospi(a0 - a1), -sinpi(a0 - a1), q));
+    // cos(a0 +- a1) = cc -+ ss, sin(a0 +- a1) = sc +- cs
+    X[gid] = 0.5f * (re_rotated(cc - ss, -(sc + cs), p) + re_rotated(cc + ss, -(sc - cs), q));
 }
 
 inline float dct_coefficient(__global const float* X, int k0, int k1, int n0, int n1)
@@ -74,7 +79,8 @@ inline float dct_coefficient(__global const float* X, int k0, int k1, int n0, in
     return k0 < n0 && k1 < n1 ? X[k1 * n0 + k0] : 0.0f;
 }
 
-__kernel void dct_inverse_pre(__global const float* X, int n0, int n1, __global float2* V)
+__kernel void dct_inverse_pre(__global const float* X, int n0, int n1, __global float2* V,
+                              __global const float2* w0, __global const float2* w1)
 {
     int columns = n0 / 2 + 1;
     int k0, k1, gid = relief_grid_cell(columns, n1, &k0, &k1);
@@ -83,8 +89,9 @@ __kernel void dct_inverse_pre(__global const float* X, int n0, int n1, __global 
     int m0 = k0 > 0 ? n0 - k0 : n0, m1 = k1 > 0 ? n1 - k1 : n1;
     float re = dct_coefficient(X, k0, k1, n0, n1) - dct_coefficient(X, m0, m1, n0, n1);
     float im = -(dct_coefficient(X, m0, k1, n0, n1) + dct_coefficient(X, k0, m1, n0, n1));
-    float a = (float)k0 / (2.0f * n0) + (float)k1 / (2.0f * n1);
-    float c = cospi(a), s = sinpi(a);
+    // cos, sin of pi k0 / 2n0 + pi k1 / 2n1 (k0 <= n0/2 < n0)
+    float2 t0 = w0[k0], t1 = w1[k1];
+    float c = t0.x * t1.x - t0.y * t1.y, s = t0.y * t1.x + t0.x * t1.y;
     V[gid] = (float2)(c * re - s * im, s * re + c * im);
 }
 
@@ -121,24 +128,26 @@ inline float2 rotated(float c, float s, float2 z)
     return (float2)(c * z.x - s * z.y, s * z.x + c * z.y);
 }
 
-__kernel void dct_axis1_forward_post(__global const float2* V, int n0, int n1, __global float2* X)
+// w0 (unused) and w1 as dct_forward_post's.
+__kernel void dct_axis1_forward_post(__global const float2* V, int n0, int n1, __global float2* X,
+                                     __global const float2* w0, __global const float2* w1)
 {
     int columns = n0 / 2 + 1;
     int k0, k1, gid = relief_grid_cell(columns, n1, &k0, &k1);
     if (gid < 0)
         return;
-    float a = (float)k1 / (2.0f * n1), c = cospi(a), s = sinpi(a);
+    float c = w1[k1].x, s = w1[k1].y;
     float2 p = V[gid], q = V[((n1 - k1) % n1) * columns + k0];
     X[gid] = 0.5f * (rotated(c, -s, p) + rotated(c, s, q));
 }
 
-__kernel void dct_axis1_inverse_pre(__global const float2* X, int n0, int n1, __global float2* V)
+__kernel void dct_axis1_inverse_pre(__global const float2* X, int n0, int n1, __global float2* V,
+                                    __global const float2* w0, __global const float2* w1)
 {
     int columns = n0 / 2 + 1;
     int k0, k1, gid = relief_grid_cell(columns, n1, &k0, &k1);
     if (gid < 0)
         return;
     float2 p = X[gid], q = k1 > 0 ? X[(n1 - k1) * columns + k0] : (float2)(0.0f, 0.0f);
-    float a = (float)k1 / (2.0f * n1);
-    V[gid] = rotated(cospi(a), sinpi(a), (float2)(p.x + q.y, p.y - q.x));  // p - i q
+    V[gid] = rotated(w1[k1].x, w1[k1].y, (float2)(p.x + q.y, p.y - q.x));  // p - i q
 }
