@@ -293,7 +293,7 @@ TEST_CASE("batch: jobs overlap (reads ahead, writes behind), yet each job's line
     // A damaged file (job 1, read ahead while job 0 computes) and a write
     // that fails (job 2's 2 MiB of uncompressed slopes under a 1.5 MiB file
     // size limit, written behind while job 3 computes); job 4 reads job 3's
-    // output, so it must wait for that write.
+    // output, so it must wait for that write, and not be read ahead.
     {
         std::ifstream in(kNormal, std::ios::binary);
         std::string bytes(3000, '\0');
@@ -309,6 +309,8 @@ TEST_CASE("batch: jobs overlap (reads ahead, writes behind), yet each job's line
         f << kDem << " --slopes -o " << (d / "e.exr").string() << "\n";
         f << (d / "e.exr").string() << " --height -o " << (d / "g.exr").string() << "\n";
     }
+    // A stale e.exr from an earlier run: job 4 must read the one job 3 writes.
+    REQUIRE(run_cli(kNormal + " --slopes -o " + (d / "e.exr").string()).rc == 0);
     const std::string limit = "trap '' XFSZ; prlimit --fsize=1572864";
     const fs::path log = d / "log.jsonl";
     auto r = run_cli("-v --batch '" + m.string() + "' --log '" + log.string() + "'", limit);
