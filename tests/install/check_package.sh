@@ -79,7 +79,7 @@ root=$tmp/root
 for p in librelief1 librelief-dev relief; do dpkg-deb -x "$(deb $p)" "$root"; done
 LD_LIBRARY_PATH="$root/usr/lib/$multiarch" "$root/usr/bin/relief" --version
 export PKG_CONFIG_LIBDIR="$root/usr/lib/$multiarch/pkgconfig" PKG_CONFIG_PATH=
-cc -Wall -Wextra -Werror "$src/tests/install/c_abi_checks.c" $(pkg-config --cflags --libs relief) -o run "$tmp/c_host"
+cc -Wall -Wextra -Werror "$src/tests/install/c_abi_checks.c" $(pkg-config --cflags --libs relief) -o "$tmp/c_host"
 run "$tmp/c_host"
 ! pkg-config --exists relief-cxx || fail "relief-cxx resolved without OpenImageIO's pkg-config file"
 echo "check_package: the packages hold"
