@@ -301,8 +301,8 @@ int main(int argc, char** argv)
        << " alternating runs (the peer once per file, one `relief --batch` per size):\n\n"
           "| size | maps | peer s/map | relief --batch s/map | relief / peer |\n|---|---|---|---|---|\n";
     for (const SizeBatch& b : by_size) {
-        std::snprintf(line, sizeof line, "| %d^2 | %zu | %.4f | %.4f | %.2f |\n", b.size, b.maps, b.peer, b.batch,
-                      b.batch / b.peer);
+        std::snprintf(line, sizeof line, "| %d^2 | %zu | %.4f | %.4f | %.2f |\n", b.size, b.maps, b.peer,
+                      b.batch, b.batch / b.peer);
         md << line;
     }
     md << "\nA batch of the 512^2 maps, `relief -v --batch`:\n\n" << batch_split << "\n";

@@ -141,7 +141,8 @@ DeferredWrites run_job(const std::vector<Program>& progs, const std::vector<int>
         } else if (prog.dry_run) {
             rec.status = "pending";
         } else {
-            rest = tiles.empty() ? run_steps(prog, digest, overlap) : run_tile_steps(progs, tiles, digest, overlap);
+            rest = tiles.empty() ? run_steps(prog, digest, overlap)
+                                 : run_tile_steps(progs, tiles, digest, overlap);
             rec.status = "ok";
         }
     } catch (const std::exception& e) {
@@ -418,8 +419,8 @@ int run_jobs(const Program& top, const std::vector<Job>& all, const std::string&
     const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     say("relief: %s%s: ", manifest.empty() ? "jobs" : "batch ", manifest.c_str());
     if (top.dry_run)
-        say("%d pending, %d skipped, %d failed of %zu job(s) (dry run)", pending, skipped,
-                     failed, jobs.size());
+        say("%d pending, %d skipped, %d failed of %zu job(s) (dry run)", pending, skipped, failed,
+            jobs.size());
     else
         say("%d ok, %d skipped, %d failed of %zu job(s)", ok, skipped, failed, jobs.size());
     if (top.shard_count > 1)

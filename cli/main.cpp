@@ -86,7 +86,7 @@ int run(int argc, char** argv)
         relief::cli::run_command_line(prog, args);
         if (prog.verbose)
             say("relief: done %.2f s after the process started (then its exit)\n",
-                         relief::cli::process_age());
+                relief::cli::process_age());
     } catch (const relief::cli::UsageError& e) {  // the --batch file's own syntax
         say("relief: error: %s\n", e.what());
         return 2;

@@ -99,14 +99,13 @@ public:
         const double device = after.device - before.device, programs = after.programs - before.programs,
                      plans = after.plans - before.plans;
         if (s.kind == Step::Kind::Operation)
-            say(
-                         "relief: %s%s: %.3f s (device set-up %.3f, kernel builds %.3f, FFT plans %.3f, "
-                         "the map's own work %.3f)\n",
-                         prog_.label.c_str(), s.text.c_str(), sec, device, programs, plans,
-                         sec - device - programs - plans);
+            say("relief: %s%s: %.3f s (device set-up %.3f, kernel builds %.3f, FFT plans %.3f, "
+                "the map's own work %.3f)\n",
+                prog_.label.c_str(), s.text.c_str(), sec, device, programs, plans,
+                sec - device - programs - plans);
         else
             say("relief: %s%s: %.3f s\n", prog_.label.c_str(),
-                         s.kind == Step::Kind::Read ? ("read " + s.path).c_str() : s.text.c_str(), sec);
+                s.kind == Step::Kind::Read ? ("read " + s.path).c_str() : s.text.c_str(), sec);
     }
 
     // An operation's call as this program runs it: its mask and fix files
@@ -192,8 +191,8 @@ public:
             }
             if (prog_.verbose) {
                 const auto& spec = img.spec();
-                say("relief: read %s: %dx%d, %d channel(s), %s\n", s.path.c_str(),
-                             spec.width, spec.height, spec.nchannels, img.nativespec().format.c_str());
+                say("relief: read %s: %dx%d, %d channel(s), %s\n", s.path.c_str(), spec.width, spec.height,
+                    spec.nchannels, img.nativespec().format.c_str());
             }
             stack_.push_back(std::move(img));
             break;
@@ -240,7 +239,7 @@ public:
         if (prog_.verbose && ahead_.valid()) {
             ahead_.wait();
             say("relief: %sset up ahead, beside the read: %.3f s\n", prog_.label.c_str(),
-                         relief::setup_times().prepared - prepared);
+                relief::setup_times().prepared - prepared);
         }
     }
 
@@ -299,10 +298,9 @@ private:
         const int half_max = top.spec().get_int_attribute("relief:half_max_texels", 0);
         if (w.format == OIIO::TypeDesc::HALF && half_max > 0 &&
             std::max(top.spec().width, top.spec().height) > half_max)
-            say(
-                         "relief: warning: %s: half values above %d texels are coarser than 1/8 "
-                         "texel; prefer float\n",
-                         s.path.c_str(), half_max);
+            say("relief: warning: %s: half values above %d texels are coarser than 1/8 "
+                "texel; prefer float\n",
+                s.path.c_str(), half_max);
         w.compression = s.compression;
         const std::string digest = output_digest(digest_, outputs_++);
         if (digest.empty())
@@ -310,9 +308,7 @@ private:
         else
             stack_.back().specmod().attribute("relief:digest", digest);
         // The integer mapping is needed to read the file back: always say it.
-        w.on_message = [](Severity, const std::string& m) {
-            say("relief: %s\n", m.c_str());
-        };
+        w.on_message = [](Severity, const std::string& m) { say("relief: %s\n", m.c_str()); };
         if (!relief::write_image(stack_.back(), s.path, w))
             throw RunError(relief::geterror());
         if (prog_.verbose)

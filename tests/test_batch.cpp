@@ -325,8 +325,8 @@ TEST_CASE("batch: jobs overlap (reads ahead, writes behind), yet each job's line
         const auto single = run_cli(args, limit);
         CHECK(single.rc == 1);
         const std::string why = single.err.substr(single.err.find("relief: error: ") + 8);
-        CHECK(r.err.find("relief: job " + std::to_string(job) + " (" + m.string() + ":" + std::to_string(job + 1) +
-                         "): " + why) != std::string::npos);
+        CHECK(r.err.find("relief: job " + std::to_string(job) + " (" + m.string() + ":" +
+                         std::to_string(job + 1) + "): " + why) != std::string::npos);
     }
     CHECK_FALSE(fs::exists(d / "b.exr"));
     CHECK_FALSE(fs::exists(d / "c.exr"));
@@ -349,13 +349,15 @@ TEST_CASE("batch: jobs overlap (reads ahead, writes behind), yet each job's line
     double ahead = 0, behind = 0;
     const std::size_t at = r.err.find("relief: overlap: ");
     REQUIRE(at != std::string::npos);
-    REQUIRE(std::sscanf(r.err.c_str() + at, "relief: overlap: %lf s of reading ahead and %lf s of writing behind",
-                        &ahead, &behind) == 2);
+    REQUIRE(std::sscanf(r.err.c_str() + at,
+                        "relief: overlap: %lf s of reading ahead and %lf s of writing behind", &ahead,
+                        &behind) == 2);
     CHECK(ahead > 0.0);
     CHECK(behind > 0.0);
     // Every output equals its single run, the chained one included.
-    for (const auto& [args, name] : {std::pair{kNormal + " --height", "a.exr"}, std::pair{kDem + " --slopes", "e.exr"},
-                                     std::pair{(d / "e.exr").string() + " --height", "g.exr"}}) {
+    for (const auto& [args, name] :
+         {std::pair{kNormal + " --height", "a.exr"}, std::pair{kDem + " --slopes", "e.exr"},
+          std::pair{(d / "e.exr").string() + " --height", "g.exr"}}) {
         INFO(name);
         const fs::path single = d / ("single-" + std::string(name));
         REQUIRE(run_cli(args + " -o '" + single.string() + "'").rc == 0);
