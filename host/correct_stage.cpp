@@ -156,16 +156,31 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
             // The upsampled offsets start the level unless zero offsets are
             // better: at a much finer level, coarse offsets can crowd steep
             // detail that the coarse level did not see.
-            double start_energy = std::numeric_limits<double>::quiet_NaN();
+            double start_energy = std::numeric_limits<double>::quiet_NaN(), start_factor = 0.0;
             if (!offsets.empty()) {
-                const double e_up = s.energy();
+                // The upsampled offsets scaled by the factor of 1, 3/4, 1/2,
+                // 1/4 or 0 whose energy is lowest. At a finer level a cliff is
+                // steeper: the coarse offsets, whole, can crowd it (1024^2
+                // desert cliff: 26x the energy of zero offsets) while half of
+                // them halve that energy.
+                double best_factor = 0.0;
                 s.upload(std::vector<float>(start.size(), 0.0f));
-                const double e_zero = s.energy();
-                start_energy = e_zero;
-                if (std::isfinite(e_up) && e_up <= e_zero) {
-                    s.upload(start);
-                    start_energy = e_up;
+                start_energy = s.energy();
+                for (double factor : {1.0, 0.75, 0.5, 0.25}) {
+                    std::vector<float> scaled(start);
+                    for (float& v : scaled)
+                        v = float(factor * v);
+                    s.upload(scaled);
+                    const double e = s.energy();
+                    if (std::isfinite(e) && e < start_energy) {
+                        start_energy = e;
+                        best_factor = factor;
+                    }
                 }
+                for (float& v : start)
+                    v = float(best_factor * v);
+                s.upload(start);
+                start_factor = best_factor;
             }
             const auto level_t0 = std::chrono::steady_clock::now();
             const double weight = double(lw) * lh / total_weight;
@@ -192,6 +207,7 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
                 // coarse levels 3x looser cost the finest level 1.5x the
                 // iterations, 3x tighter cost more than they saved.
                 p.tolerance, start_energy, L > 0);
+            lv.start_factor = start_factor;
             lv.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - level_t0).count();
             done += weight;
             if (progress)

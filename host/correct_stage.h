@@ -53,6 +53,9 @@ struct CorrectLevel {
     double energy_start = 0.0, energy_end = 0.0;
     bool converged = false;  // relative change fell below the tolerance
     long long tile_phases = 0, tile_phases_run = 0;
+    // The level started from the previous level's offsets times this
+    // (1, 0.75, 0.5, 0.25 or 0: the lowest energy; 0 at the coarsest).
+    double start_factor = 0.0;
     double seconds = 0.0;
 };
 

@@ -510,3 +510,35 @@ TEST_CASE("cli: -d half warns for offsets wider than half floats hold to 1/8 tex
               (w > 2048));
     }
 }
+
+TEST_CASE("cli: -v says which share of the coarser offsets each correction level started from", "[cli]")
+{
+    // At scale 10 the bundled metal panel's levels start from part of the
+    // coarser offsets (measured: 1/4 to 3/4); -v says it as the report
+    // records it.
+    auto dir = scratch("start_factor");
+    const std::string height = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
+    auto r = run_cli("-v '" + height + "' --correct:scale=10:iterations=3 -o '" + (dir / "c.exr").string() +
+                     "' --report '" + (dir / "r.json").string() + "'");
+    INFO(r.err);
+    REQUIRE(r.rc == 0);
+    const std::string json = slurp(dir / "r.json");
+    std::vector<double> factors;
+    for (std::size_t at = json.find("\"start_factor\": "); at != std::string::npos;
+         at = json.find("\"start_factor\": ", at + 1))
+        factors.push_back(relief::test::json_number(json, "start_factor", at));
+    REQUIRE(factors.size() >= 3);
+    CHECK(factors.front() == 0.0);  // the coarsest level starts at zero
+    CHECK(*std::min_element(factors.begin() + 1, factors.end()) < 1.0);
+    std::size_t from = 0;
+    for (std::size_t l = 1; l < factors.size(); ++l) {
+        char text[64];
+        std::snprintf(text, sizeof text, "(from the coarser offsets x%g)", factors[l]);
+        INFO("level " << l << ": " << text);
+        from = r.err.find(text, from);
+        CHECK(from != std::string::npos);
+        if (from == std::string::npos)
+            break;
+        ++from;
+    }
+}

@@ -870,3 +870,48 @@ TEST_CASE("correct: boundary=auto weighs the jump across each wrap seam against 
     CHECK_THAT(decide(std::vector<float>(std::size_t(w) * h, 3.0f), w, h),
                Catch::StartsWith("correct: boundary periodic (") && Catch::Contains("x 1.00, y 1.00;"));
 }
+
+TEST_CASE("correct: a level starts from the scaled coarse offsets of lowest energy", "[correct]")
+{
+    // Steep waves: at the finer level their slopes in texels double, and the
+    // coarse offsets, whole, can crowd them. The level starts from those
+    // offsets times 1, 0.75, 0.5, 0.25 or 0, whichever has the lowest energy
+    // (computed here by the golden model from the coarse level's result).
+    const int w = 64, h = 48, cw = 32, ch = 24;
+    const auto hts = waves(w, h, 1.0, 15);
+    const double scale = GENERATE(0.3, 1.0, 3.0, 10.0);
+    INFO("scale " << scale);
+    auto p = params(scale, true);
+    p.levels = 2;
+    host::CorrectReport rep;
+    run(hts, w, h, p, &rep);
+    REQUIRE(rep.levels.size() == 2);
+    // The coarse level alone, as the pyramid ran it.
+    const auto small = host::area_downsample(hts, w, h, cw, ch);
+    auto pc = p;
+    pc.levels = 1;
+    const auto coarse = run(small, cw, ch, pc);
+    const host::NodeGrid from(cw, ch, false, host::Periodic(true)), to(w, h, false, host::Periodic(true));
+    const auto up = host::upsample_offsets(coarse, from, to);
+    const auto g = centre_grid(hts, w, h, scale, true);
+    double best = ref::total_energy(g, std::vector<double>(2 * std::size_t(w) * h, 0.0)), factor = 0.0;
+    for (double f : {1.0, 0.75, 0.5, 0.25}) {
+        std::vector<double> c(up.size());
+        for (std::size_t i = 0; i < up.size(); i += 2) {
+            c[i] = double(float(f * double(up[i]) * w));
+            c[i + 1] = double(float(f * double(up[i + 1]) * h));
+        }
+        const double e = ref::total_energy(g, c);
+        INFO("factor " << f << " energy " << e);
+        if (std::isfinite(e) && e < best) {
+            best = e;
+            factor = f;
+        }
+    }
+    const auto& fine = rep.levels.back();
+    CHECK(fine.start_factor == factor);
+    CHECK(fine.energy_start == Approx(best).epsilon(1e-5));
+    // ... and the solve starts from those offsets: the energy only falls.
+    CHECK(fine.energy_end <= fine.energy_start);
+    CHECK(rep.levels.front().start_factor == 0.0);  // the coarsest starts at zero
+}

@@ -748,6 +748,7 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
             CHECK(r.levels[l].height == hl.height);
             CHECK(r.levels[l].converged == hl.converged);
             CHECK(r.levels[l].tiles_run == Approx(double(hl.tile_phases_run) / double(hl.tile_phases)));
+            CHECK(r.levels[l].start_factor == hl.start_factor);
         }
         for (const auto& [got_s, want_s] : {std::pair{r.anisotropy_before, want.report.anisotropy_before},
                                             std::pair{r.anisotropy_after, want.report.anisotropy_after},
@@ -763,6 +764,8 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
         CHECK(json["width"] == 40);
         CHECK(json["height"] == 36);
         CHECK(json["levels"].size() == r.levels.size());
+        for (std::size_t l = 0; l < r.levels.size(); ++l)
+            CHECK(json["levels"][l].value("start_factor", -1.0) == r.levels[l].start_factor);
         const auto word = [](bool periodic) { return std::string(periodic ? "periodic" : "fixed"); };
         CHECK(r.boundary == (p.periodic.x == p.periodic.y ? word(p.periodic.x)
                                                           : word(p.periodic.x) + "," + word(p.periodic.y)));

@@ -56,6 +56,10 @@ struct CorrectLevelReport {
     bool converged = false;
     double tiles_run = 1.0;  // fraction of tile updates not skipped
     double seconds = 0.0;
+    // The level started from the coarser level's offsets times this (1,
+    // 0.75, 0.5, 0.25 or 0, whichever had the lowest energy; 0 at the
+    // coarsest level).
+    double start_factor = 0.0;
 };
 
 struct CorrectReport {

@@ -69,7 +69,8 @@ std::string CorrectReport::to_json() const
                                {"energy_end", l.energy_end},
                                {"converged", l.converged},
                                {"tiles_run", l.tiles_run},
-                               {"seconds", l.seconds}});
+                               {"seconds", l.seconds},
+                               {"start_factor", l.start_factor}});
     j["anisotropy"] = {{"before", stats(anisotropy_before)}, {"after", stats(anisotropy_after)}};
     j["area_ratio"] = {{"before", stats(area_before)}, {"after", stats(area_after)}};
     j["seconds"] = seconds;
@@ -161,8 +162,8 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         rep.iterations = hr.total_iterations();
         for (const auto& l : hr.levels)
             rep.levels.push_back({l.width, l.height, l.iterations, l.energy_start, l.energy_end, l.converged,
-                                  l.tile_phases ? double(l.tile_phases_run) / l.tile_phases : 1.0,
-                                  l.seconds});
+                                  l.tile_phases ? double(l.tile_phases_run) / l.tile_phases : 1.0, l.seconds,
+                                  l.start_factor});
         rep.anisotropy_before = summary(hr.anisotropy_before);
         rep.anisotropy_after = summary(hr.anisotropy_after);
         rep.area_before = summary(hr.area_before);
@@ -178,13 +179,16 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
                             f(options.threshold) + " of 1): zero offsets");
         } else {
             for (const auto& l : rep.levels)
-                detail::say(ex, Severity::Info,
-                            "correct: level " + std::to_string(l.width) + "x" + std::to_string(l.height) +
-                                ": " + std::to_string(l.iterations) + " iteration(s), energy " +
-                                f(l.energy_start) + " -> " + f(l.energy_end) +
-                                (l.converged ? "" : " (iteration limit)") + ", tiles run " +
-                                detail::format_double("%.0f%%", 100.0 * l.tiles_run) + ", " +
-                                detail::format_double("%.2f s", l.seconds));
+                detail::say(
+                    ex, Severity::Info,
+                    "correct: level " + std::to_string(l.width) + "x" + std::to_string(l.height) + ": " +
+                        std::to_string(l.iterations) + " iteration(s), energy " + f(l.energy_start) +
+                        (&l == &rep.levels.front() ? ""
+                                                   : " (from the coarser offsets x" +
+                                                         detail::format_double("%g", l.start_factor) + ")") +
+                        " -> " + f(l.energy_end) + (l.converged ? "" : " (iteration limit)") +
+                        ", tiles run " + detail::format_double("%.0f%%", 100.0 * l.tiles_run) + ", " +
+                        detail::format_double("%.2f s", l.seconds));
             if (!rep.levels.empty() && !rep.levels.back().converged && options.iterations == 0)
                 detail::say(ex, Severity::Warning,
                             "correct: stopped at " + std::to_string(options.max_iterations) +
