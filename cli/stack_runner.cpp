@@ -3,10 +3,6 @@
 #include "stack_runner.h"
 
 #include <OpenImageIO/imagebuf.h>
-#include <OpenImageIO/imageio.h>
-
-#include <fcntl.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -28,38 +24,6 @@ namespace relief::cli {
 namespace {
 
 using relief::Severity;
-
-// While it lives (unless verbose), the image libraries' own diagnostics on
-// stderr ("libpng error: ...", "OIIO DEBUG: ...") go to /dev/null: relief
-// reports the failure itself, once. Reads and writes run on this thread.
-class QuietLibraries {
-public:
-    explicit QuietLibraries(bool verbose)
-    {
-        if (verbose)
-            return;
-        std::fflush(stderr);
-        saved_ = dup(2);
-        const int null = open("/dev/null", O_WRONLY | O_CLOEXEC);
-        if (saved_ >= 0 && null >= 0)
-            dup2(null, 2);
-        if (null >= 0)
-            close(null);
-    }
-    ~QuietLibraries()
-    {
-        if (saved_ < 0)
-            return;
-        std::fflush(stderr);
-        dup2(saved_, 2);
-        close(saved_);
-    }
-    QuietLibraries(const QuietLibraries&) = delete;
-    QuietLibraries& operator=(const QuietLibraries&) = delete;
-
-private:
-    int saved_ = -1;
-};
 
 class StackRunner {
 public:
@@ -257,19 +221,11 @@ private:
         if (first >= st.size() || st[0].kind != Step::Kind::Read || st[first].kind != Step::Kind::Operation ||
             !relief::sets_up_ahead(st[first]))
             return;
+        // The size from the header (about a millisecond): a damaged file
+        // is the read's to report.
         int width = 0, height = 0;
-        {
-            // The size from the header (about a millisecond), quietly: a
-            // damaged file is the read's to report.
-            QuietLibraries quiet(prog_.verbose);
-            if (auto in = OIIO::ImageInput::open(st[0].path)) {
-                width = in->spec().width;
-                height = in->spec().height;
-            } else {
-                OIIO::geterror();
-                return;
-            }
-        }
+        if (!relief::image_size(st[0].path, width, height))
+            return;
         ahead_ = std::async(std::launch::async, [device = prog_.device, width, height] {
             relief::prepare(device, width, height);
         });

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -379,4 +380,30 @@ TEST_CASE("cli: a height that does not fit is refused with the numbers, before i
     CHECK(r.err.find(
               "RELIEF_MEMORY_LIMIT must be a size in bytes > 0 (suffix K, M, G or T allowed), not 'lots'") !=
           std::string::npos);
+}
+
+TEST_CASE("io: image_size reads a header quietly, and fails quietly", "[io]")
+{
+    int w = 0, h = 0;
+    const std::string dem = std::string(RELIEF_TEST_DATA) + "/dem_jacksboro/normal.png";  // 403 x 344
+    REQUIRE(relief::image_size(dem, w, h));
+    CHECK(w == 403);
+    CHECK(h == 344);
+    const auto dir = relief::test::scratch("io/image_size");
+    {
+        std::ofstream(dir / "damaged.png", std::ios::binary) << "\x89PNG\r\n\x1a\nnot really";
+    }
+    // A damaged file, a missing one, a FIFO (whose probe would hang): false,
+    // no error left behind (the read reports it), nothing on stderr.
+    const std::string fifo = (dir / "fifo.png").string();
+    REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+    ::alarm(30);  // a probe that hangs ends the process (SIGALRM), not the suite's patience
+    for (const std::string& bad : {(dir / "damaged.png").string(), (dir / "missing.png").string(), fifo}) {
+        INFO(bad);
+        w = h = -1;
+        CHECK_FALSE(relief::image_size(bad, w, h));
+        CHECK(w == -1);
+        CHECK(relief::geterror().empty());
+    }
+    ::alarm(0);
 }

@@ -61,6 +61,11 @@ struct WriteOptions {
 RELIEF_API bool write_image(const OIIO::ImageBuf& image, const std::string& path,
                             const WriteOptions& options = {});
 
+// The width and height of the image file at `path`, from its header (its
+// first subimage), quietly as every read; false when it cannot be read
+// (the error is left for the read to report: geterror() is not set).
+RELIEF_API bool image_size(const std::string& path, int& width, int& height);
+
 // The relief:digest that the image file at `path` records, read from its
 // header; "" when it records none or cannot be read, or when its pixels
 // are cut short (a truncated file keeps its header): the last scanline is

@@ -279,6 +279,21 @@ bool pixels_complete(OIIO::ImageInput& in, const std::string& path, const std::s
 
 }  // namespace
 
+bool image_size(const std::string& path, int& width, int& height)
+{
+    const detail::LibraryOutput quiet;  // the image libraries print nothing
+    if (!input_file_problem(path).empty())
+        return false;  // missing, or a FIFO whose probe would hang
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) {
+        OIIO::geterror();  // (read, so that it does not linger for the next caller)
+        return false;
+    }
+    width = in->spec().width;
+    height = in->spec().height;
+    return true;
+}
+
 std::string recorded_digest(const std::string& path)
 {
     const detail::LibraryOutput quiet;  // the image libraries print nothing
