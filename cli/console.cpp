@@ -4,8 +4,9 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <OpenImageIO/strutil.h>
+
 #include <cstdarg>
-#include <vector>
 
 namespace relief::cli {
 
@@ -42,17 +43,8 @@ void say(const char* format, ...)
 {
     va_list args;
     va_start(args, format);
-    va_list again;
-    va_copy(again, args);
-    const int n = std::vsnprintf(nullptr, 0, format, args);
+    const std::string text = OIIO::Strutil::vsprintf(format, args);
     va_end(args);
-    std::string text;
-    if (n > 0) {
-        std::vector<char> buffer(std::size_t(n) + 1);
-        std::vsnprintf(buffer.data(), buffer.size(), format, again);
-        text.assign(buffer.data(), std::size_t(n));
-    }
-    va_end(again);
     say_text(text);
 }
 
