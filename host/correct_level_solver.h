@@ -6,6 +6,7 @@
 // only by correct_stage.cpp, which drives the levels.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
@@ -27,6 +28,11 @@ inline constexpr double kGainTolerance = 1e-6;
 // (1024^2, 12 iterations, 2 cores): 1 quad 1.28-1.33 s, 2 quads 1.07-1.28 s,
 // 4 quads 1.10-1.36 s, 8 quads 1.07-1.17 s, so 2.
 inline constexpr int kCpuNodesPerItem = 2;
+// What a sweep of hat moves costs, in node iterations per scale of hats
+// (measured on PoCL, 513^2 and 1025^2 nodes: 1.7 to 3.7, more for the
+// larger scales). Deterministic, unlike a clock: the schedule must give
+// the same bits on every run.
+inline constexpr double kHatSweepCostPerScale = 2.5;
 
 // One level's device state and the kernels that work on it.
 class LevelSolver {
@@ -47,6 +53,7 @@ public:
         phase_k_ = cl::Kernel(prog, "correct_phase");
         active_k_ = cl::Kernel(prog, "correct_active");
         gain_sum_k_ = cl::Kernel(prog, "correct_gain_sum");
+        hat_k_ = cl::Kernel(prog, "correct_hat_phase");
         const std::size_t esize = fp64_ ? sizeof(double) : sizeof(float);
         // The sums' work-groups: powers of two from the device's limits, with
         // one energy_t of local memory per work-item.
@@ -72,6 +79,15 @@ public:
         moved_ = c_.buffer(CL_MEM_READ_WRITE, tiles * phases_.size(), "distortion correction");
         active_ = c_.buffer(CL_MEM_READ_WRITE, tiles, "distortion correction");
         itheta_ = p.theta == std::floor(p.theta) ? int(p.theta) : -1;
+        // Hat moves leave fixation out of their energy, so they are off
+        // with it; scales from B = 2 while both axes hold two hats a class
+        // and the device lets a hat's work-item loop that long (llvmpipe
+        // stops loops after about 65535 iterations: B <= 32 there).
+        if (p.hats != CorrectParams::Hats::Off && !use_fix_)
+            for (int B = 2; hat_axis_fits(g.nx, g.periodic.x, B) && hat_axis_fits(g.ny, g.periodic.y, B) &&
+                            c_.loops_fit(hat_loops(B));
+                 B *= 2)
+                hat_scales_.push_back(B);
     }
 
     // Offsets in texels of this level (float2 per node).
@@ -195,11 +211,12 @@ public:
         // needs the energy itself each iteration.
         const bool from_gains =
             !p_.energy_each_iteration && (p_.iterations > 0 || tolerance >= kGainTolerance);
+        // The nodes' relative fall in the last iteration, and the last hat
+        // sweep's (hat_sweep_due).
+        double rel_nodes_before = 0.0, hat_fall = 0.0;
         for (int it = 1; it <= limit; ++it) {
-            if (from_gains && fp64_)
-                c_.fill(gain_, cl_double(0), 0, sizeof(double) * nodes_);
-            else if (from_gains)
-                c_.fill(gain_, cl_float(0), 0, sizeof(float) * nodes_);
+            if (from_gains)
+                clear_gains();
             for (std::size_t ph = 0; ph < phases_.size(); ++ph) {
                 int a = 0;
                 if (p_.skip_tiles) {
@@ -246,7 +263,18 @@ public:
                     cl::NDRange(std::size_t(tiles_x_) * 8 / nodes_per_item_, std::size_t(tiles_y_) * 8),
                     phase_group_);
             }
-            const double next = from_gains ? e - gain_sum() : energy();
+            double next = from_gains ? e - gain_sum() : energy();
+            const double rel_nodes = (e - next) / std::max(std::abs(e), 1e-300);
+            if (hat_sweep_due(lv.hat_sweeps, it, rel_nodes, rel_nodes_before, hat_fall, tolerance)) {
+                const double before = next;
+                if (from_gains)
+                    clear_gains();
+                hat_sweep();
+                next = from_gains ? before - gain_sum() : energy();
+                hat_fall = (before - next) / std::max(std::abs(before), 1e-300);
+                ++lv.hat_sweeps;
+            }
+            rel_nodes_before = rel_nodes;
             const double rel = (e - next) / std::max(std::abs(e), 1e-300);
             e = next;
             lv.iterations = it;
@@ -264,6 +292,83 @@ public:
     }
 
 private:
+    void clear_gains()
+    {
+        if (fp64_)
+            c_.fill(gain_, cl_double(0), 0, sizeof(double) * nodes_);
+        else
+            c_.fill(gain_, cl_float(0), 0, sizeof(float) * nodes_);
+    }
+
+    // The loop iterations of one hat's work-item at radius B: 2B rows of
+    // 2B nodes, for the gradient, the bracket, up to six probes and the move.
+    static std::uint64_t hat_loops(int B) { return 9 * (4 * std::uint64_t(B) * B + 2 * std::uint64_t(B)); }
+
+    // Whether an axis of n nodes holds hats of radius B, two a class: a
+    // periodic axis needs whole pairs of hats round it.
+    static bool hat_axis_fits(int n, bool periodic, int B)
+    {
+        return periodic ? n % (2 * B) == 0 && n >= 4 * B : n >= 2 * B + 1;
+    }
+
+    // hats=always: every iteration. hats=auto: the first sweep once the
+    // nodes' falls, shrinking geometrically at their last rate, would take
+    // longer than a sweep costs to reach the tolerance; then whenever an
+    // iteration of the nodes gains less per cost than the last sweep did,
+    // and instead of stopping while the last sweep gained more than the
+    // tolerance per cost. Ordinary maps converge before the first.
+    bool hat_sweep_due(int sweeps, int it, double rel_nodes, double rel_nodes_before, double hat_fall,
+                       double tolerance) const
+    {
+        if (hat_scales_.empty())
+            return false;
+        if (p_.hats == CorrectParams::Hats::Always)
+            return true;
+        const double cost = kHatSweepCostPerScale * double(hat_scales_.size());
+        if (!(rel_nodes >= 0.0))
+            return false;
+        if (sweeps == 0) {
+            if (it < 3 || rel_nodes < tolerance)
+                return false;
+            const double rate = rel_nodes_before > 0.0 ? rel_nodes / rel_nodes_before : 1.0;
+            return rate >= 1.0 || std::log(tolerance / rel_nodes) / std::log(rate) > cost;
+        }
+        return rel_nodes * cost < hat_fall || (rel_nodes < tolerance && hat_fall >= cost * tolerance);
+    }
+
+    // One sweep: each scale B = 2, 4, ... (coarse error last, after the
+    // fine moves it rests on), each class of hats in turn.
+    void hat_sweep()
+    {
+        for (int B : hat_scales_) {
+            const int hx = g_.periodic.x ? g_.nx / B : (g_.nx - 1) / B + 1;
+            const int hy = g_.periodic.y ? g_.ny / B : (g_.ny - 1) / B + 1;
+            for (int cy = 0; cy < 2; ++cy)
+                for (int cx = 0; cx < 2; ++cx) {
+                    const int count = ((hx - cx + 1) / 2) * ((hy - cy + 1) / 2);
+                    if (count <= 0)
+                        continue;
+                    int a = 0;
+                    hat_k_.setArg(a++, c_buf_);
+                    hat_k_.setArg(a++, z_buf_);
+                    hat_k_.setArg(a++, cl_int(g_.nx));
+                    hat_k_.setArg(a++, cl_int(g_.ny));
+                    hat_k_.setArg(a++, cl_int(g_.periodic.bits()));
+                    hat_k_.setArg(a++, cl_int(B));
+                    hat_k_.setArg(a++, cl_int(cx));
+                    hat_k_.setArg(a++, cl_int(cy));
+                    hat_k_.setArg(a++, cl_int(hx));
+                    hat_k_.setArg(a++, cl_int(hy));
+                    hat_k_.setArg(a++, float(p_.theta));
+                    hat_k_.setArg(a++, gain_);
+                    stop_if_cancelled();
+                    c_.launch(hat_k_, std::size_t(count));
+                }
+        }
+        // Every node may have moved: every tile runs the next phases.
+        c_.fill(moved_, cl_uchar(1), 0, std::size_t(tiles_x_) * tiles_y_ * phases_.size());
+    }
+
     ComputeContext::Impl& c_;
     NodeGrid g_;
     const CorrectParams& p_;
@@ -274,7 +379,9 @@ private:
     std::size_t groups_ = 0;        // partial sums the buffer holds
     std::size_t energy_group_ = 1;  // work-group of correct_energy
     std::size_t sum_group_ = 1;     // work-group of correct_gain_sum
-    cl::NDRange phase_group_;       // of correct_phase: within one tile
+    cl::Kernel hat_k_;
+    std::vector<int> hat_scales_;  // B of each scale of hat moves; empty: none
+    cl::NDRange phase_group_;      // of correct_phase: within one tile
     int tiles_x_ = 0, tiles_y_ = 0, itheta_ = -1;
     std::vector<std::pair<int, int>> phases_;
     cl::Kernel energy_k_, phase_k_, active_k_, gain_sum_k_;

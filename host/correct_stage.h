@@ -41,6 +41,11 @@ struct CorrectParams {
     // nodes' falls (always so for tolerances below 1e-6): the same moves,
     // for tests and comparisons.
     bool energy_each_iteration = false;
+    // Hat moves (docs/design.md §4.5.3b): regions of nodes moved together
+    // under bilinear hats of every scale, where the nodes alone converge
+    // slowly (auto), every iteration (always: tests, comparisons) or never.
+    enum class Hats { Off = 0, Auto = 1, Always = 2 };
+    Hats hats = Hats::Auto;
 };
 
 struct DistortionStats {
@@ -56,6 +61,7 @@ struct CorrectLevel {
     // The level started from the previous level's offsets times this
     // (1, 0.75, 0.5, 0.25 or 0: the lowest energy; 0 at the coarsest).
     double start_factor = 0.0;
+    int hat_sweeps = 0;  // sweeps of hat moves over every scale
     double seconds = 0.0;
 };
 

@@ -511,6 +511,32 @@ TEST_CASE("cli: -d half warns for offsets wider than half floats hold to 1/8 tex
     }
 }
 
+TEST_CASE("cli: hats=always sweeps every iteration of every level, and -v and --report say so", "[cli]")
+{
+    auto dir = scratch("hat_sweeps");
+    const std::string height = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
+    auto r = run_cli("-v '" + height + "' --correct:scale=10:iterations=3:hats=always -o '" +
+                     (dir / "c.exr").string() + "' --report '" + (dir / "r.json").string() + "'");
+    INFO(r.err);
+    REQUIRE(r.rc == 0);
+    const std::string json = slurp(dir / "r.json");
+    std::vector<double> sweeps;
+    for (std::size_t at = json.find("\"hat_sweeps\": "); at != std::string::npos;
+         at = json.find("\"hat_sweeps\": ", at + 1))
+        sweeps.push_back(relief::test::json_number(json, "hat_sweeps", at));
+    REQUIRE(sweeps.size() >= 3);
+    for (double s : sweeps)
+        CHECK(s == 3.0);
+    std::size_t lines = 0;
+    for (std::size_t at = r.err.find("3 iteration(s) and 3 hat sweep(s), energy"); at != std::string::npos;
+         at = r.err.find("3 iteration(s) and 3 hat sweep(s), energy", at + 1))
+        ++lines;
+    CHECK(lines == sweeps.size());
+    OIIO::ImageBuf c((dir / "c.exr").string());
+    REQUIRE(c.read());
+    CHECK(c.spec().get_string_attribute("relief:parameters").find(" hats=always") != std::string::npos);
+}
+
 TEST_CASE("cli: -v says which share of the coarser offsets each correction level started from", "[cli]")
 {
     // At scale 10 the bundled metal panel's levels start from part of the

@@ -915,3 +915,111 @@ TEST_CASE("correct: a level starts from the scaled coarse offsets of lowest ener
     CHECK(fine.energy_end <= fine.energy_start);
     CHECK(rep.levels.front().start_factor == 0.0);  // the coarsest starts at zero
 }
+
+TEST_CASE("correct: one device iteration with a hat sweep equals the golden model's", "[correct]")
+{
+    // hats=always at one iteration: the node phases, then every scale of
+    // hat moves (radius 2, 4, 8 here), as the golden model's iterate() then
+    // hat_sweep(). Steep waves, so that the hats move; one periodic axis
+    // with the other fixed, and an odd fixed width.
+    using P = host::Periodic;
+    for (auto [w, h, periodic] : {std::tuple{32, 32, P(true)}, std::tuple{33, 25, P(false)},
+                                  std::tuple{32, 21, P(true, false)}, std::tuple{19, 32, P(false, true)}}) {
+        const auto hts = waves(w, h, 1.0, 21);
+        const double scale = 1.0;
+        ref::CorrectionGrid g = centre_grid(hts, w, h, scale, periodic);
+        std::vector<double> c(2 * std::size_t(w) * h, 0.0);
+        ref::iterate(g, c);
+        const double e_nodes = ref::total_energy(g, c);
+        const int scales = ref::hat_sweep(g, c);
+        const double e_gold = ref::total_energy(g, c);
+        auto p = one_iteration(params(scale, periodic));
+        p.hats = host::CorrectParams::Hats::Always;
+        host::CorrectReport rep;
+        const auto out = run(hts, w, h, p, &rep);
+        double worst = 0.0, largest = 0.0;
+        std::vector<double> dev(c.size());
+        for (std::size_t k = 0; k < c.size(); ++k) {
+            dev[k] = double(out[k]) * (k % 2 ? h : w);
+            worst = std::max(worst, std::abs(dev[k] - c[k]));
+            largest = std::max(largest, std::abs(c[k]));
+        }
+        const double e_dev = ref::total_energy(g, dev);
+        INFO(w << "x" << h << " periodic x " << periodic.x << " y " << periodic.y << ": " << scales
+               << " scales; energy after the nodes " << e_nodes << ", after the hats " << e_gold
+               << " (device " << e_dev << "); max |offset| " << largest << ", max |device - golden| "
+               << worst);
+        CHECK(scales >= 2);
+        REQUIRE(rep.levels.size() == 1);
+        CHECK(rep.levels[0].hat_sweeps == 1);
+        CHECK(e_gold < e_nodes * (1.0 - 1e-3));  // the hats moved something
+        CHECK(worst <= 2e-2 * largest);
+        CHECK(std::abs(e_dev - e_gold) <= 1e-4 * e_gold);
+    }
+}
+
+TEST_CASE("correct: hat moves never raise the energy, and auto sweeps only slowly converging levels",
+          "[correct]")
+{
+    const int w = 48, h = 40;
+    const auto hts = waves(w, h, 1.0, 22);
+    for (bool corner : {false, true})
+        for (const host::Periodic periodic :
+             {host::Periodic(true), host::Periodic(false), host::Periodic(false, true)}) {
+            INFO("corner " << corner << " periodic x " << periodic.x << " y " << periodic.y);
+            double previous = INFINITY, first = 0.0;
+            for (int it = 0; it <= 4; ++it) {
+                auto p = params(2.0, periodic, corner);
+                p.levels = 1;
+                p.iterations = std::max(it, 1);
+                p.threshold = 0.0;
+                p.hats = host::CorrectParams::Hats::Always;
+                host::CorrectReport rep;
+                const auto out = run(hts, w, h, p, &rep);
+                const double e = it == 0 ? rep.energy_before : rep.energy_after;
+                INFO("iteration " << it);
+                REQUIRE(std::isfinite(e));  // no triangle flipped
+                CHECK(e <= previous * (1.0 + 1e-7));
+                CHECK(rep.levels[0].hat_sweeps == std::max(it, 1));
+                if (it == 0)
+                    first = e;
+                previous = e;
+            }
+            CHECK(previous < first * 0.9);
+        }
+    // Auto: a steep map's levels sweep (and end lower than without), a
+    // gentle one's converge before the first sweep would pay (at 128^2 a
+    // sweep of five scales costs about 12 iterations), bit for bit as with
+    // hats=off.
+    const int n = 128;
+    const auto big = waves(n, n, 1.0, 23);
+    for (const auto& [scale, steep] : {std::pair{1.0, true}, std::pair{0.05, false}}) {
+        INFO("scale " << scale);
+        auto p = params(scale, host::Periodic(true));
+        host::CorrectReport with, without;
+        const auto a = run(big, n, n, p, &with);
+        p.hats = host::CorrectParams::Hats::Off;
+        const auto b = run(big, n, n, p, &without);
+        int sweeps = 0;
+        std::string levels;
+        for (std::size_t l = 0; l < with.levels.size(); ++l) {
+            sweeps += with.levels[l].hat_sweeps;
+            levels += std::to_string(with.levels[l].width) + ": " +
+                      std::to_string(with.levels[l].iterations) + " iterations, " +
+                      std::to_string(with.levels[l].hat_sweeps) + " sweeps, energy " +
+                      std::to_string(with.levels[l].energy_end) +
+                      " (without: " + std::to_string(without.levels[l].iterations) + ", " +
+                      std::to_string(without.levels[l].energy_end) + "); ";
+        }
+        INFO(levels);
+        for (const auto& l : without.levels)
+            CHECK(l.hat_sweeps == 0);
+        if (steep) {
+            CHECK(sweeps > 0);
+            CHECK(with.energy_after < without.energy_after);
+        } else {
+            CHECK(sweeps == 0);
+            CHECK(a == b);
+        }
+    }
+}

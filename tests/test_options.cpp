@@ -714,6 +714,10 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
          [](host::CorrectParams& p) { p.search = host::CorrectParams::Search::Golden; }},
         {"relax 1.2", [](CorrectOptions& o) { o.relax = 1.2f; },
          [](host::CorrectParams& p) { p.relax = 1.2f; }},
+        {"hats off", [](CorrectOptions& o) { o.hats = CorrectHats::Off; },
+         [](host::CorrectParams& p) { p.hats = host::CorrectParams::Hats::Off; }},
+        {"hats always", [](CorrectOptions& o) { o.hats = CorrectHats::Always; },
+         [](host::CorrectParams& p) { p.hats = host::CorrectParams::Hats::Always; }},
         {"skip off", [](CorrectOptions& o) { o.skip_tiles = false; },
          [](host::CorrectParams& p) { p.skip_tiles = false; }},
     };
@@ -749,6 +753,7 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
             CHECK(r.levels[l].converged == hl.converged);
             CHECK(r.levels[l].tiles_run == Approx(double(hl.tile_phases_run) / double(hl.tile_phases)));
             CHECK(r.levels[l].start_factor == hl.start_factor);
+            CHECK(r.levels[l].hat_sweeps == hl.hat_sweeps);
         }
         for (const auto& [got_s, want_s] : {std::pair{r.anisotropy_before, want.report.anisotropy_before},
                                             std::pair{r.anisotropy_after, want.report.anisotropy_after},
@@ -764,8 +769,10 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
         CHECK(json["width"] == 40);
         CHECK(json["height"] == 36);
         CHECK(json["levels"].size() == r.levels.size());
-        for (std::size_t l = 0; l < r.levels.size(); ++l)
+        for (std::size_t l = 0; l < r.levels.size(); ++l) {
             CHECK(json["levels"][l].value("start_factor", -1.0) == r.levels[l].start_factor);
+            CHECK(json["levels"][l].value("hat_sweeps", -1) == r.levels[l].hat_sweeps);
+        }
         const auto word = [](bool periodic) { return std::string(periodic ? "periodic" : "fixed"); };
         CHECK(r.boundary == (p.periodic.x == p.periodic.y ? word(p.periodic.x)
                                                           : word(p.periodic.x) + "," + word(p.periodic.y)));
@@ -780,6 +787,10 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
         CHECK(par.find(" threshold=" + test::format_number(p.threshold)) != std::string::npos);
         CHECK(par.find("nodes=" + r.nodes) != std::string::npos);
         CHECK(par.find("boundary=" + r.boundary) != std::string::npos);
+        CHECK(par.find(std::string(" hats=") + (p.hats == host::CorrectParams::Hats::Off      ? "off"
+                                                : p.hats == host::CorrectParams::Hats::Always ? "always"
+                                                                                              : "auto")) !=
+              std::string::npos);
         CHECK(par.find(" levels=" + (p.levels ? std::to_string(p.levels) : std::string("auto"))) !=
               std::string::npos);
         CHECK(par.find(" iterations=" + (p.iterations ? std::to_string(p.iterations)

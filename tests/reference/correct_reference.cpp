@@ -311,4 +311,159 @@ void iterate(const CorrectionGrid& g, std::vector<double>& c)
                         update_node(g, c, i, j);
 }
 
+namespace {
+
+bool hat_axis_fits(int n, bool periodic, int B)
+{
+    return periodic ? n % (2 * B) == 0 && n >= 4 * B : n >= 2 * B + 1;
+}
+
+double hat_axis_weight(int x, int centre, int B, int n, bool periodic)
+{
+    int d = std::abs(x - centre);
+    if (periodic)
+        d = std::min(d, n - d);
+    else if (x == 0 || x == n - 1)
+        return 0.0;
+    return d < B ? 1.0 - double(d) / B : 0.0;
+}
+
+// The owned triangles as (owner, corner a, corner b) node indices, in the
+// orientation of total_energy's.
+struct Triangle {
+    int p, a, b;
+};
+
+std::vector<Triangle> owned_triangles(const CorrectionGrid& g)
+{
+    std::vector<Triangle> t;
+    for (int j = 0; j < g.ny; ++j)
+        for (int i = 0; i < g.nx; ++i)
+            if ((g.periodic_x || i + 1 < g.nx) && (g.periodic_y || j >= 1)) {
+                auto node = [&](int k) {
+                    return wrap(j + kNeighbour[k][1], g.ny) * g.nx + wrap(i + kNeighbour[k][0], g.nx);
+                };
+                for (int f = 0; f < 2; ++f)
+                    t.push_back({j * g.nx + i, node(kFan[f][0]), node(kFan[f][1])});
+            }
+    return t;
+}
+
+// The lattice step from node p to its neighbour q (texels, the nearer
+// image across a wrap seam).
+Vec2 lattice_edge(const CorrectionGrid& g, int p, int q)
+{
+    int dx = q % g.nx - p % g.nx, dy = q / g.nx - p / g.nx;
+    dx = dx > 1 ? dx - g.nx : dx < -1 ? dx + g.nx : dx;
+    dy = dy > 1 ? dy - g.ny : dy < -1 ? dy + g.ny : dy;
+    return {double(dx), double(dy)};
+}
+
+// The texture edge from p to q with offsets c.
+Vec2 texture_edge(const CorrectionGrid& g, const std::vector<double>& c, int p, int q)
+{
+    const Vec2 d = lattice_edge(g, p, q);
+    return {d[0] + c[2 * q] - c[2 * p], d[1] + c[2 * q + 1] - c[2 * p + 1]};
+}
+
+double triangle_energy_of(const CorrectionGrid& g, const std::vector<double>& c, const Triangle& t)
+{
+    const Vec2 da = lattice_edge(g, t.p, t.a), db = lattice_edge(g, t.p, t.b);
+    const Vec3 fa{da[0], da[1], g.z[t.a] - g.z[t.p]}, fb{db[0], db[1], g.z[t.b] - g.z[t.p]};
+    return triangle_energy(texture_edge(g, c, t.p, t.a), texture_edge(g, c, t.p, t.b), fa, fb, g.theta);
+}
+
+}  // namespace
+
+int hat_sweep(const CorrectionGrid& g, std::vector<double>& c)
+{
+    const std::vector<Triangle> all = owned_triangles(g);
+    int scales = 0;
+    for (int B = 2; hat_axis_fits(g.nx, g.periodic_x, B) && hat_axis_fits(g.ny, g.periodic_y, B); B *= 2) {
+        ++scales;
+        const int hx = g.periodic_x ? g.nx / B : (g.nx - 1) / B + 1;
+        const int hy = g.periodic_y ? g.ny / B : (g.ny - 1) / B + 1;
+        for (int cy = 0; cy < 2; ++cy)
+            for (int cx = 0; cx < 2; ++cx)
+                for (int hj = cy; hj < hy; hj += 2)
+                    for (int hi = cx; hi < hx; hi += 2) {
+                        std::vector<double> w(std::size_t(g.nx) * g.ny);
+                        for (int j = 0; j < g.ny; ++j)
+                            for (int i = 0; i < g.nx; ++i)
+                                w[std::size_t(j) * g.nx + i] =
+                                    hat_axis_weight(i, hi * B, B, g.nx, g.periodic_x) *
+                                    hat_axis_weight(j, hj * B, B, g.ny, g.periodic_y);
+                        std::vector<Triangle> touched;
+                        for (const Triangle& t : all)
+                            if (w[t.a] != w[t.p] || w[t.b] != w[t.p])
+                                touched.push_back(t);
+                        Vec2 grad{0.0, 0.0};
+                        for (int j = 0; j < g.ny; ++j)
+                            for (int i = 0; i < g.nx; ++i)
+                                if (w[std::size_t(j) * g.nx + i] != 0.0) {
+                                    const Vec2 gn = fan_gradient(g, c, i, j);
+                                    grad[0] += w[std::size_t(j) * g.nx + i] * gn[0];
+                                    grad[1] += w[std::size_t(j) * g.nx + i] * gn[1];
+                                }
+                        const double gn = std::hypot(grad[0], grad[1]);
+                        auto moved = [&](double t) {
+                            std::vector<double> m = c;
+                            for (std::size_t n = 0; n < w.size(); ++n) {
+                                m[2 * n] -= t * w[n] * grad[0] / gn;
+                                m[2 * n + 1] -= t * w[n] * grad[1] / gn;
+                            }
+                            return m;
+                        };
+                        auto energy = [&](double t) {
+                            const std::vector<double> m = moved(t);
+                            double e = 0.0;
+                            for (const Triangle& tr : touched)
+                                e += triangle_energy_of(g, m, tr);
+                            return e;
+                        };
+                        const double e0 = energy(0.0);
+                        if (!std::isfinite(e0) || !(gn > 0.0) || !std::isfinite(gn))
+                            continue;
+                        double tmax = 2.0 * B;
+                        const std::vector<double> m1 = moved(1.0);
+                        for (const Triangle& tr : touched) {
+                            auto area = [&](const std::vector<double>& m) {
+                                const Vec2 ea = texture_edge(g, m, tr.p, tr.a),
+                                           eb = texture_edge(g, m, tr.p, tr.b);
+                                return 0.5 * (ea[1] * eb[0] - ea[0] * eb[1]);
+                            };
+                            const double a0 = area(c), a1 = area(m1) - a0;
+                            if (a1 < 0.0)
+                                tmax = std::min(tmax, -a0 / a1);
+                        }
+                        if (!(tmax > 0.0))
+                            continue;
+                        double best = e0, best_t = 0.0, probe = 0.5 * tmax;
+                        for (int tries = 0; tries < 3 && best_t == 0.0; ++tries, probe *= 0.125) {
+                            const double eh = energy(probe);
+                            if (!std::isfinite(eh))
+                                continue;
+                            if (eh < best) {
+                                best = eh;
+                                best_t = probe;
+                            }
+                            const double a = (eh - e0 + gn * probe) / (probe * probe);
+                            if (!(a > 0.0))
+                                continue;
+                            const double ts = std::min(gn / (2.0 * a), 0.95 * tmax);
+                            if (!(ts > 0.0) || ts == probe)
+                                continue;
+                            const double es = energy(ts);
+                            if (std::isfinite(es) && es < best) {
+                                best = es;
+                                best_t = ts;
+                            }
+                        }
+                        if (best_t > 0.0 && best < e0 - 1e-6 * e0)
+                            c = moved(best_t);
+                    }
+    }
+    return scales;
+}
+
 }  // namespace relief::reference

@@ -54,4 +54,18 @@ Vec2 fan_gradient(const CorrectionGrid& g, const std::vector<double>& c, int i, 
 // step when its energy is below the start's as well.
 void iterate(const CorrectionGrid& g, std::vector<double>& c);
 
+// One sweep of hat moves (docs/design.md §4.5.3b), without fixation: for
+// each scale B = 2, 4, ... while both axes hold two hats a class (a
+// periodic axis of n nodes: n a multiple of 2B and at least 4B; a fixed
+// one: n >= 2B + 1), for each class (centre index mod 2 per axis), each hat
+// centred at a multiple of B moves its nodes by t w d, w the bilinear hat
+// weight (1 - |dx|/B)(1 - |dy|/B) (0 at fixed borders), d the negative
+// gradient of the total energy along w (the sum of w x each node's
+// gradient), normalised; t from the energy of the triangles whose corners'
+// weights differ: a probe at half the bracket [0, min(2B, first flip)] and
+// the minimum of the parabola through E(0), E'(0) and it (then 1/16 and
+// 1/128 of the bracket while neither was lower), the lower kept if it
+// lowers that energy by more than 1e-6 relative. Returns the scales swept.
+int hat_sweep(const CorrectionGrid& g, std::vector<double>& c);
+
 }  // namespace relief::reference

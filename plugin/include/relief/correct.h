@@ -43,6 +43,14 @@ struct CorrectBoundaries {
 // energy evaluation per step) or ternary (two per step; the first
 // implementation). The last two are kept for comparison.
 enum class CorrectSearch { Brent, Golden, Ternary };
+// Hat moves: the nodes under bilinear hats of every scale (radius 2, 4, ...
+// nodes) move together, each hat along its own descent direction, which
+// carries smooth error across a level in one sweep where single nodes pass
+// it on a node per iteration. Auto: sweeps on levels the nodes alone would
+// take long to converge (maps with cliffs), interleaved with the nodes'
+// iterations as their falls per cost compare; always: every iteration
+// (tests, comparisons); off: single nodes only. Off under fixation.
+enum class CorrectHats { Auto, Off, Always };
 
 // mean, 95th percentile and maximum over the triangles of the mesh
 struct DistortionSummary {
@@ -60,6 +68,7 @@ struct CorrectLevelReport {
     // 0.75, 0.5, 0.25 or 0, whichever had the lowest energy; 0 at the
     // coarsest level).
     double start_factor = 0.0;
+    int hat_sweeps = 0;  // sweeps of hat moves over every scale (CorrectHats)
 };
 
 struct CorrectReport {
@@ -105,6 +114,7 @@ struct CorrectOptions {
     // Over-relaxation factor in [1, 2): a node moves `relax` times its
     // searched step when that also lowers the energy (1 = plain steps).
     float relax = 1.5f;
+    CorrectHats hats = CorrectHats::Auto;
     CorrectReport* report = nullptr;  // filled when given
     Execution exec;
 };

@@ -42,6 +42,11 @@ const char* search_name(CorrectSearch s)
     return s == CorrectSearch::Ternary ? "ternary" : s == CorrectSearch::Golden ? "golden" : "brent";
 }
 
+const char* hats_name(CorrectHats h)
+{
+    return h == CorrectHats::Off ? "off" : h == CorrectHats::Always ? "always" : "auto";
+}
+
 }  // namespace
 
 std::string CorrectReport::to_json() const
@@ -70,7 +75,8 @@ std::string CorrectReport::to_json() const
                                {"converged", l.converged},
                                {"tiles_run", l.tiles_run},
                                {"seconds", l.seconds},
-                               {"start_factor", l.start_factor}});
+                               {"start_factor", l.start_factor},
+                               {"hat_sweeps", l.hat_sweeps}});
     j["anisotropy"] = {{"before", stats(anisotropy_before)}, {"after", stats(anisotropy_after)}};
     j["area_ratio"] = {{"before", stats(area_before)}, {"after", stats(area_after)}};
     j["seconds"] = seconds;
@@ -142,6 +148,9 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
                    : options.search == CorrectSearch::Golden ? host::CorrectParams::Search::Golden
                                                              : host::CorrectParams::Search::Brent;
         p.relax = options.relax;
+        p.hats = options.hats == CorrectHats::Off      ? host::CorrectParams::Hats::Off
+                 : options.hats == CorrectHats::Always ? host::CorrectParams::Hats::Always
+                                                       : host::CorrectParams::Hats::Auto;
 
         auto ctx = host::ComputeContext::acquire(options.exec.device);
         detail::say(options.exec, Severity::Info, "device: " + ctx->device().describe());
@@ -163,7 +172,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         for (const auto& l : hr.levels)
             rep.levels.push_back({l.width, l.height, l.iterations, l.energy_start, l.energy_end, l.converged,
                                   l.tile_phases ? double(l.tile_phases_run) / l.tile_phases : 1.0, l.seconds,
-                                  l.start_factor});
+                                  l.start_factor, l.hat_sweeps});
         rep.anisotropy_before = summary(hr.anisotropy_before);
         rep.anisotropy_after = summary(hr.anisotropy_after);
         rep.area_before = summary(hr.area_before);
@@ -182,7 +191,9 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
                 detail::say(
                     ex, Severity::Info,
                     "correct: level " + std::to_string(l.width) + "x" + std::to_string(l.height) + ": " +
-                        std::to_string(l.iterations) + " iteration(s), energy " + f(l.energy_start) +
+                        std::to_string(l.iterations) + " iteration(s)" +
+                        (l.hat_sweeps ? " and " + std::to_string(l.hat_sweeps) + " hat sweep(s)" : "") +
+                        ", energy " + f(l.energy_start) +
                         (&l == &rep.levels.front() ? ""
                                                    : " (from the coarser offsets x" +
                                                          detail::format_double("%g", l.start_factor) + ")") +
@@ -224,7 +235,8 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
             << " boundary=" << rep.boundary << " tolerance=" << p.tolerance
             << " iterations=" << (p.iterations ? std::to_string(p.iterations) : "auto")
             << " levels=" << (p.levels ? std::to_string(p.levels) : "auto") << " threshold=" << p.threshold
-            << " search=" << search_name(options.search) << " relax=" << p.relax;
+            << " search=" << search_name(options.search) << " relax=" << p.relax
+            << " hats=" << hats_name(options.hats);
         spec.attribute("relief:parameters", par.str());
         detail::set_result(dst, spec, offsets.data());
         return true;

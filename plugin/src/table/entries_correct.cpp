@@ -114,6 +114,14 @@ Operation correct_operation()
             detail::limits::relax, [k](auto& c) -> auto& { return k(c).relax; }, "W", "",
             "over-relaxation: move W x the searched step when that lowers the energy too "
             "(1 = plain steps)"),
+        choice(
+            "hats", [k](auto& c) -> auto& { return k(c).hats; },
+            std::vector<std::pair<std::string, CorrectHats>>{
+                {"auto", CorrectHats::Auto}, {"off", CorrectHats::Off}, {"always", CorrectHats::Always}},
+            "",
+            "hat moves (regions of nodes under bilinear hats of every scale move together): auto "
+            "where the nodes alone converge slowly (cliffs), always (every iteration) or off; off "
+            "under fix"),
     };
     op.validate = [](const OperationCall& c) {
         CorrectOptions o = c.correct;
