@@ -45,15 +45,33 @@ typedef float relief_acc_t;
 
 // Defines `T name(T x, int n)`: x^n for a whole n >= 0 by squaring, the
 // shortest dependency chain (x^5 = (x^2)^2 x). For scalar and vector T; a
-// macro so that a program only instantiates the types it uses.
+// macro so that a program only instantiates the types it uses. The bits
+// below 32 are unrolled (theta <= 20 needs no more): llvmpipe counts every
+// loop iteration of a work-item against one limit of about 65535 and then
+// carries on with wrong values, and this runs once per triangle inside
+// loops that the launches size against that limit (loops_fit).
 #define RELIEF_DEFINE_POWN(name, T)                                                                          \
     inline T name(T x, int n)                                                                                \
     {                                                                                                        \
         T r = (T)(1), b = x;                                                                                 \
-        for (; n > 0; n >>= 1) {                                                                             \
+        if (n & 1)                                                                                           \
+            r *= b;                                                                                          \
+        b *= b;                                                                                              \
+        if (n & 2)                                                                                           \
+            r *= b;                                                                                          \
+        b *= b;                                                                                              \
+        if (n & 4)                                                                                           \
+            r *= b;                                                                                          \
+        b *= b;                                                                                              \
+        if (n & 8)                                                                                           \
+            r *= b;                                                                                          \
+        b *= b;                                                                                              \
+        if (n & 16)                                                                                          \
+            r *= b;                                                                                          \
+        for (n >>= 5; n > 0; n >>= 1) {                                                                      \
+            b *= b;                                                                                          \
             if (n & 1)                                                                                       \
                 r *= b;                                                                                      \
-            b *= b;                                                                                          \
         }                                                                                                    \
         return r;                                                                                            \
     }

@@ -737,9 +737,8 @@ kernel void correct_hat_phase(global float2* c, global const float* z, int nx, i
         return;
     const int ci = (2 * (h % per_x) + class_x) * B, cj = (2 * (h / per_x) + class_y) * B;
 
-    // The touched triangles' energy E0 and its gradient g along the hat:
-    // sum over them of (wa - wp) dE/dea + (wb - wp) dE/deb.
-    energy_t E0 = 0, E0c = 0;
+    // The touched triangles' energy gradient g along the hat: the sum over
+    // them of (wa - wp) dE/dea + (wb - wp) dE/deb.
     float2 g = (float2)(0.0f);
 #define HAT_GRADIENT(ea, eb, T, wa, wb)                                                                      \
     {                                                                                                        \
@@ -749,7 +748,6 @@ kernel void correct_hat_phase(global float2* c, global const float* z, int nx, i
         const float kk = (T.x * T.x + auv * auv) * inv;                                                      \
         const energy_t kt = correct_pow_theta_total((energy_t)kk, theta);                                    \
         const energy_t e = (energy_t)(0.25f * q * inv) * kt;                                                 \
-        HAT_SUM_ADD(E0, E0c, auv > 0.0f ? e : (energy_t)INFINITY)                                            \
         /* E = Q/(4 A3 Auv) k^theta: dE/dQ = k^theta/(4 A3 Auv); dE/dAuv = */                                \
         /* E (-1/Auv + theta/k (1/A3 - A3/Auv^2)).                        */                                 \
         const float dQ = (float)((energy_t)(0.25f * inv) * kt);                                              \
@@ -761,7 +759,7 @@ kernel void correct_hat_phase(global float2* c, global const float* z, int nx, i
     HAT_TRIANGLES(HAT_GRADIENT)
 #undef HAT_GRADIENT
     const float gn = length(g);
-    if (!isfinite(E0) || !(gn > 0.0f) || !isfinite(gn))
+    if (!(gn > 0.0f) || !isfinite(gn))
         return;
     const float2 d = -g / gn;
 
@@ -784,34 +782,46 @@ kernel void correct_hat_phase(global float2* c, global const float* z, int nx, i
 #define HAT_ADD(ea, eb, T, wa, wb)                                                                           \
     HAT_SUM_ADD(sum_, comp_,                                                                                 \
                 hat_triangle_energy(ea + (t_probe * (wa)) * d, eb + (t_probe * (wb)) * d, T, theta))
-    float best_t = 0.0f;
-    energy_t best = E0;
-    float probe = 0.5f * tmax;
-    for (int tries = 0; tries < 3 && best_t == 0.0f; ++tries, probe *= 0.125f) {
-        float t_probe = probe;
+    // Every energy, E0 = E(0) included, comes from this one evaluation: a
+    // move is judged, and its fall counted in gain[], by the difference of
+    // two evaluations, and a compiler may fuse multiplies and adds
+    // differently in two copies of one formula, which near-degenerate
+    // triangles (E ~ Auv^-(1 + theta)) magnify far beyond rounding.
+    energy_t E0 = 0, best = 0;
+    float best_t = 0.0f, probe = 0.5f * tmax, t_probe = 0.0f;
+    for (int k = 0, tries = 0; k < 7; ++k) {
         energy_t sum_ = 0, comp_ = 0;
         HAT_TRIANGLES(HAT_ADD)
-        const energy_t Eh = sum_;
-        if (!isfinite(Eh))
-            continue;
-        if (Eh < best) {
-            best = Eh;
-            best_t = probe;
+        float t_next = 0.0f;
+        if (k == 0) {
+            if (!isfinite(sum_))
+                return;
+            E0 = best = sum_;
+            t_next = probe;
+        } else {
+            const bool finite = isfinite(sum_);
+            if (finite && sum_ < best) {
+                best = sum_;
+                best_t = t_probe;
+            }
+            if (t_probe == probe && finite) {
+                // After a probe, the parabola E(t) ~ E0 - |g| t + a t^2's
+                // minimum.
+                const energy_t a = (sum_ - E0 + (energy_t)gn * probe) / ((energy_t)probe * probe);
+                if (a > 0) {
+                    const float t = fmin((float)((energy_t)gn / (2 * a)), 0.95f * tmax);
+                    if (t > 0.0f && t != probe)
+                        t_next = t;
+                }
+            }
+            if (t_next == 0.0f) {  // the try is over: stop, or probe nearer
+                if (best_t != 0.0f || ++tries == 3)
+                    break;
+                probe *= 0.125f;
+                t_next = probe;
+            }
         }
-        // E(t) ~ E0 - |g| t + a t^2.
-        const energy_t a = (Eh - E0 + (energy_t)gn * probe) / ((energy_t)probe * probe);
-        if (!(a > 0))
-            continue;
-        t_probe = fmin((float)((energy_t)gn / (2 * a)), 0.95f * tmax);
-        if (!(t_probe > 0.0f) || t_probe == probe)
-            continue;
-        sum_ = 0;
-        comp_ = 0;
-        HAT_TRIANGLES(HAT_ADD)
-        if (isfinite(sum_) && sum_ < best) {
-            best = sum_;
-            best_t = t_probe;
-        }
+        t_probe = t_next;
     }
 #undef HAT_ADD
     if (best_t == 0.0f || !(best < E0 - (energy_t)CORRECT_GAIN * E0))
