@@ -7,8 +7,9 @@
 //  - time to convergence (relative energy change < 1e-5) with coarse-to-fine;
 //  - a before/after picture: anisotropy s1/s2 per texel before and after, and
 //    a checker baked through the offsets;
-//  - on real maps (--maps): the time-to-energy curve of each line search
-//    (energy against seconds over a sweep of tolerances, in-process, warm),
+//  - on real maps (--maps): the time-to-energy curve of each line search,
+//    without and with hat moves (energy against seconds over a sweep of
+//    tolerances, in-process, warm),
 //    and, with --baseline, whole processes of this build's CLI against an
 //    older one (e.g. the first landed correction), medians of --runs,
 //    energies scored here from the written offset maps.
@@ -207,12 +208,16 @@ struct Variant {
     const char* name;
     relief::CorrectSearch search;
     float relax;
+    relief::CorrectHats hats;
 };
 // (Names without commas: they are CSV fields, which gnuplot splits.)
-const Variant kVariants[] = {{"ternary (first version)", relief::CorrectSearch::Ternary, 1.0f},
-                             {"golden with relax 1.5", relief::CorrectSearch::Golden, 1.5f},
-                             {"brent", relief::CorrectSearch::Brent, 1.0f},
-                             {"brent with relax 1.5 (default)", relief::CorrectSearch::Brent, 1.5f}};
+const Variant kVariants[] = {
+    {"ternary (first version)", relief::CorrectSearch::Ternary, 1.0f, relief::CorrectHats::Off},
+    {"golden with relax 1.5", relief::CorrectSearch::Golden, 1.5f, relief::CorrectHats::Off},
+    {"brent", relief::CorrectSearch::Brent, 1.0f, relief::CorrectHats::Off},
+    {"brent with relax 1.5 without hats", relief::CorrectSearch::Brent, 1.5f, relief::CorrectHats::Off},
+    {"brent with relax 1.5 and hat moves (default)", relief::CorrectSearch::Brent, 1.5f,
+     relief::CorrectHats::Auto}};
 
 // Real maps: the time-to-energy curves, and the whole-process comparison
 // against --baseline.
@@ -252,6 +257,7 @@ void real_maps(const std::vector<std::string>& names, const std::string& data, c
                 o.nodes = relief::CorrectNodes::Center;
                 o.search = v.search;
                 o.relax = v.relax;
+                o.hats = v.hats;
                 o.tolerance = float(tol);
                 relief::CorrectReport rep;
                 o.report = &rep;

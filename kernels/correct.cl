@@ -659,7 +659,7 @@ inline float hat_axis_weight(int x, int c, int B, int n, int wraps)
     for (int oy = cj - B + 1; oy <= cj + B; ++oy) {                                                          \
         int y = oy;                                                                                          \
         if (periodic & 2)                                                                                    \
-            y = y < 0 ? y + ny : y >= ny ? y - ny : y;                                                       \
+            y = relief_wrap(y, ny);                                                                          \
         else if (y < 1 || y >= ny)                                                                           \
             continue;                                                                                        \
         const int y0 = y == 0 ? ny - 1 : y - 1;                                                              \
@@ -668,7 +668,7 @@ inline float hat_axis_weight(int x, int c, int B, int n, int wraps)
         for (int ox = ci - B; ox < ci + B; ++ox) {                                                           \
             int x = ox;                                                                                      \
             if (periodic & 1)                                                                                \
-                x = x < 0 ? x + nx : x >= nx ? x - nx : x;                                                   \
+                x = relief_wrap(x, nx);                                                                      \
             else if (x < 0 || x + 1 >= nx)                                                                   \
                 continue;                                                                                    \
             const int x1 = x + 1 == nx ? 0 : x + 1;                                                          \
@@ -829,14 +829,14 @@ kernel void correct_hat_phase(global float2* c, global const float* z, int nx, i
     for (int oy = cj - B + 1; oy < cj + B; ++oy) {
         int y = oy;
         if (periodic & 2)
-            y = y < 0 ? y + ny : y >= ny ? y - ny : y;
+            y = relief_wrap(y, ny);
         else if (y < 0 || y >= ny)
             continue;
         const float wy = hat_axis_weight(y, cj, B, ny, periodic & 2);
         for (int ox = ci - B + 1; ox < ci + B; ++ox) {
             int x = ox;
             if (periodic & 1)
-                x = x < 0 ? x + nx : x >= nx ? x - nx : x;
+                x = relief_wrap(x, nx);
             else if (x < 0 || x >= nx)
                 continue;
             const float w = hat_axis_weight(x, ci, B, nx, periodic & 1) * wy;

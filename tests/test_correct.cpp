@@ -68,6 +68,24 @@ std::vector<float> run(const std::vector<float>& h, int w, int ht, const host::C
     return out;
 }
 
+// The device's offsets (texture units) in texels, and how far they lie from
+// the golden model's c: the largest difference and the largest offset.
+struct Agreement {
+    std::vector<double> device;
+    double worst = 0.0, largest = 0.0;
+};
+Agreement agreement(const std::vector<float>& out, const std::vector<double>& c, int w, int h)
+{
+    Agreement a;
+    a.device.resize(c.size());
+    for (std::size_t k = 0; k < c.size(); ++k) {
+        a.device[k] = double(out[k]) * (k % 2 ? h : w);
+        a.worst = std::max(a.worst, std::abs(a.device[k] - c[k]));
+        a.largest = std::max(a.largest, std::abs(c[k]));
+    }
+    return a;
+}
+
 }  // namespace
 
 TEST_CASE("correct: closed-form triangle energy equals the SVD's", "[correct]")
@@ -226,13 +244,7 @@ TEST_CASE("correct: one device iteration equals the golden model's", "[correct]"
             std::vector<double> c(2 * std::size_t(w) * h, 0.0);
             ref::iterate(g, c);
             const auto out = run(hts, w, h, one_iteration(with_search(params(scale, periodic), search)));
-            double worst = 0.0, largest = 0.0;
-            std::vector<double> dev(c.size());
-            for (std::size_t k = 0; k < c.size(); ++k) {
-                dev[k] = double(out[k]) * (k % 2 ? h : w);
-                worst = std::max(worst, std::abs(dev[k] - c[k]));
-                largest = std::max(largest, std::abs(c[k]));
-            }
+            const auto [dev, worst, largest] = agreement(out, c, w, h);
             INFO(search.name << ", " << w << "x" << h << " periodic x " << periodic.x << " y " << periodic.y
                              << ": max |offset| " << largest << " texels, max |device - golden| " << worst);
             CHECK(largest > 1e-2);
@@ -937,13 +949,7 @@ TEST_CASE("correct: one device iteration with a hat sweep equals the golden mode
         p.hats = host::CorrectParams::Hats::Always;
         host::CorrectReport rep;
         const auto out = run(hts, w, h, p, &rep);
-        double worst = 0.0, largest = 0.0;
-        std::vector<double> dev(c.size());
-        for (std::size_t k = 0; k < c.size(); ++k) {
-            dev[k] = double(out[k]) * (k % 2 ? h : w);
-            worst = std::max(worst, std::abs(dev[k] - c[k]));
-            largest = std::max(largest, std::abs(c[k]));
-        }
+        const auto [dev, worst, largest] = agreement(out, c, w, h);
         const double e_dev = ref::total_energy(g, dev);
         INFO(w << "x" << h << " periodic x " << periodic.x << " y " << periodic.y << ": " << scales
                << " scales; energy after the nodes " << e_nodes << ", after the hats " << e_gold
