@@ -206,6 +206,16 @@ public:
         lv.energy_start = e;
         std::vector<cl_uchar> act(tiles);
         const int limit = p_.iterations > 0 ? p_.iterations : p_.max_iterations;
+        // Until the tolerance, max_iterations bounds a level's work: a hat
+        // sweep counts as the node iterations it costs (the schedule's
+        // price). Sweeps that did not count made a 4096^2 cliff level that
+        // cannot converge 1.65x slower at the cap (22 sweeps of 11 scales on
+        // top of its 1000 iterations). A fixed iterations=N counts node
+        // iterations only.
+        const double sweep_cost = kHatSweepCostPerScale * double(hat_scales_.size());
+        const auto spent = [&](int it) {
+            return p_.iterations > 0 ? double(it) : it + lv.hat_sweeps * sweep_cost;
+        };
         // The energy falls by the sum of the nodes' falls (float fan
         // energies: exact to ~1e-7 of the energy); below that, a tolerance
         // needs the energy itself each iteration.
@@ -265,7 +275,8 @@ public:
             }
             double next = from_gains ? e - gain_sum() : energy();
             const double rel_nodes = (e - next) / std::max(std::abs(e), 1e-300);
-            if (hat_sweep_due(lv.hat_sweeps, it, rel_nodes, rel_nodes_before, hat_fall, tolerance)) {
+            if (hat_sweep_due(lv.hat_sweeps, it, rel_nodes, rel_nodes_before, hat_fall, tolerance,
+                              double(limit) - spent(it))) {
                 const double before = next;
                 if (from_gains)
                     clear_gains();
@@ -286,6 +297,8 @@ public:
                 lv.converged = true;
                 break;
             }
+            if (spent(it) >= double(limit))
+                break;
         }
         lv.energy_end = !measure_end ? std::numeric_limits<double>::quiet_NaN() : from_gains ? energy() : e;
         return lv;
@@ -317,16 +330,19 @@ private:
     // longer than a sweep costs to reach the tolerance; then whenever an
     // iteration of the nodes gains less per cost than the last sweep did,
     // and instead of stopping while the last sweep gained more than the
-    // tolerance per cost. Ordinary maps converge before the first.
+    // tolerance per cost. Ordinary maps converge before the first. `left`:
+    // the node iterations the level may still spend (max_iterations less
+    // the iterations and sweeps so far); auto sweeps only while a sweep
+    // fits in it.
     bool hat_sweep_due(int sweeps, int it, double rel_nodes, double rel_nodes_before, double hat_fall,
-                       double tolerance) const
+                       double tolerance, double left) const
     {
         if (hat_scales_.empty())
             return false;
         if (p_.hats == CorrectParams::Hats::Always)
             return true;
         const double cost = kHatSweepCostPerScale * double(hat_scales_.size());
-        if (!(rel_nodes >= 0.0))
+        if (!(rel_nodes >= 0.0) || left < cost)
             return false;
         if (sweeps == 0) {
             if (it < 3 || rel_nodes < tolerance)

@@ -1029,3 +1029,34 @@ TEST_CASE("correct: hat moves never raise the energy, and auto sweeps only slowl
         }
     }
 }
+
+TEST_CASE("correct: max_iterations bounds a level's work, each hat sweep counted as the iterations it costs",
+          "[correct]")
+{
+    // A steep 128^2 periodic map at one level, a tolerance it cannot reach
+    // in 60 iterations' work: the sweeps (scales B = 2 to 32, 2.5
+    // iterations each, so 12.5 a sweep) count towards the limit, and the
+    // level stops at the first iteration that reaches it.
+    const int n = 128;
+    const auto big = waves(n, n, 1.0, 23);
+    auto p = params(1.0, host::Periodic(true));
+    p.levels = 1;
+    p.max_iterations = 60;
+    p.tolerance = 1e-9;
+    host::CorrectReport rep;
+    run(big, n, n, p, &rep);
+    REQUIRE(rep.levels.size() == 1);
+    const auto& l = rep.levels[0];
+    INFO(l.iterations << " iterations, " << l.hat_sweeps << " sweeps");
+    CHECK_FALSE(l.converged);
+    CHECK(l.hat_sweeps > 0);
+    const double spent = l.iterations + 12.5 * l.hat_sweeps;
+    CHECK(spent >= 60.0);
+    CHECK(spent < 61.0);
+    // A fixed count is node iterations, sweeps or not.
+    p.iterations = 7;
+    p.hats = host::CorrectParams::Hats::Always;
+    run(big, n, n, p, &rep);
+    CHECK(rep.levels[0].iterations == 7);
+    CHECK(rep.levels[0].hat_sweeps == 7);
+}

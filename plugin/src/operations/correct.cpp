@@ -202,9 +202,11 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
                         detail::format_double("%.2f s", l.seconds));
             if (!rep.levels.empty() && !rep.levels.back().converged && options.iterations == 0)
                 detail::say(ex, Severity::Warning,
-                            "correct: stopped at " + std::to_string(options.max_iterations) +
-                                " iterations before the relative energy change fell below " +
-                                f(options.tolerance));
+                            "correct: stopped at " + std::to_string(options.max_iterations) + " iterations" +
+                                (rep.levels.back().hat_sweeps
+                                     ? " (each hat sweep counted as the iterations it costs)"
+                                     : "") +
+                                " before the relative energy change fell below " + f(options.tolerance));
             detail::say(ex, Severity::Info,
                         "correct: energy " + f(rep.energy_before) + " -> " + f(rep.energy_after) +
                             "; anisotropy s1/s2 mean/p95/max " + f(rep.anisotropy_before.mean) + "/" +
