@@ -970,6 +970,17 @@ TEST_CASE("options: max_iterations stops a level that has not converged, and say
     p.levels = 1;
     p.max_iterations = 2;
     CHECK(max_abs_diff(got.offsets, host_correct(hts, w, h, p).offsets) == 0.0);
+    // A level that swept says that its sweeps counted towards the limit.
+    const int n = 128;
+    o.scale = 1.0f;
+    o.max_iterations = 60;
+    o.tolerance = 1e-9f;
+    const ApiCorrection swept = api_correct(test::image(n, n, 1, waves(n, n, 1.0, 23)), o);
+    REQUIRE(swept.report.levels.size() == 1);
+    CHECK(swept.report.levels[0].hat_sweeps > 0);
+    CHECK(swept.said.find("stopped at 60 iterations (each hat sweep counted as the iterations it costs)") !=
+          std::string::npos);
+    CHECK(got.said.find("hat sweep") == std::string::npos);
 }
 
 TEST_CASE("options: inconsistent or out-of-range options are refused by the API", "[options][errors]")
