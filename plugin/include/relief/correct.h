@@ -102,10 +102,12 @@ struct CorrectOptions {
     // |h - fix_height| / fix_width) when fix_width > 0.
     const OIIO::ImageBuf* fix_mask = nullptr;
     float fix_height = 0.0f, fix_width = 0.0f;
-    int iterations = 0;         // per pyramid level; 0 = auto (until the tolerance)
-    float tolerance = 1e-5f;    // auto stops when the relative energy change is below this
-    int max_iterations = 1000;  // per level, for auto
-    int levels = 0;             // coarse-to-fine levels; 0 = auto (down to 16 texels), 1 = off
+    int iterations = 0;       // per pyramid level; 0 = auto (until the tolerance)
+    float tolerance = 1e-5f;  // auto stops when the relative energy change is below this
+    // Per level, for auto: node iterations, each hat sweep counted as the
+    // iterations it costs (2.5 a scale of hats).
+    int max_iterations = 1000;
+    int levels = 0;  // coarse-to-fine levels; 0 = auto (down to 16 texels), 1 = off
     // Nothing is corrected when no triangle's anisotropy s1/s2 - 1 or area
     // change |s1 s2 - 1| exceeds this (zero offsets, no solve).
     float threshold = 1e-3f;
