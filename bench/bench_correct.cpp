@@ -8,7 +8,7 @@
 //  - a before/after picture: anisotropy s1/s2 per texel before and after, and
 //    a checker baked through the offsets;
 //  - on real maps (--maps): the time-to-energy curve of each line search,
-//    without and with hat moves (energy against seconds over a sweep of
+//    alone, with hat moves and with global steps (energy against seconds over a sweep of
 //    tolerances, in-process, warm),
 //    and, with --baseline, whole processes of this build's CLI against an
 //    older one (e.g. the first landed correction), medians of --runs,
@@ -210,15 +210,21 @@ struct Variant {
     relief::CorrectSearch search;
     float relax;
     relief::CorrectHats hats;
+    relief::CorrectGlobal global;
 };
 // (Names without commas: they are CSV fields, which gnuplot splits.)
 const Variant kVariants[] = {
-    {"ternary (first version)", relief::CorrectSearch::Ternary, 1.0f, relief::CorrectHats::Off},
-    {"golden with relax 1.5", relief::CorrectSearch::Golden, 1.5f, relief::CorrectHats::Off},
-    {"brent", relief::CorrectSearch::Brent, 1.0f, relief::CorrectHats::Off},
-    {"brent with relax 1.5 without hats", relief::CorrectSearch::Brent, 1.5f, relief::CorrectHats::Off},
-    {"brent with relax 1.5 and hat moves (default)", relief::CorrectSearch::Brent, 1.5f,
-     relief::CorrectHats::Auto}};
+    {"ternary (first version)", relief::CorrectSearch::Ternary, 1.0f, relief::CorrectHats::Off,
+     relief::CorrectGlobal::Off},
+    {"golden with relax 1.5", relief::CorrectSearch::Golden, 1.5f, relief::CorrectHats::Off,
+     relief::CorrectGlobal::Off},
+    {"brent", relief::CorrectSearch::Brent, 1.0f, relief::CorrectHats::Off, relief::CorrectGlobal::Off},
+    {"brent with relax 1.5 alone", relief::CorrectSearch::Brent, 1.5f, relief::CorrectHats::Off,
+     relief::CorrectGlobal::Off},
+    {"brent with relax 1.5 and hat moves", relief::CorrectSearch::Brent, 1.5f, relief::CorrectHats::Auto,
+     relief::CorrectGlobal::Off},
+    {"brent with relax 1.5 and global steps (default)", relief::CorrectSearch::Brent, 1.5f,
+     relief::CorrectHats::Off, relief::CorrectGlobal::Auto}};
 
 // Real maps: the time-to-energy curves, and the whole-process comparison
 // against --baseline.
@@ -261,6 +267,7 @@ void real_maps(const std::vector<std::string>& names, const std::string& data, c
                 o.search = v.search;
                 o.relax = v.relax;
                 o.hats = v.hats;
+                o.global = v.global;
                 o.tolerance = float(tol);
                 relief::CorrectReport rep;
                 o.report = &rep;

@@ -20,6 +20,9 @@
 namespace relief::host {
 
 inline constexpr int kTile = 16;  // nodes per tile side, CORRECT_TILE in correct.cl
+// Nodes per work-item of the energy and gain sums, CORRECT_SUM_NODES in
+// correct.cl.
+inline constexpr std::size_t kSumNodes = 8;
 // Tolerances from this up follow the energy by the nodes' summed falls;
 // tighter ones recompute the energy every iteration.
 inline constexpr double kGainTolerance = 1e-6;
@@ -33,6 +36,12 @@ inline constexpr int kCpuNodesPerItem = 2;
 // larger scales). Deterministic, unlike a clock: the schedule must give
 // the same bits on every run.
 inline constexpr double kHatSweepCostPerScale = 2.5;
+// What a global step costs, in node iterations (measured on PoCL at 1025^2
+// nodes: 1.1; the gradient, the lattices down and up, the limits, the
+// slope, three energies).
+inline constexpr double kGlobalStepCost = 1.0;
+// The least relative fall of the total energy that keeps a global step.
+inline constexpr double kGlobalGain = 1e-6;
 
 // One level's device state and the kernels that work on it.
 class LevelSolver {
@@ -54,14 +63,22 @@ public:
         active_k_ = cl::Kernel(prog, "correct_active");
         gain_sum_k_ = cl::Kernel(prog, "correct_gain_sum");
         hat_k_ = cl::Kernel(prog, "correct_hat_phase");
+        gradient_k_ = cl::Kernel(prog, "correct_gradient");
+        restrict_k_ = cl::Kernel(prog, "correct_restrict");
+        prolong_k_ = cl::Kernel(prog, "correct_prolong");
+        limits_k_ = cl::Kernel(prog, "correct_step_limits");
+        dot_k_ = cl::Kernel(prog, "correct_dot");
+        step_k_ = cl::Kernel(prog, "correct_step");
         const std::size_t esize = fp64_ ? sizeof(double) : sizeof(float);
         // The sums' work-groups: powers of two from the device's limits, with
         // one energy_t of local memory per work-item.
         energy_group_ = c_.group_size(energy_k_, esize);
         phase_group_ = c_.group_shape(phase_k_, 8 / nodes_per_item_, 8);
         sum_group_ = c_.group_size(gain_sum_k_, esize);
-        groups_ =
-            std::max((nodes_ + energy_group_ - 1) / energy_group_, (nodes_ + sum_group_ - 1) / sum_group_);
+        dot_group_ = c_.group_size(dot_k_, esize);
+        groups_ = std::max({(nodes_ + kSumNodes * energy_group_ - 1) / (kSumNodes * energy_group_),
+                            (nodes_ + kSumNodes * sum_group_ - 1) / (kSumNodes * sum_group_),
+                            (nodes_ + kSumNodes * dot_group_ - 1) / (kSumNodes * dot_group_)});
         c_buf_ = c_.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * nodes_, "distortion correction");
         z_buf_ = c_.buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(float) * nodes_,
                            "distortion correction", z.data());
@@ -88,6 +105,18 @@ public:
                             c_.loops_fit(hat_loops(B));
                  B *= 2)
                 hat_scales_.push_back(B);
+        // The global step's lattices: each every other node of the last,
+        // while a fixed axis keeps a free node and a periodic one halves
+        // evenly into at least 4. Global steps leave fixation out too.
+        if (p.global != CorrectParams::Global::Off && !use_fix_) {
+            global_ = true;
+            int lx = g.nx, ly = g.ny;
+            while (lattice_halves(lx, g.periodic.x) && lattice_halves(ly, g.periodic.y)) {
+                lx = g.periodic.x ? lx / 2 : (lx - 1) / 2 + 1;
+                ly = g.periodic.y ? ly / 2 : (ly - 1) / 2 + 1;
+                lattices_.push_back({lx, ly});
+            }
+        }
     }
 
     // Offsets in texels of this level (float2 per node).
@@ -107,24 +136,29 @@ public:
     // the chunking.
     double energy(std::vector<float>* aniso = nullptr, std::vector<float>* area = nullptr)
     {
+        return energy_of(c_buf_, aniso, area);
+    }
+    double energy_of(const cl::Buffer& offsets, std::vector<float>* aniso = nullptr,
+                     std::vector<float>* area = nullptr)
+    {
         const bool want = aniso != nullptr;
         const std::size_t esize = fp64_ ? sizeof(double) : sizeof(float);
-        const std::size_t g = energy_group_;
-        std::size_t chunk = round_up(nodes_, g);
+        const std::size_t g = energy_group_, per_group = kSumNodes * g;
+        std::size_t chunk = round_up(nodes_, per_group);
         if (want) {
             aniso->clear();
             area->clear();
-            const std::size_t fit = c_.buffer_limit() / sizeof(cl_float4) / g * g;
-            chunk = std::min(chunk, std::max(fit, g));
+            const std::size_t fit = c_.buffer_limit() / sizeof(cl_float4) / per_group * per_group;
+            chunk = std::min(chunk, std::max(fit, per_group));
         }
         cl::Buffer stats = c_.buffer(CL_MEM_WRITE_ONLY, want ? sizeof(cl_float4) * chunk : 16,
                                      "distortion correction's statistics");
         std::vector<float> st(want ? 4 * chunk : 0);
         double sum = 0.0;
         for (std::size_t first = 0; first < nodes_; first += chunk) {
-            const std::size_t count = std::min(chunk, round_up(nodes_ - first, g));
+            const std::size_t count = std::min(chunk, round_up(nodes_ - first, per_group));
             int a = 0;
-            energy_k_.setArg(a++, c_buf_);
+            energy_k_.setArg(a++, offsets);
             energy_k_.setArg(a++, z_buf_);
             energy_k_.setArg(a++, fix_buf_);
             energy_k_.setArg(a++, cl_int(use_fix_));
@@ -139,8 +173,9 @@ public:
             energy_k_.setArg(a++, cl_int(want));
             energy_k_.setArg(a++, cl_int(first));
             stop_if_cancelled();
-            c_.queue.enqueueNDRangeKernel(energy_k_, cl::NullRange, cl::NDRange(count), cl::NDRange(g));
-            add_partials(count / g, sum);
+            c_.queue.enqueueNDRangeKernel(energy_k_, cl::NullRange, cl::NDRange(count / kSumNodes),
+                                          cl::NDRange(g));
+            add_partials(count / per_group, sum);
             if (want) {
                 const std::size_t real = std::min(count, nodes_ - first);
                 c_.queue.enqueueReadBuffer(stats, CL_TRUE, 0, sizeof(cl_float4) * real, st.data());
@@ -164,10 +199,11 @@ public:
         gain_sum_k_.setArg(a++, partial_);
         gain_sum_k_.setArg(a++, cl::Local((fp64_ ? sizeof(double) : sizeof(float)) * sum_group_));
         stop_if_cancelled();
-        c_.queue.enqueueNDRangeKernel(gain_sum_k_, cl::NullRange, cl::NDRange(round_up(nodes_, sum_group_)),
+        const std::size_t items = round_up((nodes_ + kSumNodes - 1) / kSumNodes, sum_group_);
+        c_.queue.enqueueNDRangeKernel(gain_sum_k_, cl::NullRange, cl::NDRange(items),
                                       cl::NDRange(sum_group_));
         double sum = 0.0;
-        add_partials((nodes_ + sum_group_ - 1) / sum_group_, sum);
+        add_partials(items / sum_group_, sum);
         return sum;
     }
 
@@ -213,8 +249,10 @@ public:
         // top of its 1000 iterations). A fixed iterations=N counts node
         // iterations only.
         const double sweep_cost = kHatSweepCostPerScale * double(hat_scales_.size());
+        int global_tries = 0;  // global steps tried, kept or not
         const auto spent = [&](int it) {
-            return p_.iterations > 0 ? double(it) : it + lv.hat_sweeps * sweep_cost;
+            return p_.iterations > 0 ? double(it)
+                                     : it + lv.hat_sweeps * sweep_cost + global_tries * kGlobalStepCost;
         };
         // The energy falls by the sum of the nodes' falls (float fan
         // energies: exact to ~1e-7 of the energy); below that, a tolerance
@@ -224,6 +262,7 @@ public:
         // The nodes' relative fall in the last iteration, and the last hat
         // sweep's (hat_sweep_due).
         double rel_nodes_before = 0.0, hat_fall = 0.0;
+        double global_fall = 0.0;  // the last global step's relative fall
         for (int it = 1; it <= limit; ++it) {
             if (from_gains)
                 clear_gains();
@@ -285,6 +324,15 @@ public:
                 hat_fall = (before - next) / std::max(std::abs(before), 1e-300);
                 ++lv.hat_sweeps;
             }
+            if (global_step_due(global_tries, rel_nodes, global_fall, tolerance, double(limit) - spent(it))) {
+                const double before = next;
+                ++global_tries;
+                global_fall = 0.0;
+                if (global_step(next)) {
+                    global_fall = (before - next) / std::max(std::abs(before), 1e-300);
+                    ++lv.global_steps;
+                }
+            }
             rel_nodes_before = rel_nodes;
             const double rel = (e - next) / std::max(std::abs(e), 1e-300);
             e = next;
@@ -305,6 +353,175 @@ public:
     }
 
 private:
+    // Whether an axis of n lattice nodes halves into another lattice (every
+    // other node): a fixed axis while the coarser keeps a free node, a
+    // periodic one while it halves evenly into at least 4.
+    static bool lattice_halves(int n, bool periodic)
+    {
+        return periodic ? n % 2 == 0 && n / 2 >= 4 : (n - 1) / 2 + 1 >= 3;
+    }
+
+    // global=always: after every iteration. global=auto: after the first,
+    // then whenever the last step fell more per cost than the nodes'
+    // iteration did, and instead of stopping while it fell by more than the
+    // tolerance per cost. `left` as for hat sweeps.
+    bool global_step_due(int tries, double rel_nodes, double fall, double tolerance, double left) const
+    {
+        if (!global_ || !(rel_nodes >= 0.0))
+            return false;
+        if (p_.global == CorrectParams::Global::Always)
+            return true;
+        if (left < kGlobalStepCost)
+            return false;
+        if (tries == 0)
+            return true;
+        return fall > kGlobalStepCost * rel_nodes ||
+               (rel_nodes < tolerance && fall >= kGlobalStepCost * tolerance);
+    }
+
+    // One global step (docs/design.md §4.5.3c; kernels correct_gradient to
+    // correct_step): S, the multilevel sum of the gradient, then t along
+    // D = -S by a probe at min(half the first flip, a texel's move) and the
+    // parabola through E(0), E'(0) = -G.S and it (then 1/8 and 1/64 of the
+    // probe while neither was lower), the lowest kept if it lowers the
+    // total energy by more than 1e-6 relative. Returns whether it was
+    // taken; `energy` is then the energy after it (exact).
+    bool global_step(double& energy)
+    {
+        const std::size_t esize = fp64_ ? sizeof(double) : sizeof(float);
+        const std::size_t limits_group = c_.group_size(limits_k_, sizeof(cl_float2));
+        const std::size_t limits_items = round_up(nodes_, limits_group);
+        if (global_bufs_.empty()) {
+            for (int k = 0; k < 3; ++k)  // the gradient, S, the offsets after a step
+                global_bufs_.push_back(c_.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * nodes_,
+                                                 "distortion correction's global steps"));
+            for (const auto& l : lattices_)
+                global_bufs_.push_back(c_.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * l.first * l.second,
+                                                 "distortion correction's global steps"));
+            limits_ = c_.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * (limits_items / limits_group),
+                                "distortion correction's global steps");
+        }
+        cl::Buffer &grad = global_bufs_[0], &S = global_bufs_[1], &after = global_bufs_[2];
+        const cl_int periodic = g_.periodic.bits();
+        int a = 0;
+        gradient_k_.setArg(a++, c_buf_);
+        gradient_k_.setArg(a++, z_buf_);
+        gradient_k_.setArg(a++, cl_int(g_.nx));
+        gradient_k_.setArg(a++, cl_int(g_.ny));
+        gradient_k_.setArg(a++, periodic);
+        gradient_k_.setArg(a++, float(p_.theta));
+        gradient_k_.setArg(a++, grad);
+        stop_if_cancelled();
+        c_.launch(gradient_k_, nodes_);
+        // Down the lattices by full weighting, then up: each lattice plus
+        // the coarser one interpolated, the finest into S.
+        const std::size_t L = lattices_.size();
+        for (std::size_t l = 0; l < L; ++l) {
+            const cl::Buffer& fine = l == 0 ? grad : global_bufs_[3 + l - 1];
+            const int fnx = l == 0 ? g_.nx : lattices_[l - 1].first,
+                      fny = l == 0 ? g_.ny : lattices_[l - 1].second;
+            a = 0;
+            restrict_k_.setArg(a++, fine);
+            restrict_k_.setArg(a++, cl_int(fnx));
+            restrict_k_.setArg(a++, cl_int(fny));
+            restrict_k_.setArg(a++, periodic);
+            restrict_k_.setArg(a++, global_bufs_[3 + l]);
+            restrict_k_.setArg(a++, cl_int(lattices_[l].first));
+            restrict_k_.setArg(a++, cl_int(lattices_[l].second));
+            c_.launch(restrict_k_, std::size_t(lattices_[l].first) * lattices_[l].second);
+        }
+        c_.queue.enqueueCopyBuffer(grad, S, 0, 0, sizeof(cl_float2) * nodes_);
+        for (std::size_t l = L; l-- > 0;) {
+            // Lattice l interpolated into the next finer one (S at the end).
+            cl::Buffer& fine = l == 0 ? S : global_bufs_[3 + l - 1];
+            const int fnx = l == 0 ? g_.nx : lattices_[l - 1].first,
+                      fny = l == 0 ? g_.ny : lattices_[l - 1].second;
+            a = 0;
+            prolong_k_.setArg(a++, global_bufs_[3 + l]);
+            prolong_k_.setArg(a++, cl_int(lattices_[l].first));
+            prolong_k_.setArg(a++, cl_int(lattices_[l].second));
+            prolong_k_.setArg(a++, fine);
+            prolong_k_.setArg(a++, cl_int(fnx));
+            prolong_k_.setArg(a++, cl_int(fny));
+            prolong_k_.setArg(a++, periodic);
+            c_.launch(prolong_k_, std::size_t(fnx) * fny);
+        }
+        // The first flip and the largest move along D, and the slope.
+        a = 0;
+        limits_k_.setArg(a++, c_buf_);
+        limits_k_.setArg(a++, S);
+        limits_k_.setArg(a++, cl_int(g_.nx));
+        limits_k_.setArg(a++, cl_int(g_.ny));
+        limits_k_.setArg(a++, periodic);
+        limits_k_.setArg(a++, limits_);
+        limits_k_.setArg(a++, cl::Local(sizeof(cl_float2) * limits_group));
+        c_.queue.enqueueNDRangeKernel(limits_k_, cl::NullRange, cl::NDRange(limits_items),
+                                      cl::NDRange(limits_group));
+        std::vector<cl_float2> lim(limits_items / limits_group);
+        c_.queue.enqueueReadBuffer(limits_, CL_TRUE, 0, sizeof(cl_float2) * lim.size(), lim.data());
+        double flip = INFINITY, largest = 0.0;
+        for (const auto& v : lim) {
+            flip = std::min(flip, double(v.s[0]));
+            largest = std::max(largest, double(v.s[1]));
+        }
+        const std::size_t dot_items = round_up((nodes_ + kSumNodes - 1) / kSumNodes, dot_group_);
+        a = 0;
+        dot_k_.setArg(a++, grad);
+        dot_k_.setArg(a++, S);
+        dot_k_.setArg(a++, cl_int(nodes_));
+        dot_k_.setArg(a++, partial_);
+        dot_k_.setArg(a++, cl::Local(esize * dot_group_));
+        c_.queue.enqueueNDRangeKernel(dot_k_, cl::NullRange, cl::NDRange(dot_items), cl::NDRange(dot_group_));
+        double gs = 0.0;
+        add_partials(dot_items / dot_group_, gs);
+        const double slope = -gs;
+        if (!(slope < 0.0) || !std::isfinite(slope) || !(largest > 0.0) || !std::isfinite(largest) ||
+            !(flip > 0.0))
+            return false;
+        const double E0 = this->energy();
+        const auto offsets_at = [&](double t) {
+            int k = 0;
+            step_k_.setArg(k++, c_buf_);
+            step_k_.setArg(k++, S);
+            step_k_.setArg(k++, float(t));
+            step_k_.setArg(k++, cl_int(nodes_));
+            step_k_.setArg(k++, after);
+            c_.launch(step_k_, nodes_);
+        };
+        double best = E0, best_t = 0.0, last_t = 0.0;
+        const auto probe_at = [&](double t) {
+            offsets_at(t);
+            last_t = t;
+            const double e = energy_of(after);
+            if (std::isfinite(e) && e < best) {
+                best = e;
+                best_t = t;
+            }
+            return e;
+        };
+        double probe = std::min(0.5 * flip, 1.0 / largest);
+        for (int tries = 0; tries < 3 && best_t == 0.0; ++tries, probe *= 0.125) {
+            const double ep = probe_at(probe);
+            if (!std::isfinite(ep))
+                continue;
+            const double curvature = (ep - E0 - slope * probe) / (probe * probe);
+            if (curvature > 0.0) {
+                const double t = std::min(-slope / (2.0 * curvature), 0.95 * flip);
+                if (t > 0.0 && t != probe)
+                    probe_at(t);
+            }
+        }
+        if (best_t == 0.0 || !(best < E0 - kGlobalGain * E0))
+            return false;
+        if (last_t != best_t)
+            offsets_at(best_t);
+        std::swap(c_buf_, after);
+        // Every node may have moved: every tile runs the next phases.
+        c_.fill(moved_, cl_uchar(1), 0, std::size_t(tiles_x_) * tiles_y_ * phases_.size());
+        energy = best;
+        return true;
+    }
+
     void clear_gains()
     {
         if (fp64_)
@@ -397,8 +614,14 @@ private:
     std::size_t energy_group_ = 1;  // work-group of correct_energy
     std::size_t sum_group_ = 1;     // work-group of correct_gain_sum
     cl::Kernel hat_k_;
-    std::vector<int> hat_scales_;  // B of each scale of hat moves; empty: none
-    cl::NDRange phase_group_;      // of correct_phase: within one tile
+    cl::Kernel gradient_k_, restrict_k_, prolong_k_, limits_k_, dot_k_, step_k_;
+    bool global_ = false;                        // global steps on
+    std::vector<std::pair<int, int>> lattices_;  // the global step's coarser lattices, finest first
+    std::vector<cl::Buffer> global_bufs_;        // gradient, S, offsets after a step, then the lattices
+    cl::Buffer limits_;                          // per work-group: first flip, largest move
+    std::size_t dot_group_ = 1;                  // work-group of correct_dot
+    std::vector<int> hat_scales_;                // B of each scale of hat moves; empty: none
+    cl::NDRange phase_group_;                    // of correct_phase: within one tile
     int tiles_x_ = 0, tiles_y_ = 0, itheta_ = -1;
     std::vector<std::pair<int, int>> phases_;
     cl::Kernel energy_k_, phase_k_, active_k_, gain_sum_k_;

@@ -45,7 +45,13 @@ struct CorrectParams {
     // under bilinear hats of every scale, where the nodes alone converge
     // slowly (auto), every iteration (always: tests, comparisons) or never.
     enum class Hats { Off = 0, Auto = 1, Always = 2 };
-    Hats hats = Hats::Auto;
+    Hats hats = Hats::Off;
+    // Global steps (docs/design.md §4.5.3c): every node at once along the
+    // multilevel-preconditioned negative gradient, where they pay more than
+    // the nodes' own iterations (auto), after every iteration (always:
+    // tests, comparisons) or never.
+    enum class Global { Off = 0, Auto = 1, Always = 2 };
+    Global global = Global::Auto;
 };
 
 struct DistortionStats {
@@ -61,7 +67,8 @@ struct CorrectLevel {
     // The level started from the previous level's offsets times this
     // (1, 0.75, 0.5, 0.25 or 0: the lowest energy; 0 at the coarsest).
     double start_factor = 0.0;
-    int hat_sweeps = 0;  // sweeps of hat moves over every scale
+    int hat_sweeps = 0;    // sweeps of hat moves over every scale
+    int global_steps = 0;  // global steps taken (kept: each lowered the energy)
     double seconds = 0.0;
 };
 

@@ -94,22 +94,30 @@ inline int correct_node(int i, int j, int nx, int ny)
 
 RELIEF_DEFINE_GROUP_SUM(correct_group_sum, energy_t)
 
+// Nodes per work-item in the sums below: each work-item adds its nodes in
+// order, then the work-group's items by halving. A work-group's halving
+// rounds cost CPU back ends a pass over every item each (PoCL: 8 ns a node
+// at one node an item, about half the energy kernel's time and all of the
+// gain sum's).
+#define CORRECT_SUM_NODES 8
+
 // Total energy: the triangles each node owns plus its fixation term, summed
-// per work-group in a fixed order (deterministic), one partial per group.
-// With `stats`, also writes per owned triangle the anisotropy s1/s2 and the
+// in a fixed order (deterministic), one partial per work-group. With
+// `stats`, also writes per owned triangle the anisotropy s1/s2 and the
 // area ratio s1 s2 (float4 per node: T1 then T2; NaN where a triangle does
-// not exist at a fixed boundary). Launched over the nodes [first, first +
-// count) (count a multiple of the group size): the statistics of a large
-// map come in chunks that fit one device buffer; stats[0] is node `first`,
-// partial[0] its group.
+// not exist at a fixed boundary). Work-item k sums the nodes first +
+// CORRECT_SUM_NODES k onwards: the statistics of a large map come in chunks
+// that fit one device buffer; stats[0] is node `first`, partial[0] its
+// group.
 kernel void correct_energy(global const float2* c, global const float* z, global const float* fix_w,
                            int use_fix, int nx, int ny, int periodic, float theta, int itheta,
                            global energy_t* partial, local energy_t* scratch, global float4* stats,
                            int want_stats, int first)
 {
-    const int gid = first + get_global_id(0);
     energy_t sum = 0;
-    if (gid < nx * ny) {
+    const int base = first + CORRECT_SUM_NODES * get_global_id(0);
+    for (int n = 0; n < CORRECT_SUM_NODES && base + n < nx * ny; ++n) {
+        const int gid = base + n;
         const int i = gid % nx, j = gid / nx;
         float4 st = (float4)(NAN);
         // `periodic`: bit 0 x wraps, bit 1 y wraps; along a fixed axis the
@@ -125,8 +133,8 @@ kernel void correct_energy(global const float2* c, global const float* z, global
             const float3 f2 = (float3)(1.0f, 0.0f, z[n2] - zp);
             const float3 f1 = (float3)(1.0f, -1.0f, z[n1] - zp);
             const float3 f0 = (float3)(0.0f, -1.0f, z[n0] - zp);
-            sum = correct_triangle_energy(e2, e1, f2, f1, theta, itheta) +
-                  correct_triangle_energy(e1, e0, f1, f0, theta, itheta);
+            sum += correct_triangle_energy(e2, e1, f2, f1, theta, itheta) +
+                   correct_triangle_energy(e1, e0, f1, f0, theta, itheta);
             if (want_stats) {
                 // s1/s2 from k' = s1/s2 + s2/s1 >= 2; s1 s2 = A3 / Auv.
                 float2 ee[2][2] = {{e2, e1}, {e1, e0}};
@@ -155,13 +163,17 @@ kernel void correct_energy(global const float2* c, global const float* z, global
 }
 
 // Sum of the per-node energy falls of an iteration (correct_phase's gain;
-// zero where nothing moved), per work-group in a fixed order: the energy
-// change that decides convergence, without recomputing the energy.
+// zero where nothing moved), CORRECT_SUM_NODES a work-item, per work-group
+// in a fixed order: the energy change that decides convergence, without
+// recomputing the energy.
 kernel void correct_gain_sum(global const energy_t* gain, int count, global energy_t* partial,
                              local energy_t* scratch)
 {
-    const int gid = get_global_id(0);
-    correct_group_sum(gid < count ? gain[gid] : 0, scratch, partial);
+    const int base = CORRECT_SUM_NODES * get_global_id(0);
+    energy_t sum = 0;
+    for (int n = 0; n < CORRECT_SUM_NODES && base + n < count; ++n)
+        sum += gain[base + n];
+    correct_group_sum(sum, scratch, partial);
 }
 
 // Which tiles must run phase `phase` next: those with a node that moved,
@@ -612,6 +624,212 @@ kernel void correct_phase(global float2* c, global const float* z, global const 
     }
 #endif
 #undef FAN_E
+}
+
+// ---------------------------------------------------------------------------
+// Global steps (docs/design.md §4.5.3c): every node moves at once along
+// D = -S, S = sum over scales l of P^l R^l G, G the energy gradient of every
+// node, R full weighting onto the lattice of every other node (weights
+// 1/2, 1, 1/2 per axis), P = R^T bilinear interpolation back; pinned nodes
+// are zero at every scale. Since G.D = -sum |R^l G|^2 (masked), D descends;
+// the scales' sum is the multilevel (BPX) preconditioner of an
+// elasticity-like energy, whose hats have scale-free stiffness in 2-D. The
+// host searches the step along D by the total energy, within the first
+// flip anywhere.
+
+// Whether node (i, j) is pinned: a border node of a fixed axis.
+inline int correct_pinned(int i, int j, int nx, int ny, int periodic)
+{
+    return (!(periodic & 1) && (i == 0 || i == nx - 1)) || (!(periodic & 2) && (j == 0 || j == ny - 1));
+}
+
+// The energy gradient with respect to each node's offset (texels), summed
+// over its six fan triangles (each as correct_triangle_energy, by the
+// formulas of the hat gradient); zero at pinned nodes. k^theta in energy_t:
+// without fp64 a fan past float's range gives an infinite gradient, and the
+// host then takes no step.
+kernel void correct_gradient(global const float2* c, global const float* z, int nx, int ny, int periodic,
+                             float theta, global float2* grad)
+{
+    const int p = get_global_id(0);
+    if (p >= nx * ny)
+        return;
+    const int i = p % nx, j = p / nx;
+    float2 g = (float2)(0.0f);
+    if (!correct_pinned(i, j, nx, ny, periodic)) {
+        const float2 cp = c[p];
+        const float zp = z[p];
+        const int2 offs[6] = {(int2)(0, -1), (int2)(1, -1), (int2)(1, 0),
+                              (int2)(0, 1),  (int2)(-1, 1), (int2)(-1, 0)};
+        float2 e[6];
+        float3 f[6];
+#pragma unroll
+        for (int k = 0; k < 6; ++k) {
+            const int q = correct_node(i + offs[k].x, j + offs[k].y, nx, ny);
+            const float2 o = convert_float2(offs[k]);
+            e[k] = o + c[q] - cp;
+            f[k] = (float3)(o.x, o.y, z[q] - zp);  // component by component (Oclgrind)
+        }
+        // Fan triangle [p, Na, Nb], (a, b) = (2,1) (1,0) (0,5) (5,4) (4,3) (3,2):
+        // both edges move by -dc when p moves by dc.
+#pragma unroll
+        for (int k = 0; k < 6; ++k) {
+            const int a = (8 - k) % 6, b = (7 - k) % 6;
+            const float2 ea = e[a], eb = e[b];
+            const float3 fa = f[a], fb = f[b];
+            const float a3 = 0.5f * length(cross(fa, fb));
+            const float m11 = dot(fa, fa), m12 = dot(fa, fb), m22 = dot(fb, fb);
+            const float auv = 0.5f * (ea.y * eb.x - ea.x * eb.y);
+            const float q = m11 * dot(eb, eb) - 2.0f * m12 * dot(ea, eb) + m22 * dot(ea, ea);
+            const float inv = 1.0f / (a3 * auv);
+            const float kk = (a3 * a3 + auv * auv) * inv;
+            const energy_t kt = correct_pow_theta_total((energy_t)kk, theta);
+            const energy_t en = (energy_t)(0.25f * q * inv) * kt;
+            const float dQ = (float)((energy_t)(0.25f * inv) * kt);
+            const float dA = (float)en * (-1.0f / auv + theta / kk * (1.0f / a3 - a3 / (auv * auv)));
+            const float2 dQa = 2.0f * (m22 * ea - m12 * eb), dQb = 2.0f * (m11 * eb - m12 * ea);
+            const float2 dAa = 0.5f * (float2)(-eb.y, eb.x), dAb = 0.5f * (float2)(ea.y, -ea.x);
+            g -= dQ * (dQa + dQb) + dA * (dAa + dAb);
+        }
+    }
+    grad[p] = g;
+}
+
+// Full weighting of a fine field onto the coarse lattice (coarse node (I, J)
+// at fine node (2I, 2J)): the sum of the nine fine nodes around it,
+// weighted 1/2 per axis off centre, in a fixed order; beyond a fixed axis's
+// ends nothing; zero at the coarse lattice's pinned nodes.
+kernel void correct_restrict(global const float2* fine, int fnx, int fny, int periodic, global float2* coarse,
+                             int cnx, int cny)
+{
+    const int q = get_global_id(0);
+    if (q >= cnx * cny)
+        return;
+    const int I = q % cnx, J = q / cnx;
+    float2 sum = (float2)(0.0f);
+    if (!correct_pinned(I, J, cnx, cny, periodic))
+        for (int dy = -1; dy <= 1; ++dy) {
+            int y = 2 * J + dy;
+            if (periodic & 2)
+                y = relief_wrap(y, fny);
+            else if (y < 0 || y >= fny)
+                continue;
+            for (int dx = -1; dx <= 1; ++dx) {
+                int x = 2 * I + dx;
+                if (periodic & 1)
+                    x = relief_wrap(x, fnx);
+                else if (x < 0 || x >= fnx)
+                    continue;
+                sum += ((dx == 0 ? 1.0f : 0.5f) * (dy == 0 ? 1.0f : 0.5f)) * fine[y * fnx + x];
+            }
+        }
+    coarse[q] = sum;
+}
+
+// fine += the coarse field interpolated bilinearly at the fine nodes (the
+// transpose of correct_restrict); zero at pinned fine nodes.
+kernel void correct_prolong(global const float2* coarse, int cnx, int cny, global float2* fine, int fnx,
+                            int fny, int periodic)
+{
+    const int p = get_global_id(0);
+    if (p >= fnx * fny)
+        return;
+    const int i = p % fnx, j = p / fnx;
+    if (correct_pinned(i, j, fnx, fny, periodic)) {
+        fine[p] = (float2)(0.0f);
+        return;
+    }
+    const int I0 = i / 2, J0 = j / 2;
+    const int I1 = (i & 1) ? ((periodic & 1) ? relief_wrap(I0 + 1, cnx) : I0 + 1) : I0;
+    const int J1 = (j & 1) ? ((periodic & 2) ? relief_wrap(J0 + 1, cny) : J0 + 1) : J0;
+    const float w = ((i & 1) ? 0.5f : 1.0f) * ((j & 1) ? 0.5f : 1.0f);
+    float2 v = w * coarse[J0 * cnx + I0];
+    if (I1 != I0 && I1 < cnx)
+        v += w * coarse[J0 * cnx + I1];
+    if (J1 != J0 && J1 < cny) {
+        v += w * coarse[J1 * cnx + I0];
+        if (I1 != I0 && I1 < cnx)
+            v += w * coarse[J1 * cnx + I1];
+    }
+    fine[p] += v;
+}
+
+// The first step t > 0 at which a node's owned triangle flips moving every
+// node by -t S[node] (Auv(t) is quadratic: both edges change linearly),
+// and |S| at the node: per work-group, the least t and the largest |S|
+// (min and max: the same whatever the order). x = t, y = |S|.
+kernel void correct_step_limits(global const float2* c, global const float2* S, int nx, int ny, int periodic,
+                                global float2* partial, local float2* scratch)
+{
+    const int p = get_global_id(0);
+    float2 lim = (float2)(INFINITY, 0.0f);
+    if (p < nx * ny) {
+        const int i = p % nx, j = p / nx;
+        lim.y = length(S[p]);
+        if (((periodic & 1) || i + 1 < nx) && ((periodic & 2) || j >= 1)) {
+            const int n[3] = {correct_node(i + 1, j, nx, ny), correct_node(i + 1, j - 1, nx, ny),
+                              correct_node(i, j - 1, nx, ny)};
+            const float2 o[3] = {(float2)(1.0f, 0.0f), (float2)(1.0f, -1.0f), (float2)(0.0f, -1.0f)};
+            for (int t = 0; t < 2; ++t) {
+                const float2 ea = o[t] + c[n[t]] - c[p], eb = o[t + 1] + c[n[t + 1]] - c[p];
+                const float2 da = S[p] - S[n[t]], db = S[p] - S[n[t + 1]];  // d/dt of the edges
+                // 2 Auv(t) = a0 + a1 t + a2 t^2
+                const float a0 = ea.y * eb.x - ea.x * eb.y;
+                const float a1 = da.y * eb.x + ea.y * db.x - da.x * eb.y - ea.x * db.y;
+                const float a2 = da.y * db.x - da.x * db.y;
+                float r = INFINITY;
+                if (a2 == 0.0f) {
+                    if (a1 < 0.0f)
+                        r = -a0 / a1;
+                } else {
+                    const float disc = a1 * a1 - 4.0f * a2 * a0;
+                    if (disc >= 0.0f) {
+                        const float sq = sqrt(disc);
+                        // The roots without cancellation: q = -(a1 + sign(a1) sq) / 2.
+                        const float qq = -0.5f * (a1 + copysign(sq, a1));
+                        const float r1 = qq / a2, r2 = qq != 0.0f ? a0 / qq : INFINITY;
+                        if (r1 > 0.0f)
+                            r = fmin(r, r1);
+                        if (r2 > 0.0f)
+                            r = fmin(r, r2);
+                    }
+                }
+                lim.x = fmin(lim.x, r);
+            }
+        }
+    }
+    const int lid = get_local_id(0);
+    scratch[lid] = lim;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (int s = get_local_size(0) / 2; s > 0; s >>= 1) {
+        if (lid < s)
+            scratch[lid] =
+                (float2)(fmin(scratch[lid].x, scratch[lid + s].x), fmax(scratch[lid].y, scratch[lid + s].y));
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    if (lid == 0)
+        partial[get_group_id(0)] = scratch[0];
+}
+
+// G.S per work-group (CORRECT_SUM_NODES nodes a work-item, in order): the
+// step's slope is -G.S.
+kernel void correct_dot(global const float2* G, global const float2* S, int count, global energy_t* partial,
+                        local energy_t* scratch)
+{
+    const int base = CORRECT_SUM_NODES * get_global_id(0);
+    energy_t sum = 0;
+    for (int n = 0; n < CORRECT_SUM_NODES && base + n < count; ++n)
+        sum += (energy_t)G[base + n].x * S[base + n].x + (energy_t)G[base + n].y * S[base + n].y;
+    correct_group_sum(sum, scratch, partial);
+}
+
+// out = c - t S: the offsets after a step t along D = -S.
+kernel void correct_step(global const float2* c, global const float2* S, float t, int count,
+                         global float2* out)
+{
+    const int p = get_global_id(0);
+    if (p < count)
+        out[p] = c[p] - t * S[p];
 }
 
 // ---------------------------------------------------------------------------

@@ -515,7 +515,7 @@ TEST_CASE("cli: hats=always sweeps every iteration of every level, and -v and --
 {
     auto dir = scratch("hat_sweeps");
     const std::string height = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
-    auto r = run_cli("-v '" + height + "' --correct:scale=10:iterations=3:hats=always -o '" +
+    auto r = run_cli("-v '" + height + "' --correct:scale=10:iterations=3:hats=always:global=off -o '" +
                      (dir / "c.exr").string() + "' --report '" + (dir / "r.json").string() + "'");
     INFO(r.err);
     REQUIRE(r.rc == 0);
@@ -535,6 +535,37 @@ TEST_CASE("cli: hats=always sweeps every iteration of every level, and -v and --
     OIIO::ImageBuf c((dir / "c.exr").string());
     REQUIRE(c.read());
     CHECK(c.spec().get_string_attribute("relief:parameters").find(" hats=always") != std::string::npos);
+}
+
+TEST_CASE("cli: global=always steps after every iteration, and -v, --report and the parameters say so",
+          "[cli]")
+{
+    auto dir = scratch("global_steps");
+    const std::string height = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
+    auto r = run_cli("-v '" + height + "' --correct:scale=0.05:iterations=3:global=always -o '" +
+                     (dir / "c.exr").string() + "' --report '" + (dir / "r.json").string() + "'");
+    INFO(r.err);
+    REQUIRE(r.rc == 0);
+    const std::string json = slurp(dir / "r.json");
+    int levels = 0, stepped = 0;
+    for (std::size_t at = json.find("\"global_steps\": "); at != std::string::npos;
+         at = json.find("\"global_steps\": ", at + 1)) {
+        const double steps = relief::test::json_number(json, "global_steps", at);
+        CHECK(steps >= 0.0);
+        CHECK(steps <= 3.0);
+        ++levels;
+        stepped += steps > 0.0;
+    }
+    CHECK(levels >= 3);
+    CHECK(stepped >= 2);  // a step is kept only where it lowers the energy
+    std::size_t lines = 0;
+    for (std::size_t at = r.err.find(" global step(s), energy"); at != std::string::npos;
+         at = r.err.find(" global step(s), energy", at + 1))
+        ++lines;
+    CHECK(lines == std::size_t(stepped));
+    OIIO::ImageBuf c((dir / "c.exr").string());
+    REQUIRE(c.read());
+    CHECK(c.spec().get_string_attribute("relief:parameters").find(" global=always") != std::string::npos);
 }
 
 TEST_CASE("cli: -v says which share of the coarser offsets each correction level started from", "[cli]")

@@ -355,24 +355,31 @@ TEST_CASE("correct: convergence from the nodes' energy falls decides as the ener
     // the iteration at which the recomputed energy stops it.
     const int w = 160, h = 128;
     const std::vector<float> hts = bump_in_sea(w, h);
-    for (double tolerance : {1e-3, 1e-4}) {
+    for (auto [tolerance, global] : {std::pair{1e-3, false}, std::pair{1e-4, false}, std::pair{1e-4, true}}) {
         auto p = params(0.15, true);
         p.levels = 1;
         p.tolerance = tolerance;
+        // Global steps wake every tile (they move every node).
+        p.global = global ? host::CorrectParams::Global::Auto : host::CorrectParams::Global::Off;
         host::CorrectReport by_falls, by_energy;
         const auto a = run(hts, w, h, p, &by_falls);
         p.energy_each_iteration = true;
         const auto b = run(hts, w, h, p, &by_energy);
         const auto &fa = by_falls.levels.back(), &fb = by_energy.levels.back();
-        INFO("tolerance " << tolerance << ": iterations " << fa.iterations << " and " << fb.iterations
-                          << ", tiles run " << fa.tile_phases_run << " of " << fa.tile_phases);
+        INFO("tolerance " << tolerance << (global ? " with" : " without") << " global steps: iterations "
+                          << fa.iterations << " and " << fb.iterations << ", tiles run " << fa.tile_phases_run
+                          << " of " << fa.tile_phases);
         CHECK(fa.iterations == fb.iterations);
         CHECK(fa.converged);
         CHECK(fb.converged);
         CHECK(fa.energy_end == fb.energy_end);
         CHECK(a == b);
         CHECK(fa.iterations > 3);
-        CHECK(fa.tile_phases_run < fa.tile_phases * 9 / 10);
+        CHECK(fa.global_steps == fb.global_steps);
+        if (global)
+            CHECK(fa.global_steps > 0);
+        else
+            CHECK(fa.tile_phases_run < fa.tile_phases * 9 / 10);
     }
 }
 
@@ -503,6 +510,9 @@ TEST_CASE("correct: tile skipping changes no bit", "[correct]")
     for (auto [corner, levels] : {std::pair{false, 1}, std::pair{true, 1}, std::pair{false, 0}}) {
         auto p = params(0.15, true, corner);
         p.levels = levels;
+        // Global steps wake every tile: the fraction is measured without.
+        if (levels == 1)
+            p.global = host::CorrectParams::Global::Off;
         host::CorrectReport on, off;
         const auto a = run(hts, w, h, p, &on);
         p.skip_tiles = false;
@@ -791,15 +801,16 @@ TEST_CASE("correct: statistics larger than one device buffer come in chunks, sam
 {
     // 16 bytes of statistics per node passed the 4 GiB allocation limit of
     // PoCL at 16384^2. A cap between the offsets' 8 and the statistics' 16
-    // bytes per node makes them come in chunks here.
-    const int w = 48, h = 48;
+    // bytes per node makes them come in chunks here (of whole work-groups
+    // of the sum: 8 nodes a work-item).
+    const int w = 96, h = 96;
     const auto hts = waves(w, h, 1.0, 4);
     auto p = params(0.4, true, false);
     p.levels = 1;
     p.iterations = 3;
     host::CorrectReport whole, chunked;
     const auto a = run(hts, w, h, p, &whole);
-    ::setenv("RELIEF_DEVICE_MAX_ALLOC", "20000", 1);
+    ::setenv("RELIEF_DEVICE_MAX_ALLOC", "100000", 1);
     std::vector<float> b;
     try {
         b = run(hts, w, h, p, &chunked);
@@ -964,6 +975,148 @@ TEST_CASE("correct: one device iteration with a hat sweep equals the golden mode
     }
 }
 
+TEST_CASE("correct: one device iteration with a global step equals the golden model's", "[correct]")
+{
+    // global=always at one iteration: the node phases, then one step along
+    // the multilevel gradient, as the golden model's iterate() then
+    // global_step(). Periodic, fixed (an odd width) and mixed axes.
+    using P = host::Periodic;
+    for (auto [w, h, periodic] : {std::tuple{32, 32, P(true)}, std::tuple{33, 25, P(false)},
+                                  std::tuple{32, 21, P(true, false)}, std::tuple{40, 32, P(false, true)}}) {
+        const auto hts = waves(w, h, 1.0, 24);
+        const double scale = 0.5;
+        ref::CorrectionGrid g = centre_grid(hts, w, h, scale, periodic);
+        std::vector<double> c(2 * std::size_t(w) * h, 0.0);
+        ref::iterate(g, c);
+        const double e_nodes = ref::total_energy(g, c);
+        const bool moved = ref::global_step(g, c);
+        const double e_gold = ref::total_energy(g, c);
+        auto p = one_iteration(params(scale, periodic));
+        p.hats = host::CorrectParams::Hats::Off;
+        p.global = host::CorrectParams::Global::Always;
+        host::CorrectReport rep;
+        const auto out = run(hts, w, h, p, &rep);
+        const auto [dev, worst, largest] = agreement(out, c, w, h);
+        const double e_dev = ref::total_energy(g, dev);
+        INFO(w << "x" << h << " periodic x " << periodic.x << " y " << periodic.y
+               << ": energy after the nodes " << e_nodes << ", after the step " << e_gold << " (device "
+               << e_dev << "); max |offset| " << largest << ", max |device - golden| " << worst);
+        CHECK(moved);
+        CHECK(e_gold < e_nodes * (1.0 - 1e-4));  // the step lowered the energy
+        REQUIRE(rep.levels.size() == 1);
+        CHECK(rep.levels[0].global_steps == 1);
+        CHECK(worst <= 2e-2 * largest);
+        CHECK(std::abs(e_dev - e_gold) <= 1e-4 * e_gold);
+    }
+}
+
+TEST_CASE("correct: the multilevel gradient is the sum over hats of every scale", "[correct]")
+{
+    // S = G + sum over scales B = 2, 4, ... and hats phi of that scale of
+    // (phi . G) phi, written out directly: bilinear hats centred every B
+    // nodes (not on a fixed border), zero at pinned nodes, periodic ones
+    // the shorter way round. 17^2 fixed: B = 2, 4, 8; 16^2 periodic: B =
+    // 2, 4 (a periodic lattice keeps at least 4 nodes).
+    for (const bool periodic : {false, true}) {
+        const int n = periodic ? 16 : 17;
+        const auto hts = waves(n, n, 1.0, 25);
+        const ref::CorrectionGrid g = centre_grid(hts, n, n, 0.5, host::Periodic(periodic));
+        std::mt19937 rng(3);
+        std::uniform_real_distribution<double> u(-0.2, 0.2);
+        std::vector<double> c(2 * std::size_t(n) * n);
+        for (auto& v : c)
+            v = u(rng);
+        const auto pinned = [&](int i, int j) {
+            return !periodic && (i == 0 || j == 0 || i == n - 1 || j == n - 1);
+        };
+        std::vector<double> G(c.size(), 0.0), S(c.size(), 0.0);
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i)
+                if (!pinned(i, j)) {
+                    const ref::Vec2 d = ref::fan_gradient(g, c, i, j);
+                    G[2 * (j * n + i)] = S[2 * (j * n + i)] = d[0];
+                    G[2 * (j * n + i) + 1] = S[2 * (j * n + i) + 1] = d[1];
+                }
+        int scales = 0;
+        for (int B = 2; periodic ? n / B >= 4 : (n - 1) / B >= 2; B *= 2, ++scales) {
+            const auto w = [&](int x, int centre) {
+                int d = std::abs(x - centre);
+                if (periodic)
+                    d = std::min(d, n - d);
+                return d < B ? 1.0 - double(d) / B : 0.0;
+            };
+            for (int cj = 0; cj < n; cj += B)
+                for (int ci = 0; ci < n; ci += B) {
+                    if (pinned(ci, cj))
+                        continue;
+                    double a[2] = {0.0, 0.0};
+                    for (int j = 0; j < n; ++j)
+                        for (int i = 0; i < n; ++i)
+                            for (int d = 0; d < 2; ++d)
+                                a[d] += (pinned(i, j) ? 0.0 : w(i, ci) * w(j, cj)) * G[2 * (j * n + i) + d];
+                    for (int j = 0; j < n; ++j)
+                        for (int i = 0; i < n; ++i)
+                            for (int d = 0; d < 2; ++d)
+                                S[2 * (j * n + i) + d] += (pinned(i, j) ? 0.0 : w(i, ci) * w(j, cj)) * a[d];
+                }
+        }
+        const std::vector<double> got = ref::multilevel_gradient(g, c);
+        INFO((periodic ? "periodic " : "fixed ") << n << ": " << scales << " scales");
+        CHECK(scales == (periodic ? 2 : 3));
+        double worst = 0.0, largest = 0.0;
+        for (std::size_t k = 0; k < S.size(); ++k) {
+            worst = std::max(worst, std::abs(got[k] - S[k]));
+            largest = std::max(largest, std::abs(S[k]));
+        }
+        CHECK(largest > 0.0);
+        CHECK(worst <= 1e-12 * largest);
+    }
+}
+
+TEST_CASE("correct: global steps never raise the energy, and auto ends lower than without", "[correct]")
+{
+    const int w = 48, h = 40;
+    const auto hts = waves(w, h, 1.0, 26);
+    for (bool corner : {false, true})
+        for (const host::Periodic periodic :
+             {host::Periodic(true), host::Periodic(false), host::Periodic(false, true)}) {
+            INFO("corner " << corner << " periodic x " << periodic.x << " y " << periodic.y);
+            double previous = INFINITY;
+            for (int it = 1; it <= 4; ++it) {
+                auto p = params(0.5, periodic, corner);
+                p.levels = 1;
+                p.iterations = it;
+                p.threshold = 0.0;
+                p.hats = host::CorrectParams::Hats::Off;
+                p.global = host::CorrectParams::Global::Always;
+                host::CorrectReport rep;
+                run(hts, w, h, p, &rep);
+                INFO("iterations " << it << ": energy " << rep.energy_after << ", steps "
+                                   << rep.levels[0].global_steps);
+                REQUIRE(std::isfinite(rep.energy_after));  // no triangle flipped
+                CHECK(rep.energy_after <= previous * (1.0 + 1e-7));
+                CHECK(rep.levels[0].global_steps >= 1);
+                previous = rep.energy_after;
+            }
+        }
+    // Auto, to the tolerance on the whole pyramid: lower than without.
+    const int n = 128;
+    const auto big = waves(n, n, 1.0, 27);
+    auto p = params(0.05, host::Periodic(true));
+    host::CorrectReport with, without;
+    run(big, n, n, p, &with);
+    p.global = host::CorrectParams::Global::Off;
+    run(big, n, n, p, &without);
+    int steps = 0;
+    for (const auto& l : with.levels)
+        steps += l.global_steps;
+    for (const auto& l : without.levels)
+        CHECK(l.global_steps == 0);
+    INFO("energy with " << with.energy_after << " (" << steps << " steps), without " << without.energy_after);
+    CHECK(steps > 0);
+    CHECK(with.energy_after < without.energy_after);
+}
+
 TEST_CASE("correct: hat moves never raise the energy, and auto sweeps only slowly converging levels",
           "[correct]")
 {
@@ -1002,6 +1155,8 @@ TEST_CASE("correct: hat moves never raise the energy, and auto sweeps only slowl
     for (const auto& [scale, steep] : {std::pair{1.0, true}, std::pair{0.05, false}}) {
         INFO("scale " << scale);
         auto p = params(scale, host::Periodic(true));
+        p.hats = host::CorrectParams::Hats::Auto;
+        p.global = host::CorrectParams::Global::Off;
         host::CorrectReport with, without;
         const auto a = run(big, n, n, p, &with);
         p.hats = host::CorrectParams::Hats::Off;
@@ -1041,6 +1196,8 @@ TEST_CASE("correct: max_iterations bounds a level's work, each hat sweep counted
     const auto big = waves(n, n, 1.0, 23);
     auto p = params(1.0, host::Periodic(true));
     p.levels = 1;
+    p.hats = host::CorrectParams::Hats::Auto;
+    p.global = host::CorrectParams::Global::Off;  // counted alike, tested apart
     p.max_iterations = 60;
     p.tolerance = 1e-9;
     host::CorrectReport rep;

@@ -714,10 +714,14 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
          [](host::CorrectParams& p) { p.search = host::CorrectParams::Search::Golden; }},
         {"relax 1.2", [](CorrectOptions& o) { o.relax = 1.2f; },
          [](host::CorrectParams& p) { p.relax = 1.2f; }},
-        {"hats off", [](CorrectOptions& o) { o.hats = CorrectHats::Off; },
-         [](host::CorrectParams& p) { p.hats = host::CorrectParams::Hats::Off; }},
+        {"hats auto", [](CorrectOptions& o) { o.hats = CorrectHats::Auto; },
+         [](host::CorrectParams& p) { p.hats = host::CorrectParams::Hats::Auto; }},
         {"hats always", [](CorrectOptions& o) { o.hats = CorrectHats::Always; },
          [](host::CorrectParams& p) { p.hats = host::CorrectParams::Hats::Always; }},
+        {"global off", [](CorrectOptions& o) { o.global = CorrectGlobal::Off; },
+         [](host::CorrectParams& p) { p.global = host::CorrectParams::Global::Off; }},
+        {"global always", [](CorrectOptions& o) { o.global = CorrectGlobal::Always; },
+         [](host::CorrectParams& p) { p.global = host::CorrectParams::Global::Always; }},
         {"skip off", [](CorrectOptions& o) { o.skip_tiles = false; },
          [](host::CorrectParams& p) { p.skip_tiles = false; }},
     };
@@ -791,6 +795,10 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
                                                 : p.hats == host::CorrectParams::Hats::Always ? "always"
                                                                                               : "auto")) !=
               std::string::npos);
+        CHECK(par.find(std::string(" global=") + (p.global == host::CorrectParams::Global::Off ? "off"
+                                                  : p.global == host::CorrectParams::Global::Always
+                                                      ? "always"
+                                                      : "auto")) != std::string::npos);
         CHECK(par.find(" levels=" + (p.levels ? std::to_string(p.levels) : std::string("auto"))) !=
               std::string::npos);
         CHECK(par.find(" iterations=" + (p.iterations ? std::to_string(p.iterations)
@@ -941,6 +949,7 @@ TEST_CASE("options: correction skip=on skips still tiles, skip=off runs them all
     o.nodes = CorrectNodes::Center;
     o.boundary = CorrectBoundary::Periodic;
     o.levels = 1;
+    o.global = CorrectGlobal::Off;  // global steps wake every tile
     const ApiCorrection on = api_correct(height, o);
     o.skip_tiles = false;
     const ApiCorrection off = api_correct(height, o);
@@ -958,29 +967,41 @@ TEST_CASE("options: max_iterations stops a level that has not converged, and say
     o.nodes = CorrectNodes::Center;
     o.boundary = CorrectBoundary::Periodic;
     o.levels = 1;
-    o.max_iterations = 2;
+    o.max_iterations = 4;
+    // A global step counts as the iteration it costs: two iterations and
+    // their steps.
     const ApiCorrection got = api_correct(test::image(w, h, 1, hts), o);
     REQUIRE(got.report.levels.size() == 1);
     CHECK(got.report.levels[0].iterations == 2);
+    CHECK(got.report.levels[0].global_steps == 2);
     CHECK_FALSE(got.report.levels[0].converged);
-    CHECK(got.said.find("stopped at 2 iterations") != std::string::npos);
+    CHECK(got.said.find("stopped at 4 iterations (each global step counted as the iterations it costs)") !=
+          std::string::npos);
     host::CorrectParams p;
     p.scale = 0.3f;
     p.corner_nodes = false;
     p.levels = 1;
-    p.max_iterations = 2;
+    p.max_iterations = 4;
     CHECK(max_abs_diff(got.offsets, host_correct(hts, w, h, p).offsets) == 0.0);
+    o.global = CorrectGlobal::Off;
+    o.max_iterations = 2;
+    const ApiCorrection plain = api_correct(test::image(w, h, 1, hts), o);
+    CHECK(plain.report.levels[0].iterations == 2);
+    CHECK(plain.said.find("stopped at 2 iterations before") != std::string::npos);
     // A level that swept says that its sweeps counted towards the limit.
     const int n = 128;
     o.scale = 1.0f;
     o.max_iterations = 60;
     o.tolerance = 1e-9f;
+    o.hats = CorrectHats::Auto;
+    o.global = CorrectGlobal::Off;
     const ApiCorrection swept = api_correct(test::image(n, n, 1, waves(n, n, 1.0, 23)), o);
     REQUIRE(swept.report.levels.size() == 1);
     CHECK(swept.report.levels[0].hat_sweeps > 0);
     CHECK(swept.said.find("stopped at 60 iterations (each hat sweep counted as the iterations it costs)") !=
           std::string::npos);
     CHECK(got.said.find("hat sweep") == std::string::npos);
+    CHECK(swept.said.find("global step") == std::string::npos);
 }
 
 TEST_CASE("options: inconsistent or out-of-range options are refused by the API", "[options][errors]")

@@ -226,6 +226,8 @@ void every_stage(const std::vector<Simulator>& sims, const std::string& only = "
         {"correct ternary", h32 + " --correct:iterations=4:levels=1:search=ternary -o OUT", 0, 0.02},
         // hat moves: one work-item per hat, radius 2 to 8 (a sweep each iteration)
         {"correct hats", h32 + " --correct:iterations=2:levels=1:hats=always -o OUT", 0, 0.02},
+        // global steps: the gradient, the lattices down and up, the limits' min/max sums
+        {"correct global", h32 + " --correct:iterations=2:levels=1:hats=off:global=always -o OUT", 0, 0.02},
         {"bake",
          "'" + in.colour32.string() + "' " + h32 + " --correct:iterations=4:levels=1 --bake -d float -o OUT",
          0, 0.02},

@@ -466,4 +466,170 @@ int hat_sweep(const CorrectionGrid& g, std::vector<double>& c)
     return scales;
 }
 
+namespace {
+
+// A field of 2-vectors on an nx x ny lattice.
+struct Lattice {
+    int nx = 0, ny = 0;
+    std::vector<double> v;  // 2 per node
+};
+
+bool lattice_pinned(int i, int j, int nx, int ny, bool px, bool py)
+{
+    return (!px && (i == 0 || i == nx - 1)) || (!py && (j == 0 || j == ny - 1));
+}
+
+// Full weighting onto every other node: weights 1, 1/2 per axis off centre.
+Lattice restrict_lattice(const Lattice& f, bool px, bool py)
+{
+    Lattice c;
+    c.nx = px ? f.nx / 2 : (f.nx - 1) / 2 + 1;
+    c.ny = py ? f.ny / 2 : (f.ny - 1) / 2 + 1;
+    c.v.assign(2 * std::size_t(c.nx) * c.ny, 0.0);
+    for (int J = 0; J < c.ny; ++J)
+        for (int I = 0; I < c.nx; ++I) {
+            if (lattice_pinned(I, J, c.nx, c.ny, px, py))
+                continue;
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    int x = 2 * I + dx, y = 2 * J + dy;
+                    if (px)
+                        x = wrap(x, f.nx);
+                    if (py)
+                        y = wrap(y, f.ny);
+                    if (x < 0 || x >= f.nx || y < 0 || y >= f.ny)
+                        continue;
+                    const double w = (dx ? 0.5 : 1.0) * (dy ? 0.5 : 1.0);
+                    for (int d = 0; d < 2; ++d)
+                        c.v[2 * (std::size_t(J) * c.nx + I) + d] +=
+                            w * f.v[2 * (std::size_t(y) * f.nx + x) + d];
+                }
+        }
+    return c;
+}
+
+// f += c interpolated bilinearly (the transpose of restrict_lattice);
+// pinned nodes of f zero.
+void prolong_lattice(const Lattice& c, Lattice& f, bool px, bool py)
+{
+    for (int j = 0; j < f.ny; ++j)
+        for (int i = 0; i < f.nx; ++i) {
+            double* out = &f.v[2 * (std::size_t(j) * f.nx + i)];
+            if (lattice_pinned(i, j, f.nx, f.ny, px, py)) {
+                out[0] = out[1] = 0.0;
+                continue;
+            }
+            for (int J = j / 2; J <= (j + 1) / 2; ++J)
+                for (int I = i / 2; I <= (i + 1) / 2; ++I) {
+                    const int x = px ? wrap(I, c.nx) : I, y = py ? wrap(J, c.ny) : J;
+                    if (x >= c.nx || y >= c.ny)
+                        continue;
+                    const double w = (i & 1 ? 0.5 : 1.0) * (j & 1 ? 0.5 : 1.0);
+                    for (int d = 0; d < 2; ++d)
+                        out[d] += w * c.v[2 * (std::size_t(y) * c.nx + x) + d];
+                }
+        }
+}
+
+bool lattice_halves(int n, bool periodic)
+{
+    return periodic ? n % 2 == 0 && n / 2 >= 4 : (n - 1) / 2 + 1 >= 3;
+}
+
+}  // namespace
+
+std::vector<double> multilevel_gradient(const CorrectionGrid& g, const std::vector<double>& c)
+{
+    Lattice G{g.nx, g.ny, std::vector<double>(2 * std::size_t(g.nx) * g.ny, 0.0)};
+    for (int j = 0; j < g.ny; ++j)
+        for (int i = 0; i < g.nx; ++i)
+            if (movable(g, i, j)) {
+                const Vec2 d = fan_gradient(g, c, i, j);
+                G.v[2 * (std::size_t(j) * g.nx + i)] = d[0];
+                G.v[2 * (std::size_t(j) * g.nx + i) + 1] = d[1];
+            }
+    std::vector<Lattice> lat{G};
+    while (lattice_halves(lat.back().nx, g.periodic_x) && lattice_halves(lat.back().ny, g.periodic_y))
+        lat.push_back(restrict_lattice(lat.back(), g.periodic_x, g.periodic_y));
+    for (std::size_t l = lat.size() - 1; l > 0; --l)
+        prolong_lattice(lat[l], lat[l - 1], g.periodic_x, g.periodic_y);
+    return lat[0].v;
+}
+
+bool global_step(const CorrectionGrid& g, std::vector<double>& c)
+{
+    std::vector<double> G(2 * std::size_t(g.nx) * g.ny, 0.0);
+    for (int j = 0; j < g.ny; ++j)
+        for (int i = 0; i < g.nx; ++i)
+            if (movable(g, i, j)) {
+                const Vec2 d = fan_gradient(g, c, i, j);
+                G[2 * (std::size_t(j) * g.nx + i)] = d[0];
+                G[2 * (std::size_t(j) * g.nx + i) + 1] = d[1];
+            }
+    const std::vector<double> S = multilevel_gradient(g, c);
+    double slope = 0.0, largest = 0.0;
+    for (std::size_t k = 0; k < S.size(); k += 2) {
+        slope -= G[k] * S[k] + G[k + 1] * S[k + 1];
+        largest = std::max(largest, std::hypot(S[k], S[k + 1]));
+    }
+    // The first flip moving every node by -t S: per owned triangle, 2 Auv(t)
+    // is a quadratic in t.
+    double flip = kInf;
+    for (const Triangle& t : owned_triangles(g)) {
+        const Vec2 ea = texture_edge(g, c, t.p, t.a), eb = texture_edge(g, c, t.p, t.b);
+        const Vec2 da{S[2 * t.p] - S[2 * t.a], S[2 * t.p + 1] - S[2 * t.a + 1]};
+        const Vec2 db{S[2 * t.p] - S[2 * t.b], S[2 * t.p + 1] - S[2 * t.b + 1]};
+        const double a0 = ea[1] * eb[0] - ea[0] * eb[1];
+        const double a1 = da[1] * eb[0] + ea[1] * db[0] - da[0] * eb[1] - ea[0] * db[1];
+        const double a2 = da[1] * db[0] - da[0] * db[1];
+        if (a2 == 0.0) {
+            if (a1 < 0.0)
+                flip = std::min(flip, -a0 / a1);
+            continue;
+        }
+        const double disc = a1 * a1 - 4.0 * a2 * a0;
+        if (disc < 0.0)
+            continue;
+        for (const double r : {(-a1 - std::sqrt(disc)) / (2.0 * a2), (-a1 + std::sqrt(disc)) / (2.0 * a2)})
+            if (r > 0.0)
+                flip = std::min(flip, r);
+    }
+    if (!(slope < 0.0) || !(largest > 0.0) || !(flip > 0.0))
+        return false;
+    const double E0 = total_energy(g, c);
+    std::vector<double> moved(c.size());
+    const auto energy_at = [&](double t) {
+        for (std::size_t k = 0; k < c.size(); ++k)
+            moved[k] = c[k] - t * S[k];
+        return total_energy(g, moved);
+    };
+    double best = E0, best_t = 0.0;
+    double probe = std::min(0.5 * flip, 1.0 / largest);
+    for (int tries = 0; tries < 3 && best_t == 0.0; ++tries, probe *= 0.125) {
+        const double ep = energy_at(probe);
+        if (!std::isfinite(ep))
+            continue;
+        if (ep < best) {
+            best = ep;
+            best_t = probe;
+        }
+        const double curvature = (ep - E0 - slope * probe) / (probe * probe);
+        if (curvature > 0.0) {
+            const double t = std::min(-slope / (2.0 * curvature), 0.95 * flip);
+            if (t > 0.0 && t != probe) {
+                const double es = energy_at(t);
+                if (std::isfinite(es) && es < best) {
+                    best = es;
+                    best_t = t;
+                }
+            }
+        }
+    }
+    if (best_t == 0.0 || !(best < E0 - 1e-6 * E0))
+        return false;
+    for (std::size_t k = 0; k < c.size(); ++k)
+        c[k] -= best_t * S[k];
+    return true;
+}
+
 }  // namespace relief::reference

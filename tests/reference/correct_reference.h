@@ -68,4 +68,18 @@ void iterate(const CorrectionGrid& g, std::vector<double>& c);
 // lowers that energy by more than 1e-6 relative. Returns the scales swept.
 int hat_sweep(const CorrectionGrid& g, std::vector<double>& c);
 
+// Global steps (docs/design.md §4.5.3c), without fixation. S: every
+// movable node's energy gradient G (pinned nodes 0), plus, for every
+// coarser lattice (every other node of the last, while a fixed axis keeps
+// a free node and a periodic one halves evenly into at least 4), its full
+// weighting (1, 1/2 per axis off centre; pinned nodes 0) interpolated
+// bilinearly back (2 per node).
+std::vector<double> multilevel_gradient(const CorrectionGrid& g, const std::vector<double>& c);
+// One step along -S: t from a probe at min(half the first flip of any
+// triangle, 1 / max |S|) and the minimum of the parabola through E(0),
+// E'(0) = -G.S and it (capped at 0.95 of the flip; then 1/8 and 1/64 of
+// the probe while neither was lower), the lowest kept if it lowers the
+// total energy by more than 1e-6 relative. Returns whether it moved.
+bool global_step(const CorrectionGrid& g, std::vector<double>& c);
+
 }  // namespace relief::reference

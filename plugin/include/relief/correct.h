@@ -49,8 +49,17 @@ enum class CorrectSearch { Brent, Golden, Ternary };
 // it on a node per iteration. Auto: sweeps on levels the nodes alone would
 // take long to converge (maps with cliffs), interleaved with the nodes'
 // iterations as their falls per cost compare; always: every iteration
-// (tests, comparisons); off: single nodes only. Off under fixation.
+// (tests, comparisons); off (the default since global steps, which do
+// their work for less): single nodes only. Off under fixation.
 enum class CorrectHats { Auto, Off, Always };
+// Global steps: every node at once along the energy's gradient summed over
+// bilinear hats of every scale (a multilevel preconditioner), the step
+// searched on the total energy within the first flip anywhere: smooth
+// error across the whole level in one step. Auto: after the first
+// iteration of each level, then while a step falls more per cost than the
+// nodes' iteration; always: after every iteration (tests, comparisons);
+// off: as before them. Off under fixation.
+enum class CorrectGlobal { Auto, Off, Always };
 
 // mean, 95th percentile and maximum over the triangles of the mesh
 struct DistortionSummary {
@@ -68,7 +77,8 @@ struct CorrectLevelReport {
     // 0.75, 0.5, 0.25 or 0, whichever had the lowest energy; 0 at the
     // coarsest level).
     double start_factor = 0.0;
-    int hat_sweeps = 0;  // sweeps of hat moves over every scale (CorrectHats)
+    int hat_sweeps = 0;    // sweeps of hat moves over every scale (CorrectHats)
+    int global_steps = 0;  // global steps taken (CorrectGlobal)
 };
 
 struct CorrectReport {
@@ -116,7 +126,8 @@ struct CorrectOptions {
     // Over-relaxation factor in [1, 2): a node moves `relax` times its
     // searched step when that also lowers the energy (1 = plain steps).
     float relax = 1.5f;
-    CorrectHats hats = CorrectHats::Auto;
+    CorrectHats hats = CorrectHats::Off;
+    CorrectGlobal global = CorrectGlobal::Auto;
     CorrectReport* report = nullptr;  // filled when given
     Execution exec;
 };

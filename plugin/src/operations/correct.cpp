@@ -47,6 +47,21 @@ const char* hats_name(CorrectHats h)
     return h == CorrectHats::Off ? "off" : h == CorrectHats::Always ? "always" : "auto";
 }
 
+// What the iteration limit counted besides the nodes' iterations.
+std::string counted_as_iterations(const CorrectLevelReport& l)
+{
+    const std::string what = l.hat_sweeps && l.global_steps ? "each hat sweep and global step"
+                             : l.hat_sweeps                 ? "each hat sweep"
+                             : l.global_steps               ? "each global step"
+                                                            : "";
+    return what.empty() ? what : " (" + what + " counted as the iterations it costs)";
+}
+
+const char* global_name(CorrectGlobal g)
+{
+    return g == CorrectGlobal::Off ? "off" : g == CorrectGlobal::Always ? "always" : "auto";
+}
+
 }  // namespace
 
 std::string CorrectReport::to_json() const
@@ -76,7 +91,8 @@ std::string CorrectReport::to_json() const
                                {"tiles_run", l.tiles_run},
                                {"seconds", l.seconds},
                                {"start_factor", l.start_factor},
-                               {"hat_sweeps", l.hat_sweeps}});
+                               {"hat_sweeps", l.hat_sweeps},
+                               {"global_steps", l.global_steps}});
     j["anisotropy"] = {{"before", stats(anisotropy_before)}, {"after", stats(anisotropy_after)}};
     j["area_ratio"] = {{"before", stats(area_before)}, {"after", stats(area_after)}};
     j["seconds"] = seconds;
@@ -151,6 +167,9 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         p.hats = options.hats == CorrectHats::Off      ? host::CorrectParams::Hats::Off
                  : options.hats == CorrectHats::Always ? host::CorrectParams::Hats::Always
                                                        : host::CorrectParams::Hats::Auto;
+        p.global = options.global == CorrectGlobal::Off      ? host::CorrectParams::Global::Off
+                   : options.global == CorrectGlobal::Always ? host::CorrectParams::Global::Always
+                                                             : host::CorrectParams::Global::Auto;
 
         auto ctx = host::ComputeContext::acquire(options.exec.device);
         detail::say(options.exec, Severity::Info, "device: " + ctx->device().describe());
@@ -172,7 +191,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         for (const auto& l : hr.levels)
             rep.levels.push_back({l.width, l.height, l.iterations, l.energy_start, l.energy_end, l.converged,
                                   l.tile_phases ? double(l.tile_phases_run) / l.tile_phases : 1.0, l.seconds,
-                                  l.start_factor, l.hat_sweeps});
+                                  l.start_factor, l.hat_sweeps, l.global_steps});
         rep.anisotropy_before = summary(hr.anisotropy_before);
         rep.anisotropy_after = summary(hr.anisotropy_after);
         rep.area_before = summary(hr.area_before);
@@ -193,6 +212,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
                     "correct: level " + std::to_string(l.width) + "x" + std::to_string(l.height) + ": " +
                         std::to_string(l.iterations) + " iteration(s)" +
                         (l.hat_sweeps ? " and " + std::to_string(l.hat_sweeps) + " hat sweep(s)" : "") +
+                        (l.global_steps ? " and " + std::to_string(l.global_steps) + " global step(s)" : "") +
                         ", energy " + f(l.energy_start) +
                         (&l == &rep.levels.front() ? ""
                                                    : " (from the coarser offsets x" +
@@ -203,9 +223,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
             if (!rep.levels.empty() && !rep.levels.back().converged && options.iterations == 0)
                 detail::say(ex, Severity::Warning,
                             "correct: stopped at " + std::to_string(options.max_iterations) + " iterations" +
-                                (rep.levels.back().hat_sweeps
-                                     ? " (each hat sweep counted as the iterations it costs)"
-                                     : "") +
+                                counted_as_iterations(rep.levels.back()) +
                                 " before the relative energy change fell below " + f(options.tolerance));
             detail::say(ex, Severity::Info,
                         "correct: energy " + f(rep.energy_before) + " -> " + f(rep.energy_after) +
@@ -238,7 +256,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
             << " iterations=" << (p.iterations ? std::to_string(p.iterations) : "auto")
             << " levels=" << (p.levels ? std::to_string(p.levels) : "auto") << " threshold=" << p.threshold
             << " search=" << search_name(options.search) << " relax=" << p.relax
-            << " hats=" << hats_name(options.hats);
+            << " hats=" << hats_name(options.hats) << " global=" << global_name(options.global);
         spec.attribute("relief:parameters", par.str());
         detail::set_result(dst, spec, offsets.data());
         return true;

@@ -120,8 +120,17 @@ Operation correct_operation()
                 {"auto", CorrectHats::Auto}, {"off", CorrectHats::Off}, {"always", CorrectHats::Always}},
             "",
             "hat moves (regions of nodes under bilinear hats of every scale move together): auto "
-            "where the nodes alone converge slowly (cliffs), always (every iteration) or off; off "
-            "under fix"),
+            "where the nodes alone converge slowly (cliffs), always (every iteration) or off (global "
+            "steps do their work for less); off under fix"),
+        choice(
+            "global", [k](auto& c) -> auto& { return k(c).global; },
+            std::vector<std::pair<std::string, CorrectGlobal>>{{"auto", CorrectGlobal::Auto},
+                                                               {"off", CorrectGlobal::Off},
+                                                               {"always", CorrectGlobal::Always}},
+            "",
+            "global steps (every node at once along the gradient summed over hats of every scale, the "
+            "step searched on the total energy): auto after each iteration while they pay, always or "
+            "off; off under fix"),
     };
     op.validate = [](const OperationCall& c) {
         CorrectOptions o = c.correct;
