@@ -247,6 +247,28 @@ inline float correct_fan_energy(float t, const FanPolys* fp, float2 cp, float2 d
 #define CORRECT_NODES 1
 #endif
 
+// The texture edges e[k] and surface edges f[k] from node (i, j) to its
+// neighbours N0..N5 (texels).
+inline void correct_fan_edges(global const float2* c, global const float* z, int nx, int ny, int i, int j,
+                              float2* e, float3* f)
+{
+    const int p = j * nx + i;
+    const float2 cp = c[p];
+    const float zp = z[p];
+    const int2 offs[6] = {(int2)(0, -1), (int2)(1, -1), (int2)(1, 0),
+                          (int2)(0, 1),  (int2)(-1, 1), (int2)(-1, 0)};
+#pragma unroll
+    for (int k = 0; k < 6; ++k) {
+        const int q = correct_node(i + offs[k].x, j + offs[k].y, nx, ny);
+        const float2 o = convert_float2(offs[k]);
+        e[k] = o + c[q] - cp;
+        // Component by component: a float3 made of a float2 and a float
+        // crashes Oclgrind's uninitialised-value checks on unoptimised code
+        // (tests/portability/float3_from_float2.cpp).
+        f[k] = (float3)(o.x, o.y, z[q] - zp);
+    }
+}
+
 // One node's line-search problem.
 typedef struct {
     FanPolys fp;
@@ -281,22 +303,10 @@ inline NodeSearch correct_prepare(global const float2* c, global const float* z,
 
     const int p = j * nx + i;
     const float2 cp = c[p];
-    const float zp = z[p];
     const float w = use_fix ? fix_w[p] : 0.0f;
-    const int2 offs[6] = {(int2)(0, -1), (int2)(1, -1), (int2)(1, 0),
-                          (int2)(0, 1),  (int2)(-1, 1), (int2)(-1, 0)};
     float2 e[6];
     float3 f[6];
-#pragma unroll
-    for (int k = 0; k < 6; ++k) {
-        const int q = correct_node(i + offs[k].x, j + offs[k].y, nx, ny);
-        const float2 o = convert_float2(offs[k]);
-        e[k] = o + c[q] - cp;
-        // Component by component: a float3 made of a float2 and a float
-        // crashes Oclgrind's uninitialised-value checks on unoptimised code
-        // (tests/portability/float3_from_float2.cpp).
-        f[k] = (float3)(o.x, o.y, z[q] - zp);
-    }
+    correct_fan_edges(c, z, nx, ny, i, j, e, f);
 
     // The six fan triangles [p, Na, Nb] in lanes 0-5 (Na, Nb = neighbours
     // (2,1) (1,0) (0,5) (5,4) (4,3) (3,2)); lanes 6, 7 repeat triangle 0 so
@@ -657,19 +667,9 @@ kernel void correct_gradient(global const float2* c, global const float* z, int 
     const int i = p % nx, j = p / nx;
     float2 g = (float2)(0.0f);
     if (!correct_pinned(i, j, nx, ny, periodic)) {
-        const float2 cp = c[p];
-        const float zp = z[p];
-        const int2 offs[6] = {(int2)(0, -1), (int2)(1, -1), (int2)(1, 0),
-                              (int2)(0, 1),  (int2)(-1, 1), (int2)(-1, 0)};
         float2 e[6];
         float3 f[6];
-#pragma unroll
-        for (int k = 0; k < 6; ++k) {
-            const int q = correct_node(i + offs[k].x, j + offs[k].y, nx, ny);
-            const float2 o = convert_float2(offs[k]);
-            e[k] = o + c[q] - cp;
-            f[k] = (float3)(o.x, o.y, z[q] - zp);  // component by component (Oclgrind)
-        }
+        correct_fan_edges(c, z, nx, ny, i, j, e, f);
         // Fan triangle [p, Na, Nb], (a, b) = (2,1) (1,0) (0,5) (5,4) (4,3) (3,2):
         // both edges move by -dc when p moves by dc.
 #pragma unroll
