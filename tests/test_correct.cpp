@@ -474,6 +474,7 @@ TEST_CASE("correct: periodic seams stay continuous (shift equivariance)", "[corr
     // border of the other axis stays where it is).
     const int w = 64, h = 64, shift = 32;
     const auto hts = waves(w, h, 1.0, 8);
+    const bool fp64 = host::ComputeContext::acquire("auto")->fp64();
     for (const host::Periodic axes :
          {host::Periodic(true), host::Periodic(true, false), host::Periodic(false, true)}) {
         const int sx = axes.x ? shift : 0, sy = axes.y ? shift : 0;
@@ -496,7 +497,11 @@ TEST_CASE("correct: periodic seams stay continuous (shift equivariance)", "[corr
             INFO("periodic x " << axes.x << " y " << axes.y << ", corner " << corner << ": max offset "
                                << largest << ", max shift difference " << worst);
             CHECK(largest > 1e-4);
-            CHECK(worst <= 1e-6 * largest + 1e-9);
+            // Without fp64 a global step's length comes from float sums of
+            // the energy, whose rounding follows the order of the nodes:
+            // shifted, the steps differ by parts in 10^3 (llvmpipe: 2e-3 of
+            // the largest offset). A seam bug differs by the offsets' order.
+            CHECK(worst <= (fp64 ? 1e-6 : 1e-2) * largest + 1e-9);
         }
     }
 }
