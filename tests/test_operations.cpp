@@ -47,11 +47,11 @@ bool same_options(const OperationCall& a, const OperationCall& b)
            c.boundary == d.boundary && c.fix_height == d.fix_height && c.fix_width == d.fix_width &&
            a.fix_file == b.fix_file && c.iterations == d.iterations && c.tolerance == d.tolerance &&
            c.levels == d.levels && c.threshold == d.threshold && c.skip_tiles == d.skip_tiles &&
-           c.search == d.search && c.relax == d.relax && a.bake.filter == b.bake.filter &&
-           a.bake.colorspace == b.bake.colorspace && a.bake.kind == b.bake.kind &&
-           a.bake.wrap == b.bake.wrap && a.normals.convention == b.normals.convention &&
-           a.normals.scale == b.normals.scale && a.normals.boundary == b.normals.boundary &&
-           same_tessellation(a.tessellation, b.tessellation) &&
+           c.search == d.search && c.relax == d.relax && c.hats == d.hats && c.global == d.global &&
+           a.bake.filter == b.bake.filter && a.bake.colorspace == b.bake.colorspace &&
+           a.bake.kind == b.bake.kind && a.bake.wrap == b.bake.wrap &&
+           a.normals.convention == b.normals.convention && a.normals.scale == b.normals.scale &&
+           a.normals.boundary == b.normals.boundary && same_tessellation(a.tessellation, b.tessellation) &&
            same_tessellation(a.mesh.tessellation, b.mesh.tessellation) && a.mesh.out == b.mesh.out &&
            dec(a.preview.normals, b.preview.normals) && a.preview.azimuth == b.preview.azimuth &&
            a.preview.elevation == b.preview.elevation && a.preview.env == b.preview.env &&
