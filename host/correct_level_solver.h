@@ -313,7 +313,7 @@ public:
                     phase_group_);
             }
             double next = from_gains ? e - gain_sum() : energy();
-            const double rel_nodes = (e - next) / std::max(std::abs(e), 1e-300);
+            const double rel_nodes = relative_fall(e, next);
             if (hat_sweep_due(lv.hat_sweeps, it, rel_nodes, rel_nodes_before, hat_fall, tolerance,
                               double(limit) - spent(it))) {
                 const double before = next;
@@ -321,7 +321,7 @@ public:
                     clear_gains();
                 hat_sweep();
                 next = from_gains ? before - gain_sum() : energy();
-                hat_fall = (before - next) / std::max(std::abs(before), 1e-300);
+                hat_fall = relative_fall(before, next);
                 ++lv.hat_sweeps;
             }
             if (global_step_due(global_tries, rel_nodes, global_fall, tolerance, double(limit) - spent(it))) {
@@ -329,12 +329,12 @@ public:
                 ++global_tries;
                 global_fall = 0.0;
                 if (global_step(next)) {
-                    global_fall = (before - next) / std::max(std::abs(before), 1e-300);
+                    global_fall = relative_fall(before, next);
                     ++lv.global_steps;
                 }
             }
             rel_nodes_before = rel_nodes;
-            const double rel = (e - next) / std::max(std::abs(e), 1e-300);
+            const double rel = relative_fall(e, next);
             e = next;
             lv.iterations = it;
             if (on_iteration)
@@ -353,6 +353,12 @@ public:
     }
 
 private:
+    // The fall from `before` to `after` relative to `before`.
+    static double relative_fall(double before, double after)
+    {
+        return (before - after) / std::max(std::abs(before), 1e-300);
+    }
+
     // Whether an axis of n lattice nodes halves into another lattice (every
     // other node): a fixed axis while the coarser keeps a free node, a
     // periodic one while it halves evenly into at least 4.
