@@ -403,7 +403,8 @@ private:
     {
         const std::size_t esize = fp64_ ? sizeof(double) : sizeof(float);
         const std::size_t limits_group = c_.group_size(limits_k_, sizeof(cl_float2));
-        const std::size_t limits_items = round_up(nodes_, limits_group);
+        // Eight nodes a work-item (correct_step_limits).
+        const std::size_t limits_items = round_up((nodes_ + 7) / 8, limits_group);
         if (global_bufs_.empty()) {
             for (int k = 0; k < 3; ++k)  // the gradient, S, the offsets after a step
                 global_bufs_.push_back(c_.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * nodes_,

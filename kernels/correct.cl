@@ -66,19 +66,6 @@ inline energy_t correct_pow_theta_total(energy_t x, float theta)
 #endif
 }
 
-inline energy_t correct_triangle_energy(float2 e1, float2 e2, float3 f1, float3 f2, float theta, int itheta)
-{
-    const float auv = 0.5f * (e1.y * e2.x - e1.x * e2.y);
-    if (!(auv > 0.0f))
-        return INFINITY;
-    const float a3 = 0.5f * length(cross(f1, f2));
-    const float m11 = dot(f1, f1), m12 = dot(f1, f2), m22 = dot(f2, f2);
-    const float q = m11 * dot(e2, e2) - 2.0f * m12 * dot(e1, e2) + m22 * dot(e1, e1);
-    const float inv = 1.0f / (a3 * auv);
-    const float k = (a3 * a3 + auv * auv) * inv;
-    return (energy_t)(0.25f * q * inv) * correct_pow_theta_total((energy_t)k, theta);
-}
-
 // Fixation energy of a node with weight w (texel units): 0.5 / (1 - w^2 |c|^2),
 // infinite at and beyond |c| = 1/w.
 inline float correct_fix_energy(float2 c, float w)
@@ -99,65 +86,138 @@ RELIEF_DEFINE_GROUP_SUM(correct_group_sum, energy_t)
 // rounds cost CPU back ends a pass over every item each (PoCL: 8 ns a node
 // at one node an item, about half the energy kernel's time and all of the
 // gain sum's).
-#define CORRECT_SUM_NODES 8
+#define CORRECT_SUM_NODES 8  // the energy's float8 lanes (and the step limits') assume 8
+
+#ifdef RELIEF_FP64
+typedef double8 energy8_t;
+#define convert_energy8 convert_double8
+#else
+typedef float8 energy8_t;
+#define convert_energy8 convert_float8
+#endif
+#ifdef CORRECT_ITHETA
+RELIEF_DEFINE_POWN(correct_pown_total8, energy8_t)
+#endif
+
+// The energies of eight triangles [p, a, b] in lanes (a, b: the texture
+// edges, fa, fb the surface edges), infinite
+// where flipped; with stats, s1/s2 and s1 s2 (the anisotropy and the area
+// ratio).
+inline energy8_t correct_triangle_energy8(float8 ax, float8 ay, float8 bx, float8 by, float8 fax, float8 fay,
+                                          float8 faz, float8 fbx, float8 fby, float8 fbz, float theta,
+                                          float8* aniso, float8* area)
+{
+    const float8 auv = 0.5f * (ay * bx - ax * by);
+    const float8 cx = fay * fbz - faz * fby, cy = faz * fbx - fax * fbz, cz = fax * fby - fay * fbx;
+    const float8 a3 = 0.5f * sqrt(cx * cx + cy * cy + cz * cz);
+    const float8 m11 = fax * fax + fay * fay + faz * faz, m12 = fax * fbx + fay * fby + faz * fbz,
+                 m22 = fbx * fbx + fby * fby + fbz * fbz;
+    const float8 q = m11 * (bx * bx + by * by) - 2.0f * m12 * (ax * bx + ay * by) + m22 * (ax * ax + ay * ay);
+    const float8 inv = 1.0f / (a3 * auv);
+    const float8 k = (a3 * a3 + auv * auv) * inv;
+#ifdef CORRECT_ITHETA
+    const energy8_t kt = correct_pown_total8(convert_energy8(k), CORRECT_ITHETA);
+#else
+    const energy8_t kt = pow(convert_energy8(k), (energy8_t)(theta));
+#endif
+    const int8 good = auv > 0.0f;
+    if (aniso) {
+        // s1/s2 from k' = s1/s2 + s2/s1 >= 2; s1 s2 = A3 / Auv.
+        const float8 kk = 0.25f * q * inv;
+        *aniso = select((float8)(INFINITY), 0.5f * (kk + sqrt(fmax(kk * kk - 4.0f, 0.0f))), good);
+        *area = select((float8)(INFINITY), a3 / auv, good);
+    }
+    return select((energy8_t)(INFINITY), convert_energy8(0.25f * q * inv) * kt,
+#ifdef RELIEF_FP64
+                  convert_long8(good)
+#else
+                  good
+#endif
+    );
+}
 
 // Total energy: the triangles each node owns plus its fixation term, summed
 // in a fixed order (deterministic), one partial per work-group. With
 // `stats`, also writes per owned triangle the anisotropy s1/s2 and the
 // area ratio s1 s2 (float4 per node: T1 then T2; NaN where a triangle does
 // not exist at a fixed boundary). Work-item k sums the nodes first +
-// CORRECT_SUM_NODES k onwards: the statistics of a large map come in chunks
-// that fit one device buffer; stats[0] is node `first`, partial[0] its
-// group.
+// CORRECT_SUM_NODES (8) k onwards, their triangles in float8 lanes (scalar
+// code cost 14% of a 1024^2 wall's run): the statistics of a large map come
+// in chunks that fit one device buffer; stats[0] is node `first`,
+// partial[0] its group.
 kernel void correct_energy(global const float2* c, global const float* z, global const float* fix_w,
                            int use_fix, int nx, int ny, int periodic, float theta, int itheta,
                            global energy_t* partial, local energy_t* scratch, global float4* stats,
                            int want_stats, int first)
 {
-    energy_t sum = 0;
-    const int base = first + CORRECT_SUM_NODES * get_global_id(0);
-    for (int n = 0; n < CORRECT_SUM_NODES && base + n < nx * ny; ++n) {
+    const int base = first + 8 * get_global_id(0);
+    // Per lane (node): the edges to its neighbours (1,0), (1,-1), (0,-1);
+    // a node that owns no triangle (or lies past the end) holds a flat
+    // fan's, masked out below.
+    float e2x[8], e2y[8], e1x[8], e1y[8], e0x[8], e0y[8], z2[8], z1[8], z0[8];
+    int owns[8];
+#pragma unroll
+    for (int n = 0; n < 8; ++n) {
         const int gid = base + n;
         const int i = gid % nx, j = gid / nx;
-        float4 st = (float4)(NAN);
+        e2x[n] = 1.0f;
+        e2y[n] = 0.0f;
+        e1x[n] = 1.0f;
+        e1y[n] = -1.0f;
+        e0x[n] = 0.0f;
+        e0y[n] = -1.0f;
+        z2[n] = z1[n] = z0[n] = 0.0f;
         // `periodic`: bit 0 x wraps, bit 1 y wraps; along a fixed axis the
         // last column (first row) owns no triangle.
-        if (((periodic & 1) || i + 1 < nx) && ((periodic & 2) || j >= 1)) {
-            const float2 cp = c[gid];
-            const float zp = z[gid];
-            const int n2 = correct_node(i + 1, j, nx, ny), n1 = correct_node(i + 1, j - 1, nx, ny),
-                      n0 = correct_node(i, j - 1, nx, ny);
-            const float2 e2 = (float2)(1.0f, 0.0f) + c[n2] - cp;
-            const float2 e1 = (float2)(1.0f, -1.0f) + c[n1] - cp;
-            const float2 e0 = (float2)(0.0f, -1.0f) + c[n0] - cp;
-            const float3 f2 = (float3)(1.0f, 0.0f, z[n2] - zp);
-            const float3 f1 = (float3)(1.0f, -1.0f, z[n1] - zp);
-            const float3 f0 = (float3)(0.0f, -1.0f, z[n0] - zp);
-            sum += correct_triangle_energy(e2, e1, f2, f1, theta, itheta) +
-                   correct_triangle_energy(e1, e0, f1, f0, theta, itheta);
-            if (want_stats) {
-                // s1/s2 from k' = s1/s2 + s2/s1 >= 2; s1 s2 = A3 / Auv.
-                float2 ee[2][2] = {{e2, e1}, {e1, e0}};
-                float3 ff[2][2] = {{f2, f1}, {f1, f0}};
-                float r[4];
-                for (int t = 0; t < 2; ++t) {
-                    const float2 a = ee[t][0], b = ee[t][1];
-                    const float3 fa = ff[t][0], fb = ff[t][1];
-                    const float auv = 0.5f * (a.y * b.x - a.x * b.y);
-                    const float a3 = 0.5f * length(cross(fa, fb));
-                    const float q =
-                        dot(fa, fa) * dot(b, b) - 2.0f * dot(fa, fb) * dot(a, b) + dot(fb, fb) * dot(a, a);
-                    const float kk = q / (4.0f * a3 * auv);
-                    r[2 * t] = auv > 0.0f ? 0.5f * (kk + sqrt(fmax(kk * kk - 4.0f, 0.0f))) : INFINITY;
-                    r[2 * t + 1] = auv > 0.0f ? a3 / auv : INFINITY;
-                }
-                st = (float4)(r[0], r[1], r[2], r[3]);
-            }
-        }
+        owns[n] = gid < nx * ny && ((periodic & 1) || i + 1 < nx) && ((periodic & 2) || j >= 1);
+        if (!owns[n])
+            continue;
+        const float2 cp = c[gid];
+        const float zp = z[gid];
+        const int n2 = correct_node(i + 1, j, nx, ny), n1 = correct_node(i + 1, j - 1, nx, ny),
+                  n0 = correct_node(i, j - 1, nx, ny);
+        const float2 e2 = (float2)(1.0f, 0.0f) + c[n2] - cp;
+        const float2 e1 = (float2)(1.0f, -1.0f) + c[n1] - cp;
+        const float2 e0 = (float2)(0.0f, -1.0f) + c[n0] - cp;
+        e2x[n] = e2.x;
+        e2y[n] = e2.y;
+        e1x[n] = e1.x;
+        e1y[n] = e1.y;
+        e0x[n] = e0.x;
+        e0y[n] = e0.y;
+        z2[n] = z[n2] - zp;
+        z1[n] = z[n1] - zp;
+        z0[n] = z[n0] - zp;
+    }
+    const float8 E2x = vload8(0, e2x), E2y = vload8(0, e2y), E1x = vload8(0, e1x), E1y = vload8(0, e1y),
+                 E0x = vload8(0, e0x), E0y = vload8(0, e0y);
+    const float8 F2z = vload8(0, z2), F1z = vload8(0, z1), F0z = vload8(0, z0);
+    float8 an1, ar1, an2, ar2;
+    const energy8_t t1 =
+        correct_triangle_energy8(E2x, E2y, E1x, E1y, (float8)(1.0f), (float8)(0.0f), F2z, (float8)(1.0f),
+                                 (float8)(-1.0f), F1z, theta, want_stats ? &an1 : 0, &ar1);
+    const energy8_t t2 =
+        correct_triangle_energy8(E1x, E1y, E0x, E0y, (float8)(1.0f), (float8)(-1.0f), F1z, (float8)(0.0f),
+                                 (float8)(-1.0f), F0z, theta, want_stats ? &an2 : 0, &ar2);
+    energy_t e1s[8], e2s[8];
+    vstore8(t1, 0, e1s);
+    vstore8(t2, 0, e2s);
+    float a1s[8], r1s[8], a2s[8], r2s[8];
+    if (want_stats) {
+        vstore8(an1, 0, a1s);
+        vstore8(ar1, 0, r1s);
+        vstore8(an2, 0, a2s);
+        vstore8(ar2, 0, r2s);
+    }
+    energy_t sum = 0;
+    for (int n = 0; n < 8 && base + n < nx * ny; ++n) {
+        const int gid = base + n;
+        if (owns[n])
+            sum += e1s[n] + e2s[n];
         if (use_fix)
             sum += (energy_t)correct_fix_energy(c[gid], fix_w[gid]);
         if (want_stats)
-            stats[gid - first] = st;
+            stats[gid - first] = owns[n] ? (float4)(a1s[n], r1s[n], a2s[n], r2s[n]) : (float4)(NAN);
     }
     correct_group_sum(sum, scratch, partial);
 }
@@ -269,6 +329,66 @@ inline void correct_fan_edges(global const float2* c, global const float* z, int
     }
 }
 
+// The six fan triangles [p, Na, Nb] of a node in lanes 0-5 (Na, Nb =
+// neighbours (2,1) (1,0) (0,5) (5,4) (4,3) (3,2)); lanes 6, 7 repeat
+// triangle 0 so that they hold finite values, and are masked out of every
+// sum. In vector lanes, as the line search's energies: scalar code cost the
+// line search as much as twelve of its steps, and the global steps'
+// gradient 3x its time. kmax: the fan's largest k (area ratio term).
+typedef struct {
+    float8 e1x, e1y, e2x, e2y, m11, m12, m22, a3, auv, q, inv, kk;
+    float kmax;
+} FanLanes;
+
+inline FanLanes correct_fan_lanes(const float2* e, const float3* f)
+{
+    FanLanes L;
+    L.e1x = (float8)(e[2].x, e[1].x, e[0].x, e[5].x, e[4].x, e[3].x, e[2].x, e[2].x);
+    L.e1y = (float8)(e[2].y, e[1].y, e[0].y, e[5].y, e[4].y, e[3].y, e[2].y, e[2].y);
+    L.e2x = (float8)(e[1].x, e[0].x, e[5].x, e[4].x, e[3].x, e[2].x, e[1].x, e[1].x);
+    L.e2y = (float8)(e[1].y, e[0].y, e[5].y, e[4].y, e[3].y, e[2].y, e[1].y, e[1].y);
+    const float8 f1x = (float8)(f[2].x, f[1].x, f[0].x, f[5].x, f[4].x, f[3].x, f[2].x, f[2].x);
+    const float8 f1y = (float8)(f[2].y, f[1].y, f[0].y, f[5].y, f[4].y, f[3].y, f[2].y, f[2].y);
+    const float8 f1z = (float8)(f[2].z, f[1].z, f[0].z, f[5].z, f[4].z, f[3].z, f[2].z, f[2].z);
+    const float8 f2x = (float8)(f[1].x, f[0].x, f[5].x, f[4].x, f[3].x, f[2].x, f[1].x, f[1].x);
+    const float8 f2y = (float8)(f[1].y, f[0].y, f[5].y, f[4].y, f[3].y, f[2].y, f[1].y, f[1].y);
+    const float8 f2z = (float8)(f[1].z, f[0].z, f[5].z, f[4].z, f[3].z, f[2].z, f[1].z, f[1].z);
+    const float8 nx3 = f1y * f2z - f1z * f2y, ny3 = f1z * f2x - f1x * f2z, nz3 = f1x * f2y - f1y * f2x;
+    L.a3 = 0.5f * sqrt(nx3 * nx3 + ny3 * ny3 + nz3 * nz3);
+    L.m11 = f1x * f1x + f1y * f1y + f1z * f1z;
+    L.m12 = f1x * f2x + f1y * f2y + f1z * f2z;
+    L.m22 = f2x * f2x + f2y * f2y + f2z * f2z;
+    const float8 e11 = L.e1x * L.e1x + L.e1y * L.e1y, e12 = L.e1x * L.e2x + L.e1y * L.e2y,
+                 e22 = L.e2x * L.e2x + L.e2y * L.e2y;
+    L.auv = 0.5f * (L.e1y * L.e2x - L.e1x * L.e2y);
+    L.q = L.m11 * e22 - 2.0f * L.m12 * e12 + L.m22 * e11;
+    L.inv = 1.0f / (L.a3 * L.auv);
+    L.kk = (L.a3 * L.a3 + L.auv * L.auv) * L.inv;
+    const float4 k4 = fmax(L.kk.lo, L.kk.hi);
+    L.kmax = fmax(fmax(k4.x, k4.y), fmax(k4.z, k4.w));
+    return L;
+}
+
+// The analytic gradient of the fan's energy with respect to the node's
+// texture position (vertex 0 of every fan triangle), times K^-theta with
+// 1/K = inv_k (as the line search's fan energies).
+inline float2 correct_fan_gradient(const FanLanes* L, float inv_k, float theta)
+{
+    const int8 fan = (int8)(-1, -1, -1, -1, -1, -1, 0, 0);
+    const float8 gk = correct_pow_theta8(L->kk * inv_k, theta);  // (k/K)^theta
+    const float8 F = 0.25f * L->q * L->inv;
+    const float8 dE_dQ = 0.25f * L->inv * gk;
+    const float8 dE_dA =
+        F * (-gk / L->auv + theta * (gk / L->kk) * (1.0f / L->a3 - L->a3 / (L->auv * L->auv)));
+    const float8 w22 = 2.0f * (L->m22 - L->m12), w11 = 2.0f * (L->m11 - L->m12);
+    const float8 gx8 = select(
+        (float8)(0.0f), -(dE_dQ * (w22 * L->e1x + w11 * L->e2x) + dE_dA * 0.5f * (L->e1y - L->e2y)), fan);
+    const float8 gy8 = select(
+        (float8)(0.0f), -(dE_dQ * (w22 * L->e1y + w11 * L->e2y) + dE_dA * 0.5f * (L->e2x - L->e1x)), fan);
+    const float4 gx4 = gx8.lo + gx8.hi, gy4 = gy8.lo + gy8.hi;
+    return (float2)((gx4.x + gx4.y) + (gx4.z + gx4.w), (gy4.x + gy4.y) + (gy4.z + gy4.w));
+}
+
 // One node's line-search problem.
 typedef struct {
     FanPolys fp;
@@ -308,54 +428,17 @@ inline NodeSearch correct_prepare(global const float2* c, global const float* z,
     float3 f[6];
     correct_fan_edges(c, z, nx, ny, i, j, e, f);
 
-    // The six fan triangles [p, Na, Nb] in lanes 0-5 (Na, Nb = neighbours
-    // (2,1) (1,0) (0,5) (5,4) (4,3) (3,2)); lanes 6, 7 repeat triangle 0 so
-    // that they hold finite values, and are masked out of every sum. In
-    // vector lanes, as the line search's energies: scalar code here cost as
-    // much as twelve line-search steps.
-    const float8 e1x = (float8)(e[2].x, e[1].x, e[0].x, e[5].x, e[4].x, e[3].x, e[2].x, e[2].x);
-    const float8 e1y = (float8)(e[2].y, e[1].y, e[0].y, e[5].y, e[4].y, e[3].y, e[2].y, e[2].y);
-    const float8 e2x = (float8)(e[1].x, e[0].x, e[5].x, e[4].x, e[3].x, e[2].x, e[1].x, e[1].x);
-    const float8 e2y = (float8)(e[1].y, e[0].y, e[5].y, e[4].y, e[3].y, e[2].y, e[1].y, e[1].y);
-    const float8 f1x = (float8)(f[2].x, f[1].x, f[0].x, f[5].x, f[4].x, f[3].x, f[2].x, f[2].x);
-    const float8 f1y = (float8)(f[2].y, f[1].y, f[0].y, f[5].y, f[4].y, f[3].y, f[2].y, f[2].y);
-    const float8 f1z = (float8)(f[2].z, f[1].z, f[0].z, f[5].z, f[4].z, f[3].z, f[2].z, f[2].z);
-    const float8 f2x = (float8)(f[1].x, f[0].x, f[5].x, f[4].x, f[3].x, f[2].x, f[1].x, f[1].x);
-    const float8 f2y = (float8)(f[1].y, f[0].y, f[5].y, f[4].y, f[3].y, f[2].y, f[1].y, f[1].y);
-    const float8 f2z = (float8)(f[1].z, f[0].z, f[5].z, f[4].z, f[3].z, f[2].z, f[1].z, f[1].z);
-    const int8 fan = (int8)(-1, -1, -1, -1, -1, -1, 0, 0);
-
-    const float8 nx3 = f1y * f2z - f1z * f2y, ny3 = f1z * f2x - f1x * f2z, nz3 = f1x * f2y - f1y * f2x;
-    const float8 a3 = 0.5f * sqrt(nx3 * nx3 + ny3 * ny3 + nz3 * nz3);
-    const float8 m11 = f1x * f1x + f1y * f1y + f1z * f1z;
-    const float8 m12 = f1x * f2x + f1y * f2y + f1z * f2z;
-    const float8 m22 = f2x * f2x + f2y * f2y + f2z * f2z;
-    const float8 e11 = e1x * e1x + e1y * e1y, e12 = e1x * e2x + e1y * e2y, e22 = e2x * e2x + e2y * e2y;
-    const float8 auv = 0.5f * (e1y * e2x - e1x * e2y);
-    const float8 q = m11 * e22 - 2.0f * m12 * e12 + m22 * e11;
-    const float8 inv = 1.0f / (a3 * auv);
-    const float8 kk = (a3 * a3 + auv * auv) * inv;
-    const float4 k4 = fmax(kk.lo, kk.hi);
-    const float kmax = fmax(fmax(k4.x, k4.y), fmax(k4.z, k4.w));
+    const FanLanes L = correct_fan_lanes(e, f);
+    const float kmax = L.kmax;
     if (!(kmax > 0.0f) || !isfinite(kmax))
         return ns;  // a flipped or degenerate fan: nothing to search
     const float inv_k = 1.0f / kmax;
     // K^-theta scales the fixation term; only it needs the power.
     const float fix_scale = use_fix ? exp2(-theta * log2(kmax)) : 1.0f;
-
-    // Analytic gradient with respect to p's texture position (vertex 0 of
-    // every fan triangle), times K^-theta (as the fan energy).
-    const float8 gk = correct_pow_theta8(kk * inv_k, theta);  // (k/K)^theta
-    const float8 F = 0.25f * q * inv;
-    const float8 dE_dQ = 0.25f * inv * gk;
-    const float8 dE_dA = F * (-gk / auv + theta * (gk / kk) * (1.0f / a3 - a3 / (auv * auv)));
-    const float8 w22 = 2.0f * (m22 - m12), w11 = 2.0f * (m11 - m12);
-    const float8 gx8 =
-        select((float8)(0.0f), -(dE_dQ * (w22 * e1x + w11 * e2x) + dE_dA * 0.5f * (e1y - e2y)), fan);
-    const float8 gy8 =
-        select((float8)(0.0f), -(dE_dQ * (w22 * e1y + w11 * e2y) + dE_dA * 0.5f * (e2x - e1x)), fan);
-    const float4 gx4 = gx8.lo + gx8.hi, gy4 = gy8.lo + gy8.hi;
-    float2 g = (float2)((gx4.x + gx4.y) + (gx4.z + gx4.w), (gy4.x + gy4.y) + (gy4.z + gy4.w));
+    float2 g = correct_fan_gradient(&L, inv_k, theta);
+    const float8 e1x = L.e1x, e1y = L.e1y, e2x = L.e2x, e2y = L.e2y;
+    const float8 m11 = L.m11, m12 = L.m12, m22 = L.m22, auv = L.auv, q = L.q, a3 = L.a3;
+    const int8 fan = (int8)(-1, -1, -1, -1, -1, -1, 0, 0);
     if (use_fix) {
         const float u = 1.0f - w * w * dot(cp, cp);
         g += fix_scale * w * w * cp / (u * u);
@@ -654,10 +737,10 @@ inline int correct_pinned(int i, int j, int nx, int ny, int periodic)
 }
 
 // The energy gradient with respect to each node's offset (texels), summed
-// over its six fan triangles (each as correct_triangle_energy, by the
-// formulas of the hat gradient); zero at pinned nodes. k^theta in energy_t:
-// without fp64 a fan past float's range gives an infinite gradient, and the
-// host then takes no step.
+// over its six fan triangles (each as correct_triangle_energy8, by the line
+// search's formulas: correct_fan_gradient); zero at pinned nodes. K^theta in
+// energy_t: without fp64 a fan past float's range gives an infinite
+// gradient, and the host then takes no step.
 kernel void correct_gradient(global const float2* c, global const float* z, int nx, int ny, int periodic,
                              float theta, global float2* grad)
 {
@@ -670,26 +753,14 @@ kernel void correct_gradient(global const float2* c, global const float* z, int 
         float2 e[6];
         float3 f[6];
         correct_fan_edges(c, z, nx, ny, i, j, e, f);
-        // Fan triangle [p, Na, Nb], (a, b) = (2,1) (1,0) (0,5) (5,4) (4,3) (3,2):
-        // both edges move by -dc when p moves by dc.
-#pragma unroll
-        for (int k = 0; k < 6; ++k) {
-            const int a = (8 - k) % 6, b = (7 - k) % 6;
-            const float2 ea = e[a], eb = e[b];
-            const float3 fa = f[a], fb = f[b];
-            const float a3 = 0.5f * length(cross(fa, fb));
-            const float m11 = dot(fa, fa), m12 = dot(fa, fb), m22 = dot(fb, fb);
-            const float auv = 0.5f * (ea.y * eb.x - ea.x * eb.y);
-            const float q = m11 * dot(eb, eb) - 2.0f * m12 * dot(ea, eb) + m22 * dot(ea, ea);
-            const float inv = 1.0f / (a3 * auv);
-            const float kk = (a3 * a3 + auv * auv) * inv;
-            const energy_t kt = correct_pow_theta_total((energy_t)kk, theta);
-            const energy_t en = (energy_t)(0.25f * q * inv) * kt;
-            const float dQ = (float)((energy_t)(0.25f * inv) * kt);
-            const float dA = (float)en * (-1.0f / auv + theta / kk * (1.0f / a3 - a3 / (auv * auv)));
-            const float2 dQa = 2.0f * (m22 * ea - m12 * eb), dQb = 2.0f * (m11 * eb - m12 * ea);
-            const float2 dAa = 0.5f * (float2)(-eb.y, eb.x), dAb = 0.5f * (float2)(ea.y, -ea.x);
-            g -= dQ * (dQa + dQb) + dA * (dAa + dAb);
+        const FanLanes L = correct_fan_lanes(e, f);
+        if (!(L.kmax > 0.0f) || !isfinite(L.kmax)) {
+            g = (float2)(NAN);  // a flipped or degenerate fan: no step
+        } else {
+            // Scaled by K^-theta in the lanes (float), back in energy_t.
+            const float2 gs = correct_fan_gradient(&L, 1.0f / L.kmax, theta);
+            const energy_t kt = correct_pow_theta_total((energy_t)L.kmax, theta);
+            g = (float2)((float)(gs.x * kt), (float)(gs.y * kt));
         }
     }
     grad[p] = g;
@@ -757,47 +828,70 @@ kernel void correct_prolong(global const float2* coarse, int cnx, int cny, globa
 // The first step t > 0 at which a node's owned triangle flips moving every
 // node by -t S[node] (Auv(t) is quadratic: both edges change linearly),
 // and |S| at the node: per work-group, the least t and the largest |S|
-// (min and max: the same whatever the order). x = t, y = |S|.
+// (min and max: the same whatever the order). x = t, y = |S|. Eight nodes
+// a work-item, their triangles in float8 lanes without branches: the
+// roots' branches kept the CPU back end's code scalar (and the work-group
+// halving visits every item), 9% of a 1024^2 wall's run.
 kernel void correct_step_limits(global const float2* c, global const float2* S, int nx, int ny, int periodic,
                                 global float2* partial, local float2* scratch)
 {
-    const int p = get_global_id(0);
+    const int base = 8 * get_global_id(0);
     float2 lim = (float2)(INFINITY, 0.0f);
-    if (p < nx * ny) {
+    float ea_x[2][8], ea_y[2][8], eb_x[2][8], eb_y[2][8], da_x[2][8], da_y[2][8], db_x[2][8], db_y[2][8];
+    int owns[8];
+    const float2 o[3] = {(float2)(1.0f, 0.0f), (float2)(1.0f, -1.0f), (float2)(0.0f, -1.0f)};
+#pragma unroll
+    for (int n = 0; n < 8; ++n) {
+        const int p = base + n;
+        owns[n] = 0;
+        for (int t = 0; t < 2; ++t)
+            ea_x[t][n] = ea_y[t][n] = eb_x[t][n] = eb_y[t][n] = da_x[t][n] = da_y[t][n] = db_x[t][n] =
+                db_y[t][n] = 0.0f;
+        if (p >= nx * ny)
+            continue;
         const int i = p % nx, j = p / nx;
-        lim.y = length(S[p]);
-        if (((periodic & 1) || i + 1 < nx) && ((periodic & 2) || j >= 1)) {
-            const int n[3] = {correct_node(i + 1, j, nx, ny), correct_node(i + 1, j - 1, nx, ny),
-                              correct_node(i, j - 1, nx, ny)};
-            const float2 o[3] = {(float2)(1.0f, 0.0f), (float2)(1.0f, -1.0f), (float2)(0.0f, -1.0f)};
-            for (int t = 0; t < 2; ++t) {
-                const float2 ea = o[t] + c[n[t]] - c[p], eb = o[t + 1] + c[n[t + 1]] - c[p];
-                const float2 da = S[p] - S[n[t]], db = S[p] - S[n[t + 1]];  // d/dt of the edges
-                // 2 Auv(t) = a0 + a1 t + a2 t^2
-                const float a0 = ea.y * eb.x - ea.x * eb.y;
-                const float a1 = da.y * eb.x + ea.y * db.x - da.x * eb.y - ea.x * db.y;
-                const float a2 = da.y * db.x - da.x * db.y;
-                float r = INFINITY;
-                if (a2 == 0.0f) {
-                    if (a1 < 0.0f)
-                        r = -a0 / a1;
-                } else {
-                    const float disc = a1 * a1 - 4.0f * a2 * a0;
-                    if (disc >= 0.0f) {
-                        const float sq = sqrt(disc);
-                        // The roots without cancellation: q = -(a1 + sign(a1) sq) / 2.
-                        const float qq = -0.5f * (a1 + copysign(sq, a1));
-                        const float r1 = qq / a2, r2 = qq != 0.0f ? a0 / qq : INFINITY;
-                        if (r1 > 0.0f)
-                            r = fmin(r, r1);
-                        if (r2 > 0.0f)
-                            r = fmin(r, r2);
-                    }
-                }
-                lim.x = fmin(lim.x, r);
-            }
+        lim.y = fmax(lim.y, length(S[p]));
+        if (!(((periodic & 1) || i + 1 < nx) && ((periodic & 2) || j >= 1)))
+            continue;
+        owns[n] = -1;
+        const int m[3] = {correct_node(i + 1, j, nx, ny), correct_node(i + 1, j - 1, nx, ny),
+                          correct_node(i, j - 1, nx, ny)};
+        for (int t = 0; t < 2; ++t) {
+            const float2 ea = o[t] + c[m[t]] - c[p], eb = o[t + 1] + c[m[t + 1]] - c[p];
+            const float2 da = S[p] - S[m[t]], db = S[p] - S[m[t + 1]];  // d/dt of the edges
+            ea_x[t][n] = ea.x;
+            ea_y[t][n] = ea.y;
+            eb_x[t][n] = eb.x;
+            eb_y[t][n] = eb.y;
+            da_x[t][n] = da.x;
+            da_y[t][n] = da.y;
+            db_x[t][n] = db.x;
+            db_y[t][n] = db.y;
         }
     }
+    const int8 own = vload8(0, owns);
+    float8 first = (float8)(INFINITY);
+    for (int t = 0; t < 2; ++t) {
+        const float8 eax = vload8(0, ea_x[t]), eay = vload8(0, ea_y[t]), ebx = vload8(0, eb_x[t]),
+                     eby = vload8(0, eb_y[t]), dax = vload8(0, da_x[t]), day = vload8(0, da_y[t]),
+                     dbx = vload8(0, db_x[t]), dby = vload8(0, db_y[t]);
+        // 2 Auv(t) = a0 + a1 t + a2 t^2
+        const float8 a0 = eay * ebx - eax * eby;
+        const float8 a1 = day * ebx + eay * dbx - dax * eby - eax * dby;
+        const float8 a2 = day * dbx - dax * dby;
+        const float8 linear = select((float8)(INFINITY), -a0 / a1, a1 < 0.0f);
+        const float8 disc = a1 * a1 - 4.0f * a2 * a0;
+        // The roots without cancellation: q = -(a1 + sign(a1) sq) / 2.
+        const float8 qq = -0.5f * (a1 + copysign(sqrt(fmax(disc, 0.0f)), a1));
+        const float8 r1 = qq / a2, r2 = select((float8)(INFINITY), a0 / qq, qq != 0.0f);
+        const float8 quad =
+            select((float8)(INFINITY),
+                   fmin(select((float8)(INFINITY), r1, r1 > 0.0f), select((float8)(INFINITY), r2, r2 > 0.0f)),
+                   disc >= 0.0f);
+        first = fmin(first, select((float8)(INFINITY), select(quad, linear, a2 == 0.0f), own));
+    }
+    const float4 f4 = fmin(first.lo, first.hi);
+    lim.x = fmin(fmin(f4.x, f4.y), fmin(f4.z, f4.w));
     const int lid = get_local_id(0);
     scratch[lid] = lim;
     barrier(CLK_LOCAL_MEM_FENCE);
@@ -916,7 +1010,7 @@ inline float hat_axis_weight(int x, int c, int B, int n, int wraps)
     }
 
 // A triangle's energy from its texture edges and constants, as
-// correct_triangle_energy.
+// correct_triangle_energy8.
 inline energy_t hat_triangle_energy(float2 ea, float2 eb, float4 T, float theta)
 {
     const float auv = 0.5f * (ea.y * eb.x - ea.x * eb.y);
