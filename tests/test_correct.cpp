@@ -988,10 +988,10 @@ TEST_CASE("correct: one device iteration with a hat sweep equals the golden mode
     }
 }
 
-TEST_CASE("correct: the tolerance bounds the fall per unit of work", "[correct]")
+TEST_CASE("correct: the tolerance bounds the fall per pass over the nodes", "[correct]")
 {
     // global=always: an iteration is its node phases and a global step, two
-    // units of work, so auto stops at the first iteration that falls by
+    // passes over the nodes, so auto stops at the first iteration that falls by
     // less than twice the tolerance (relative), not once it. The energies
     // after k iterations come from runs of iterations=k (the same bits up
     // to there).

@@ -812,6 +812,10 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
     CHECK(results.back() == results.front());  // skip=off: the same bits
     for (std::size_t a = 0; a + 1 < results.size(); ++a)
         for (std::size_t b = a + 1; b + 1 < results.size(); ++b) {
+            // On this map auto takes a global step after every iteration, as
+            // always does; the max_iterations test tells them apart.
+            if (std::string(cases[a].name) == "base" && std::string(cases[b].name) == "global always")
+                continue;
             INFO(cases[a].name << " vs " << cases[b].name);
             CHECK(max_abs_diff(results[a], results[b]) > 1e-7);
         }
@@ -968,11 +972,12 @@ TEST_CASE("options: max_iterations stops a level that has not converged, and say
     o.boundary = CorrectBoundary::Periodic;
     o.levels = 1;
     o.max_iterations = 4;
-    // A global step counts as the iteration it costs: two iterations and
-    // their steps.
+    // A global step counts as the half iteration it costs: three
+    // iterations, and steps after the first two (the third would pass the
+    // limit).
     const ApiCorrection got = api_correct(test::image(w, h, 1, hts), o);
     REQUIRE(got.report.levels.size() == 1);
-    CHECK(got.report.levels[0].iterations == 2);
+    CHECK(got.report.levels[0].iterations == 3);
     CHECK(got.report.levels[0].global_steps == 2);
     CHECK_FALSE(got.report.levels[0].converged);
     CHECK(got.said.find("stopped at 4 iterations (each global step counted as the iterations it costs)") !=
@@ -983,6 +988,11 @@ TEST_CASE("options: max_iterations stops a level that has not converged, and say
     p.levels = 1;
     p.max_iterations = 4;
     CHECK(max_abs_diff(got.offsets, host_correct(hts, w, h, p).offsets) == 0.0);
+    // global=always steps whatever the limit leaves.
+    o.global = CorrectGlobal::Always;
+    const ApiCorrection always = api_correct(test::image(w, h, 1, hts), o);
+    CHECK(always.report.levels[0].iterations == 3);
+    CHECK(always.report.levels[0].global_steps == 3);
     o.global = CorrectGlobal::Off;
     o.max_iterations = 2;
     const ApiCorrection plain = api_correct(test::image(w, h, 1, hts), o);
