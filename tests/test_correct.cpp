@@ -952,6 +952,47 @@ TEST_CASE("correct: a level starts from the scaled coarse offsets of lowest ener
     CHECK(rep.levels.front().start_factor == 0.0);  // the coarsest starts at zero
 }
 
+TEST_CASE("correct: a level above the finest measures its own start", "[correct]")
+{
+    // Three levels (128x96, 64x48, 32x24): the finest takes its zero-offset
+    // energy from the one measured before the solve, the middle level must
+    // measure its own. Its start: the coarsest level's offsets times 1,
+    // 0.75, 0.5, 0.25 or 0, whichever has the lowest energy (the golden
+    // model's: 1 at scale 1, 0.75 at scale 10).
+    const int w = 128, h = 96, mw = 64, mh = 48, cw = 32, ch = 24;
+    const auto hts = waves(w, h, 1.0, 15);
+    const double scale = GENERATE(1.0, 10.0);
+    INFO("scale " << scale);
+    auto p = params(scale, true);
+    p.levels = 3;
+    host::CorrectReport rep;
+    run(hts, w, h, p, &rep);
+    REQUIRE(rep.levels.size() == 3);
+    auto pc = p;
+    pc.levels = 1;
+    const auto coarse = run(host::area_downsample(hts, w, h, cw, ch), cw, ch, pc);
+    const host::NodeGrid from(cw, ch, false, host::Periodic(true)), to(mw, mh, false, host::Periodic(true));
+    const auto up = host::upsample_offsets(coarse, from, to);
+    const auto g = centre_grid(host::area_downsample(hts, w, h, mw, mh), mw, mh, scale, true);
+    double best = ref::total_energy(g, std::vector<double>(2 * std::size_t(mw) * mh, 0.0)), factor = 0.0;
+    for (double f : {1.0, 0.75, 0.5, 0.25}) {
+        std::vector<double> c(up.size());
+        for (std::size_t i = 0; i < up.size(); i += 2) {
+            c[i] = double(float(f * double(up[i]) * mw));
+            c[i + 1] = double(float(f * double(up[i + 1]) * mh));
+        }
+        const double e = ref::total_energy(g, c);
+        INFO("factor " << f << " energy " << e);
+        if (std::isfinite(e) && e < best) {
+            best = e;
+            factor = f;
+        }
+    }
+    const auto& mid = rep.levels[1];
+    CHECK(mid.start_factor == factor);
+    CHECK(mid.energy_start == Approx(best).epsilon(1e-5));
+}
+
 TEST_CASE("correct: one device iteration with a hat sweep equals the golden model's", "[correct]")
 {
     // hats=always at one iteration: the node phases, then every scale of

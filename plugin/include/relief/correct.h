@@ -113,7 +113,7 @@ struct CorrectOptions {
     const OIIO::ImageBuf* fix_mask = nullptr;
     float fix_height = 0.0f, fix_width = 0.0f;
     int iterations = 0;       // per pyramid level; 0 = auto (until the tolerance)
-    float tolerance = 1e-5f;  // auto stops when the relative energy change is below this
+    float tolerance = 1e-5f;  // auto stops when the relative energy change per pass over the nodes is below this
     // Per level, for auto: node iterations, each hat sweep counted as the
     // iterations it costs (2.5 a scale of hats).
     int max_iterations = 1000;
