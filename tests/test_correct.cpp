@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <utility>
 
 #include "compute_context.h"
 #include "correct_grid.h"
@@ -907,6 +908,35 @@ TEST_CASE("correct: boundary=auto weighs the jump across each wrap seam against 
                Catch::StartsWith("correct: boundary periodic (") && Catch::Contains("x 1.00, y 1.00;"));
 }
 
+namespace {
+
+// The golden model's start of a periodic w x h level (centre nodes) from
+// the coarser level's cw x ch offsets: those upsampled times 1, 0.75, 0.5,
+// 0.25 or 0, whichever has the lowest energy. Returns {energy, factor}.
+std::pair<double, double> golden_start(const std::vector<float>& hts, int w, int h, double scale,
+                                       const std::vector<float>& coarse, int cw, int ch)
+{
+    const host::NodeGrid from(cw, ch, false, host::Periodic(true)), to(w, h, false, host::Periodic(true));
+    const auto up = host::upsample_offsets(coarse, from, to);
+    const auto g = centre_grid(hts, w, h, scale, true);
+    double best = ref::total_energy(g, std::vector<double>(2 * std::size_t(w) * h, 0.0)), factor = 0.0;
+    for (double f : {1.0, 0.75, 0.5, 0.25}) {
+        std::vector<double> c(up.size());
+        for (std::size_t i = 0; i < up.size(); i += 2) {
+            c[i] = double(float(f * double(up[i]) * w));
+            c[i + 1] = double(float(f * double(up[i + 1]) * h));
+        }
+        const double e = ref::total_energy(g, c);
+        if (std::isfinite(e) && e < best) {
+            best = e;
+            factor = f;
+        }
+    }
+    return {best, factor};
+}
+
+}  // namespace
+
 TEST_CASE("correct: a level starts from the scaled coarse offsets of lowest energy", "[correct]")
 {
     // Steep waves: at the finer level their slopes in texels double, and the
@@ -927,23 +957,7 @@ TEST_CASE("correct: a level starts from the scaled coarse offsets of lowest ener
     auto pc = p;
     pc.levels = 1;
     const auto coarse = run(small, cw, ch, pc);
-    const host::NodeGrid from(cw, ch, false, host::Periodic(true)), to(w, h, false, host::Periodic(true));
-    const auto up = host::upsample_offsets(coarse, from, to);
-    const auto g = centre_grid(hts, w, h, scale, true);
-    double best = ref::total_energy(g, std::vector<double>(2 * std::size_t(w) * h, 0.0)), factor = 0.0;
-    for (double f : {1.0, 0.75, 0.5, 0.25}) {
-        std::vector<double> c(up.size());
-        for (std::size_t i = 0; i < up.size(); i += 2) {
-            c[i] = double(float(f * double(up[i]) * w));
-            c[i + 1] = double(float(f * double(up[i + 1]) * h));
-        }
-        const double e = ref::total_energy(g, c);
-        INFO("factor " << f << " energy " << e);
-        if (std::isfinite(e) && e < best) {
-            best = e;
-            factor = f;
-        }
-    }
+    const auto [best, factor] = golden_start(hts, w, h, scale, coarse, cw, ch);
     const auto& fine = rep.levels.back();
     CHECK(fine.start_factor == factor);
     CHECK(fine.energy_start == Approx(best).epsilon(1e-5));
@@ -971,23 +985,8 @@ TEST_CASE("correct: a level above the finest measures its own start", "[correct]
     auto pc = p;
     pc.levels = 1;
     const auto coarse = run(host::area_downsample(hts, w, h, cw, ch), cw, ch, pc);
-    const host::NodeGrid from(cw, ch, false, host::Periodic(true)), to(mw, mh, false, host::Periodic(true));
-    const auto up = host::upsample_offsets(coarse, from, to);
-    const auto g = centre_grid(host::area_downsample(hts, w, h, mw, mh), mw, mh, scale, true);
-    double best = ref::total_energy(g, std::vector<double>(2 * std::size_t(mw) * mh, 0.0)), factor = 0.0;
-    for (double f : {1.0, 0.75, 0.5, 0.25}) {
-        std::vector<double> c(up.size());
-        for (std::size_t i = 0; i < up.size(); i += 2) {
-            c[i] = double(float(f * double(up[i]) * mw));
-            c[i + 1] = double(float(f * double(up[i + 1]) * mh));
-        }
-        const double e = ref::total_energy(g, c);
-        INFO("factor " << f << " energy " << e);
-        if (std::isfinite(e) && e < best) {
-            best = e;
-            factor = f;
-        }
-    }
+    const auto [best, factor] =
+        golden_start(host::area_downsample(hts, w, h, mw, mh), mw, mh, scale, coarse, cw, ch);
     const auto& mid = rep.levels[1];
     CHECK(mid.start_factor == factor);
     CHECK(mid.energy_start == Approx(best).epsilon(1e-5));
