@@ -8,8 +8,8 @@
 #include <chrono>
 #include <cmath>
 #include <future>
-#include <system_error>
 #include <limits>
+#include <system_error>
 
 #include "correct_grid.h"
 #include "correct_level_solver.h"
