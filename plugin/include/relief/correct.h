@@ -112,10 +112,12 @@ struct CorrectOptions {
     // |h - fix_height| / fix_width) when fix_width > 0.
     const OIIO::ImageBuf* fix_mask = nullptr;
     float fix_height = 0.0f, fix_width = 0.0f;
-    int iterations = 0;       // per pyramid level; 0 = auto (until the tolerance)
-    float tolerance = 1e-5f;  // auto stops when the relative energy change per pass over the nodes is below this
-    // Per level, for auto: node iterations, each hat sweep counted as the
-    // iterations it costs (2.5 a scale of hats).
+    int iterations = 0;  // per pyramid level; 0 = auto (until the tolerance)
+    // Auto stops when the relative energy change per pass over the nodes
+    // (the node phases, or a global step) is below this.
+    float tolerance = 1e-5f;
+    // Per level, for auto: node iterations, each hat sweep and global step
+    // counted as the iterations it costs (2.5 a scale of hats, 0.5 a step).
     int max_iterations = 1000;
     int levels = 0;  // coarse-to-fine levels; 0 = auto (down to 16 texels), 1 = off
     // Nothing is corrected when no triangle's anisotropy s1/s2 - 1 or area

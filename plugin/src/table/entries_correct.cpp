@@ -92,7 +92,8 @@ Operation correct_operation()
             "per coarse-to-fine level (auto: until the tolerance)"),
         number(
             detail::limits::tolerance, [k](auto& c) -> auto& { return k(c).tolerance; }, "TOL", "",
-            "relative energy change per pass over the nodes (a global step is one) at which iterations=auto stops"),
+            "relative energy change per pass over the nodes (a global step is one) at which iterations=auto "
+            "stops"),
         number(
             detail::limits::levels, [k](auto& c) -> auto& { return k(c).levels; }, "N", "",
             "coarse-to-fine levels (1 = single resolution; auto: down to 16 texels)"),
