@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <future>
 #include <limits>
 #include <system_error>
@@ -40,19 +42,45 @@ void validate(const CorrectParams& p, int w, int h)
             "CorrectParams within relief::validate()'s ranges");
 }
 
+// A float's bits as an unsigned key in the float order (negatives reversed).
+std::uint32_t order_key(float x)
+{
+    std::uint32_t u;
+    std::memcpy(&u, &x, sizeof u);
+    return u & 0x80000000u ? ~u : u | 0x80000000u;
+}
+
+// Mean, 95th percentile (the k-th smallest, exact) and largest. The
+// percentile's value is found by its key's top 16 bits first, counted in
+// one pass with the sum and the largest, then selected among the values
+// that share them: std::nth_element over every triangle cost 12 ms at
+// 1024^2, twice a run.
 DistortionStats summarise(std::vector<float>& v)
 {
     DistortionStats s;
     if (v.empty())
         return s;
+    std::vector<std::uint32_t> count(1 << 16, 0);
     double sum = 0.0;
-    for (float x : v)
+    float largest = v[0];
+    for (float x : v) {
         sum += x;
+        largest = std::max(largest, x);
+        ++count[order_key(x) >> 16];
+    }
     s.mean = sum / double(v.size());
-    const std::size_t k = std::min(v.size() - 1, std::size_t(std::ceil(0.95 * double(v.size()))) - 1);
-    std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(k), v.end());
-    s.p95 = v[k];
-    s.max = *std::max_element(v.begin(), v.end());
+    s.max = largest;
+    std::size_t k = std::min(v.size() - 1, std::size_t(std::ceil(0.95 * double(v.size()))) - 1);
+    std::uint32_t bucket = 0;
+    while (k >= count[bucket])
+        k -= count[bucket++];
+    std::vector<float> same;
+    same.reserve(count[bucket]);
+    for (float x : v)
+        if (order_key(x) >> 16 == bucket)
+            same.push_back(x);
+    std::nth_element(same.begin(), same.begin() + std::ptrdiff_t(k), same.end());
+    s.p95 = same[k];
     return s;
 }
 
