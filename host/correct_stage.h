@@ -41,6 +41,10 @@ struct CorrectParams {
     // nodes' falls (always so for tolerances below 1e-6): the same moves,
     // for tests and comparisons.
     bool energy_each_iteration = false;
+    // The finest level also stops once its next iteration's fall, shrinking
+    // at the rate of the last ones, is predicted below the tolerance
+    // (docs/design.md §4.5.3); off: it runs until a fall is below it (tests).
+    bool predict_stop = true;
     // Hat moves (docs/design.md §4.5.3b): regions of nodes moved together
     // under bilinear hats of every scale, where the nodes alone converge
     // slowly (auto), every iteration (always: tests, comparisons) or never.

@@ -956,10 +956,12 @@ TEST_CASE("correct: a level starts from the scaled coarse offsets of lowest ener
     host::CorrectReport rep;
     run(hts, w, h, p, &rep);
     REQUIRE(rep.levels.size() == 2);
-    // The coarse level alone, as the pyramid ran it.
+    // The coarse level alone, as the pyramid ran it (to the tolerance: only
+    // the finest level stops on a predicted fall).
     const auto small = host::area_downsample(hts, w, h, cw, ch);
     auto pc = p;
     pc.levels = 1;
+    pc.predict_stop = false;
     const auto coarse = run(small, cw, ch, pc);
     const auto [best, factor] = golden_start(hts, w, h, scale, coarse, cw, ch);
     const auto& fine = rep.levels.back();
@@ -988,6 +990,7 @@ TEST_CASE("correct: a level above the finest measures its own start", "[correct]
     REQUIRE(rep.levels.size() == 3);
     auto pc = p;
     pc.levels = 1;
+    pc.predict_stop = false;  // as the pyramid's coarsest level
     const auto coarse = run(host::area_downsample(hts, w, h, cw, ch), cw, ch, pc);
     const auto [best, factor] =
         golden_start(host::area_downsample(hts, w, h, mw, mh), mw, mh, scale, coarse, cw, ch);
@@ -1048,6 +1051,7 @@ TEST_CASE("correct: the tolerance bounds the fall per pass over the nodes", "[co
     p.hats = host::CorrectParams::Hats::Off;
     p.global = host::CorrectParams::Global::Always;
     p.tolerance = tol;
+    p.predict_stop = false;  // the next test's
     host::CorrectReport rep;
     run(hts, w, h, p, &rep);
     REQUIRE(rep.levels.size() == 1);
@@ -1067,6 +1071,58 @@ TEST_CASE("correct: the tolerance bounds the fall per pass over the nodes", "[co
     CHECK(std::abs(e[n] - rep.energy_after) <= 1e-9 * e[n]);
     CHECK(fall(n) < 2 * tol);
     CHECK(fall(n - 1) >= 2 * tol);
+}
+
+TEST_CASE("correct: the finest level stops once the next fall is predicted below the tolerance", "[correct]")
+{
+    // As the test before, with the prediction: falls f(k) per pass (two
+    // passes an iteration), rates r(k) = f(k) / f(k-1). The level stops
+    // after the first iteration n at which f(n) < tol, or f(n) < f(n-1) <
+    // f(n-2) and f(n) max(r(n), min(1, 2 r(n) - r(n-1))) < tol; here the
+    // prediction, not the fall, must stop it.
+    const int w = 48, h = 40;
+    const auto hts = waves(w, h, 1.0, 24);
+    const double tol = 1e-4;
+    auto p = params(0.5, host::Periodic(true));
+    p.levels = 1;
+    p.threshold = 0.0;
+    p.hats = host::CorrectParams::Hats::Off;
+    p.global = host::CorrectParams::Global::Always;
+    p.tolerance = tol;
+    host::CorrectReport rep, plain;
+    run(hts, w, h, p, &rep);
+    auto q = p;
+    q.predict_stop = false;
+    run(hts, w, h, q, &plain);
+    REQUIRE(rep.levels.size() == 1);
+    const int n = rep.levels[0].iterations, m = plain.levels[0].iterations;
+    REQUIRE(rep.levels[0].converged);
+    REQUIRE(n >= 4);
+    std::vector<double> e(n + 1, 0.0);  // e[k]: after k iterations
+    e[0] = rep.levels[0].energy_start;
+    for (int k = std::max(1, n - 4); k <= n; ++k) {
+        host::CorrectReport r;
+        auto qk = p;
+        qk.iterations = k;
+        run(hts, w, h, qk, &r);
+        e[k] = r.energy_after;
+    }
+    const auto f = [&](int k) { return (e[k - 1] - e[k]) / e[k - 1] / 2.0; };
+    const auto stops = [&](int k) {
+        if (f(k) < tol)
+            return true;
+        if (!(f(k) < f(k - 1) && f(k - 1) < f(k - 2)))
+            return false;
+        const double rate = f(k) / f(k - 1), last = f(k - 1) / f(k - 2);
+        return f(k) * std::max(rate, std::min(1.0, 2.0 * rate - last)) < tol;
+    };
+    INFO("stopped after " << n << " iterations (" << m << " without the prediction); falls per pass "
+                          << f(n - 2) << ", " << f(n - 1) << ", " << f(n));
+    CHECK(n < m);
+    CHECK(std::abs(e[n] - rep.energy_after) <= 1e-9 * e[n]);
+    CHECK(f(n) >= tol);
+    CHECK(stops(n));
+    CHECK_FALSE(stops(n - 1));
 }
 
 TEST_CASE("correct: one device iteration with a global step equals the golden model's", "[correct]")
