@@ -384,9 +384,10 @@ private:
     // the last ones, would be below the tolerance: a level whose falls
     // shrink geometrically then stops one iteration sooner, leaving a fall
     // below the tolerance undone (1024^2 wall: 8 iterations instead of 9,
-    // the energy 1e-4 higher). Convergence slows as it goes (the wall's
-    // rate rose from 0.12 to 0.70 per iteration), so the rate is the last
-    // one plus its last change, and none is predicted before two are known.
+    // the energy 7e-5 higher). Convergence slows as it goes (the wall's
+    // rate rose from 0.12 to 0.70 per iteration), so a rising rate is taken
+    // as the last plus its last change (at most 1); nothing is predicted
+    // before two rates are known, or while the falls do not shrink.
     static bool stop_predicted(double rel, double rel_before, double rel_before2, double tolerance)
     {
         if (!(rel > 0.0 && rel < rel_before && rel_before < rel_before2) || !std::isfinite(rel_before2))

@@ -114,7 +114,9 @@ struct CorrectOptions {
     float fix_height = 0.0f, fix_width = 0.0f;
     int iterations = 0;  // per pyramid level; 0 = auto (until the tolerance)
     // Auto stops when the relative energy change per pass over the nodes
-    // (the node phases, or a global step) is below this.
+    // (the node phases, or a global step) is below this; the finest level
+    // also when its next change, shrinking at the rate of the last ones,
+    // is predicted below it.
     float tolerance = 1e-5f;
     // Per level, for auto: node iterations, each hat sweep and global step
     // counted as the iterations it costs (2.5 a scale of hats, 0.5 a step).

@@ -93,7 +93,7 @@ Operation correct_operation()
         number(
             detail::limits::tolerance, [k](auto& c) -> auto& { return k(c).tolerance; }, "TOL", "",
             "relative energy change per pass over the nodes (a global step is one) at which iterations=auto "
-            "stops"),
+            "stops (the finest level also once the next is predicted below it)"),
         number(
             detail::limits::levels, [k](auto& c) -> auto& { return k(c).levels; }, "N", "",
             "coarse-to-fine levels (1 = single resolution; auto: down to 16 texels)"),
