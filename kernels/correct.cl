@@ -309,8 +309,8 @@ inline float correct_fan_energy(float t, const FanPolys* fp, float2 cp, float2 d
 
 // The texture edges e[k] and surface edges f[k] from node (i, j) to its
 // neighbours N0..N5 (texels).
-__attribute__((always_inline)) inline void correct_fan_edges(global const float2* c, global const float* z, int nx, int ny, int i, int j,
-                              float2* e, float3* f)
+RELIEF_INLINE void correct_fan_edges(global const float2* c, global const float* z, int nx, int ny, int i,
+                                     int j, float2* e, float3* f)
 {
     const int p = j * nx + i;
     const float2 cp = c[p];
@@ -399,9 +399,9 @@ typedef struct {
 
 // Gradient, direction and bracket of node (i, j); p = -1 when it cannot or
 // need not move (outside the grid, wrong class, fixed border, zero gradient).
-__attribute__((always_inline)) inline NodeSearch correct_prepare(global const float2* c, global const float* z, global const float* fix_w,
-                                  int use_fix, int nx, int ny, int periodic, int class_x, int class_y, int i,
-                                  int j, float theta, int itheta)
+RELIEF_INLINE NodeSearch correct_prepare(global const float2* c, global const float* z,
+                                         global const float* fix_w, int use_fix, int nx, int ny, int periodic,
+                                         int class_x, int class_y, int i, int j, float theta, int itheta)
 {
     NodeSearch ns;
     ns.p = -1;
