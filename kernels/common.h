@@ -11,8 +11,14 @@
 // A helper the compiler must inline: PoCL's CPU back end called large
 // helpers, returning their structs through memory (the correction's node
 // search, 300 bytes: 0.88x a 1024^2 wall's run once inlined, the same bits).
-// Clang-based OpenCL compilers know the attribute; others ignore it.
+// Clang-based OpenCL compilers know the attribute; others ignore it. Only
+// when optimising: under -cl-opt-disable the forced inliner leaves calls to
+// llvm.experimental.noalias.scope.decl, which Oclgrind 21.10 cannot run.
+#ifdef __OPTIMIZE__
 #define RELIEF_INLINE __attribute__((always_inline)) inline
+#else
+#define RELIEF_INLINE inline
+#endif
 
 // Wraps an integer coordinate into [0, n) for periodic textures; offsets may
 // exceed n when a ray is longer than the texture.
