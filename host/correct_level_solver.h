@@ -97,7 +97,6 @@ public:
         const std::size_t tiles = std::size_t(tiles_x_) * tiles_y_;
         moved_ = c_.buffer(CL_MEM_READ_WRITE, tiles * phases_.size(), "distortion correction");
         active_ = c_.buffer(CL_MEM_READ_WRITE, tiles, "distortion correction");
-        itheta_ = p.theta == std::floor(p.theta) ? int(p.theta) : -1;
         // Hat moves leave fixation out of their energy, so they are off
         // with it; scales from B = 2 while both axes hold two hats a class
         // and the device lets a hat's work-item loop that long (llvmpipe
@@ -174,7 +173,6 @@ public:
             energy_k_.setArg(a++, cl_int(g_.ny));
             energy_k_.setArg(a++, cl_int(g_.periodic.bits()));
             energy_k_.setArg(a++, float(p_.theta));
-            energy_k_.setArg(a++, cl_int(itheta_));
             energy_k_.setArg(a++, partial_);
             energy_k_.setArg(a++, cl::Local(esize * g));
             energy_k_.setArg(a++, stats);
@@ -263,9 +261,13 @@ public:
         // iterations only.
         const double sweep_cost = kHatSweepCostPerScale * double(hat_scales_.size());
         int global_tries = 0;  // global steps tried, kept or not
+        // Node iterations, hat sweeps and global steps in node iterations,
+        // a step at `step` of one.
+        const auto work = [&](double iterations, int sweeps, int steps, double step) {
+            return iterations + sweeps * sweep_cost + steps * step;
+        };
         const auto spent = [&](int it) {
-            return p_.iterations > 0 ? double(it)
-                                     : it + lv.hat_sweeps * sweep_cost + global_tries * kGlobalStepCost;
+            return p_.iterations > 0 ? double(it) : work(it, lv.hat_sweeps, global_tries, kGlobalStepCost);
         };
         // The energy falls by the sum of the nodes' falls (float fan
         // energies: exact to ~1e-7 of the energy); below that, a tolerance
@@ -316,7 +318,6 @@ public:
                 phase_k_.setArg(a++, moved_);
                 phase_k_.setArg(a++, cl_int(ph * tiles));
                 phase_k_.setArg(a++, float(p_.theta));
-                phase_k_.setArg(a++, cl_int(itheta_));
                 phase_k_.setArg(a++, float(p_.relax));
                 phase_k_.setArg(a++, gain_);
                 // One tile is 8 / nodes_per_item x 8 work-items; the
@@ -355,8 +356,7 @@ public:
             // every node too), a hat sweep counts as the iterations it
             // costs. Counted in moves, not seconds, so that the rule is the
             // same on every device.
-            const double passes =
-                1.0 + (global_tries - tries_before) + (lv.hat_sweeps - sweeps_before) * sweep_cost;
+            const double passes = work(1.0, lv.hat_sweeps - sweeps_before, global_tries - tries_before, 1.0);
             const double rel = relative_fall(e, next) / passes;
             e = next;
             lv.iterations = it;
@@ -677,7 +677,7 @@ private:
     std::size_t dot_group_ = 1;                  // work-group of correct_dot
     std::vector<int> hat_scales_;                // B of each scale of hat moves; empty: none
     cl::NDRange phase_group_;                    // of correct_phase: within one tile
-    int tiles_x_ = 0, tiles_y_ = 0, itheta_ = -1;
+    int tiles_x_ = 0, tiles_y_ = 0;
     std::vector<std::pair<int, int>> phases_;
     cl::Kernel energy_k_, phase_k_, active_k_, gain_sum_k_;
     cl::Buffer c_buf_, z_buf_, fix_buf_, partial_, moved_, active_, gain_;

@@ -146,9 +146,8 @@ inline energy8_t correct_triangle_energy8(float8 ax, float8 ay, float8 bx, float
 // in chunks that fit one device buffer; stats[0] is node `first`,
 // partial[0] its group.
 kernel void correct_energy(global const float2* c, global const float* z, global const float* fix_w,
-                           int use_fix, int nx, int ny, int periodic, float theta, int itheta,
-                           global energy_t* partial, local energy_t* scratch, global float4* stats,
-                           int want_stats, int first)
+                           int use_fix, int nx, int ny, int periodic, float theta, global energy_t* partial,
+                           local energy_t* scratch, global float4* stats, int want_stats, int first)
 {
     const int base = first + 8 * get_global_id(0);
     // Per lane (node): the edges to its neighbours (1,0), (1,-1), (0,-1);
@@ -401,7 +400,7 @@ typedef struct {
 // need not move (outside the grid, wrong class, fixed border, zero gradient).
 RELIEF_INLINE NodeSearch correct_prepare(global const float2* c, global const float* z,
                                          global const float* fix_w, int use_fix, int nx, int ny, int periodic,
-                                         int class_x, int class_y, int i, int j, float theta, int itheta)
+                                         int class_x, int class_y, int i, int j, float theta)
 {
     NodeSearch ns;
     ns.p = -1;
@@ -436,8 +435,6 @@ RELIEF_INLINE NodeSearch correct_prepare(global const float2* c, global const fl
     // K^-theta scales the fixation term; only it needs the power.
     const float fix_scale = use_fix ? exp2(-theta * log2(kmax)) : 1.0f;
     float2 g = correct_fan_gradient(&L, inv_k, theta);
-    const float8 e1x = L.e1x, e1y = L.e1y, e2x = L.e2x, e2y = L.e2y;
-    const float8 m11 = L.m11, m12 = L.m12, m22 = L.m22, auv = L.auv, q = L.q, a3 = L.a3;
     const int8 fan = (int8)(-1, -1, -1, -1, -1, -1, 0, 0);
     if (use_fix) {
         const float u = 1.0f - w * w * dot(cp, cp);
@@ -451,11 +448,11 @@ RELIEF_INLINE NodeSearch correct_prepare(global const float2* c, global const fl
 
     // Per triangle, Auv(t) = a0 + a1 t and Q(t) = q0 + q1 t + q2 t^2; the
     // bracket ends where the first of them flips (Auv = 0).
-    const float8 a1 = 0.5f * (s.x * (e1y - e2y) + s.y * (e2x - e1x));
-    const float8 e1s = e1x * s.x + e1y * s.y, e2s = e2x * s.x + e2y * s.y;
-    const float8 q1 = 2.0f * (m11 * e2s - m12 * (e1s + e2s) + m22 * e1s);
-    const float8 q2 = m11 - 2.0f * m12 + m22;  // |s| = 1
-    const float8 flip = select((float8)(CORRECT_MAX_STEP), -auv / a1, a1 < 0.0f);
+    const float8 a1 = 0.5f * (s.x * (L.e1y - L.e2y) + s.y * (L.e2x - L.e1x));
+    const float8 e1s = L.e1x * s.x + L.e1y * s.y, e2s = L.e2x * s.x + L.e2y * s.y;
+    const float8 q1 = 2.0f * (L.m11 * e2s - L.m12 * (e1s + e2s) + L.m22 * e1s);
+    const float8 q2 = L.m11 - 2.0f * L.m12 + L.m22;  // |s| = 1
+    const float8 flip = select((float8)(CORRECT_MAX_STEP), -L.auv / a1, a1 < 0.0f);
     const float4 t4 = fmin(flip.lo, flip.hi);
     float tmax = fmin(CORRECT_MAX_STEP, fmin(fmin(t4.x, t4.y), fmin(t4.z, t4.w)));
     if (use_fix && w > 0.0f) {
@@ -467,12 +464,12 @@ RELIEF_INLINE NodeSearch correct_prepare(global const float2* c, global const fl
     if (!(tmax > 0.0f))
         return ns;
     // Lanes 6, 7: a zero-energy dummy (Q = 0, Auv = A3 = 1).
-    ns.fp.a0 = select((float8)(1.0f), auv, fan);
+    ns.fp.a0 = select((float8)(1.0f), L.auv, fan);
     ns.fp.a1 = select((float8)(0.0f), a1, fan);
-    ns.fp.q0 = select((float8)(0.0f), q, fan);
+    ns.fp.q0 = select((float8)(0.0f), L.q, fan);
     ns.fp.q1 = select((float8)(0.0f), q1, fan);
     ns.fp.q2 = select((float8)(0.0f), q2, fan);
-    ns.fp.a3 = select((float8)(1.0f), a3, fan);
+    ns.fp.a3 = select((float8)(1.0f), L.a3, fan);
     ns.fp.inv_k = inv_k;
     ns.fp.fix_scale = fix_scale;
     ns.cp = cp;
@@ -528,7 +525,7 @@ inline void correct_finish(global float2* c, global uchar* moved, int moved_at, 
 kernel void correct_phase(global float2* c, global const float* z, global const float* fix_w, int use_fix,
                           int nx, int ny, int periodic, int class_x, int class_y, int tiles_x,
                           global const uchar* active, global uchar* moved, int moved_slot, float theta,
-                          int itheta, float relax, global energy_t* gain)
+                          float relax, global energy_t* gain)
 {
     // A tile is 8 / CORRECT_NODES x 8 work-items (16 x 16 nodes); a
     // work-group lies within one.
@@ -541,8 +538,7 @@ kernel void correct_phase(global float2* c, global const float* z, global const 
 #pragma unroll
     for (int n = 0; n < CORRECT_NODES; ++n) {
         const int i = 2 * (CORRECT_NODES * get_global_id(0) + n) + (class_x == 1);
-        ns[n] =
-            correct_prepare(c, z, fix_w, use_fix, nx, ny, periodic, class_x, class_y, i, j, theta, itheta);
+        ns[n] = correct_prepare(c, z, fix_w, use_fix, nx, ny, periodic, class_x, class_y, i, j, theta);
         lo[n] = 0.0f;
         hi[n] = ns[n].tmax;
     }
