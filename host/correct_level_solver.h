@@ -278,8 +278,9 @@ public:
         // sweep's (hat_sweep_due).
         double rel_nodes_before = 0.0, hat_fall = 0.0;
         double global_fall = 0.0;  // the last global step's relative fall
-        // The falls per pass of the last two iterations (stop_predicted).
-        double rel_before = 0.0, rel_before2 = 0.0;
+        // The falls per pass of the last two iterations (stop_predicted),
+        // and how many passes each made.
+        double rel_before = 0.0, rel_before2 = 0.0, passes_before = 0.0, passes_before2 = 0.0;
         for (int it = 1; it <= limit; ++it) {
             const int sweeps_before = lv.hat_sweeps, tries_before = global_tries;
             if (from_gains)
@@ -364,9 +365,16 @@ public:
                 on_iteration(it, rel);
             // An infinite energy (a flipped start, or one beyond the
             // device's range without fp64) is never "converged".
-            const bool predicted = predict_stop && stop_predicted(rel, rel_before, rel_before2, tolerance);
+            // Falls are compared only between iterations of the same work: an
+            // iteration that adds a global step or a hat sweep divides its
+            // fall by more passes, which is no sign of convergence.
+            const bool same_work = passes == passes_before && passes == passes_before2;
+            const bool predicted =
+                predict_stop && same_work && stop_predicted(rel, rel_before, rel_before2, tolerance);
             rel_before2 = rel_before;
             rel_before = rel;
+            passes_before2 = passes_before;
+            passes_before = passes;
             if (p_.iterations == 0 && std::isfinite(e) && std::isfinite(rel) &&
                 (rel < tolerance || predicted)) {
                 lv.converged = true;

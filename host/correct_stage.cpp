@@ -55,7 +55,7 @@ std::uint32_t order_key(float x)
 // one pass with the sum and the largest, then selected among the values
 // that share them: std::nth_element over every triangle cost 12 ms at
 // 1024^2, twice a run.
-DistortionStats summarise(std::vector<float>& v)
+DistortionStats summarise(const std::vector<float>& v)
 {
     DistortionStats s;
     if (v.empty())
@@ -84,9 +84,9 @@ DistortionStats summarise(std::vector<float>& v)
     return s;
 }
 
-// Both statistics at once, the area's on a second thread (each is a
-// selection over every triangle: 12 ms at 1024^2, twice a run).
-void summarise_both(std::vector<float>& aniso, std::vector<float>& area, DistortionStats& a,
+// Both statistics at once, the area's on a second thread (each a pass
+// over every triangle and a selection within one bucket).
+void summarise_both(const std::vector<float>& aniso, const std::vector<float>& area, DistortionStats& a,
                     DistortionStats& b)
 {
     std::future<DistortionStats> other;

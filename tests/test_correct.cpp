@@ -1035,6 +1035,23 @@ TEST_CASE("correct: one device iteration with a hat sweep equals the golden mode
     }
 }
 
+namespace {
+
+// The stop rule's tests: one level, a global step every iteration (two
+// passes over the nodes an iteration), no hats.
+host::CorrectParams stop_rule_params(double tolerance)
+{
+    auto p = params(0.5, host::Periodic(true));
+    p.levels = 1;
+    p.threshold = 0.0;
+    p.hats = host::CorrectParams::Hats::Off;
+    p.global = host::CorrectParams::Global::Always;
+    p.tolerance = tolerance;
+    return p;
+}
+
+}  // namespace
+
 TEST_CASE("correct: the tolerance bounds the fall per pass over the nodes", "[correct]")
 {
     // global=always: an iteration is its node phases and a global step, two
@@ -1045,12 +1062,7 @@ TEST_CASE("correct: the tolerance bounds the fall per pass over the nodes", "[co
     const int w = 48, h = 40;
     const auto hts = waves(w, h, 1.0, 24);
     const double tol = 1e-4;
-    auto p = params(0.5, host::Periodic(true));
-    p.levels = 1;
-    p.threshold = 0.0;
-    p.hats = host::CorrectParams::Hats::Off;
-    p.global = host::CorrectParams::Global::Always;
-    p.tolerance = tol;
+    auto p = stop_rule_params(tol);
     p.predict_stop = false;  // the next test's
     host::CorrectReport rep;
     run(hts, w, h, p, &rep);
@@ -1083,12 +1095,7 @@ TEST_CASE("correct: the finest level stops once the next fall is predicted below
     const int w = 48, h = 40;
     const auto hts = waves(w, h, 1.0, 24);
     const double tol = 1e-4;
-    auto p = params(0.5, host::Periodic(true));
-    p.levels = 1;
-    p.threshold = 0.0;
-    p.hats = host::CorrectParams::Hats::Off;
-    p.global = host::CorrectParams::Global::Always;
-    p.tolerance = tol;
+    auto p = stop_rule_params(tol);
     host::CorrectReport rep, plain;
     run(hts, w, h, p, &rep);
     auto q = p;
