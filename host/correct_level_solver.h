@@ -14,6 +14,7 @@
 #include "cancel.h"
 #include "correct_grid.h"
 #include "correct_stage.h"
+#include "correct_stop_rule.h"
 #include "errors.h"
 #include "opencl_context.h"
 
@@ -239,7 +240,7 @@ public:
     // it (else NaN); with measure_end false the caller measures the end
     // energy itself (energy_end is left NaN). predict_stop: the level may
     // also stop when the next iteration is predicted to fall below the
-    // tolerance (stop_predicted).
+    // tolerance (FallHistory).
     CorrectLevel solve(const std::function<void(int, double)>& on_iteration, double tolerance,
                        double start_energy, bool measure_end, bool predict_stop)
     {
@@ -278,9 +279,7 @@ public:
         // sweep's (hat_sweep_due).
         double rel_nodes_before = 0.0, hat_fall = 0.0;
         double global_fall = 0.0;  // the last global step's relative fall
-        // The falls per pass of the last two iterations (stop_predicted),
-        // and how many passes each made.
-        double rel_before = 0.0, rel_before2 = 0.0, passes_before = 0.0, passes_before2 = 0.0;
+        FallHistory history;       // for the predicted stop
         for (int it = 1; it <= limit; ++it) {
             const int sweeps_before = lv.hat_sweeps, tries_before = global_tries;
             if (from_gains)
@@ -365,16 +364,8 @@ public:
                 on_iteration(it, rel);
             // An infinite energy (a flipped start, or one beyond the
             // device's range without fp64) is never "converged".
-            // Falls are compared only between iterations of the same work: an
-            // iteration that adds a global step or a hat sweep divides its
-            // fall by more passes, which is no sign of convergence.
-            const bool same_work = passes == passes_before && passes == passes_before2;
-            const bool predicted =
-                predict_stop && same_work && stop_predicted(rel, rel_before, rel_before2, tolerance);
-            rel_before2 = rel_before;
-            rel_before = rel;
-            passes_before2 = passes_before;
-            passes_before = passes;
+            history.push(rel, passes);
+            const bool predicted = predict_stop && history.predicts_below(tolerance);
             if (p_.iterations == 0 && std::isfinite(e) && std::isfinite(rel) &&
                 (rel < tolerance || predicted)) {
                 lv.converged = true;
@@ -388,22 +379,6 @@ public:
     }
 
 private:
-    // Whether the next iteration's fall per pass, shrinking at the rate of
-    // the last ones, would be below the tolerance: a level whose falls
-    // shrink geometrically then stops one iteration sooner, leaving a fall
-    // below the tolerance undone (1024^2 wall: 8 iterations instead of 9,
-    // the energy 7e-5 higher). Convergence slows as it goes (the wall's
-    // rate rose from 0.12 to 0.70 per iteration), so a rising rate is taken
-    // as the last plus its last change (at most 1); nothing is predicted
-    // before two rates are known, or while the falls do not shrink.
-    static bool stop_predicted(double rel, double rel_before, double rel_before2, double tolerance)
-    {
-        if (!(rel > 0.0 && rel < rel_before && rel_before < rel_before2) || !std::isfinite(rel_before2))
-            return false;
-        const double rate = rel / rel_before, last = rel_before / rel_before2;
-        return rel * std::max(rate, std::min(1.0, 2.0 * rate - last)) < tolerance;
-    }
-
     // The fall from `before` to `after` relative to `before`.
     static double relative_fall(double before, double after)
     {

@@ -13,6 +13,7 @@
 #include "compute_context.h"
 #include "correct_grid.h"
 #include "correct_stage.h"
+#include "correct_stop_rule.h"
 #include "reference/correct_reference.h"
 #include "relief/correct.h"
 #include "relief/errors.h"
@@ -1130,6 +1131,36 @@ TEST_CASE("correct: the finest level stops once the next fall is predicted below
     CHECK(f(n) >= tol);
     CHECK(stops(n));
     CHECK_FALSE(stops(n - 1));
+}
+
+TEST_CASE("correct: the predicted stop compares only iterations of the same work", "[correct]")
+{
+    // Tolerance 1e-5; falls per pass of three iterations, oldest first, and
+    // the passes each made. The next fall is predicted as the last times
+    // max(r, min(1, 2r - r')), r and r' the last two rates.
+    const double tol = 1e-5;
+    const auto predicts = [&](std::initializer_list<std::pair<double, double>> falls) {
+        host::FallHistory h;
+        for (const auto& [fall, passes] : falls)
+            h.push(fall, passes);
+        return h.predicts_below(tol);
+    };
+    // Rates 0.5 then 0.6: 1.2e-5 x 0.7 = 8.4e-6, a stop ...
+    CHECK(predicts({{4e-5, 2}, {2e-5, 2}, {1.2e-5, 2}}));
+    // ... but not when the last iteration added a global step (it divides
+    // its fall by 3 passes, not 2) or the first made fewer passes.
+    CHECK_FALSE(predicts({{4e-5, 2}, {2e-5, 2}, {1.2e-5, 3}}));
+    CHECK_FALSE(predicts({{4e-5, 1}, {2e-5, 2}, {1.2e-5, 2}}));
+    // Rates 0.75 then 0.67: 2e-5 x 0.67 = 1.3e-5, no stop.
+    CHECK_FALSE(predicts({{4e-5, 2}, {3e-5, 2}, {2e-5, 2}}));
+    CHECK_FALSE(predicts({{2e-5, 2}, {1.2e-5, 2}}));             // two rates needed
+    CHECK_FALSE(predicts({{4e-5, 2}, {4e-5, 2}, {1.2e-5, 2}}));  // the falls must shrink
+    // A rising rate, 0.69 then 0.88: the trend (1.07, capped at 1) keeps
+    // the next fall at 1.1e-5; the last rate alone would predict 9.7e-6.
+    CHECK_FALSE(predicts({{1.8e-5, 2}, {1.25e-5, 2}, {1.1e-5, 2}}));
+    // A falling rate, 0.99 then 0.9: the last rate (1.08e-5), not the
+    // trend's 0.81 (9.7e-6).
+    CHECK_FALSE(predicts({{1.35e-5, 2}, {1.3333e-5, 2}, {1.2e-5, 2}}));
 }
 
 TEST_CASE("correct: one device iteration with a global step equals the golden model's", "[correct]")
