@@ -362,10 +362,10 @@ public:
             lv.iterations = it;
             if (on_iteration)
                 on_iteration(it, rel);
-            // An infinite energy (a flipped start, or one beyond the
-            // device's range without fp64) is never "converged".
             history.push(rel, passes);
             const bool predicted = predict_stop && history.predicts_below(tolerance);
+            // An infinite energy (a flipped start, or one beyond the
+            // device's range without fp64) is never "converged".
             if (p_.iterations == 0 && std::isfinite(e) && std::isfinite(rel) &&
                 (rel < tolerance || predicted)) {
                 lv.converged = true;

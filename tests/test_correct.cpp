@@ -940,6 +940,17 @@ std::pair<double, double> golden_start(const std::vector<float>& hts, int w, int
     return {best, factor};
 }
 
+// The pyramid's coarsest level run alone, as the pyramid runs it: one
+// level, to the tolerance itself (only the finest level stops on a
+// predicted fall).
+std::vector<float> coarsest_alone(const std::vector<float>& hts, int w, int h, int cw, int ch,
+                                  host::CorrectParams p)
+{
+    p.levels = 1;
+    p.predict_stop = false;
+    return run(host::area_downsample(hts, w, h, cw, ch), cw, ch, p);
+}
+
 }  // namespace
 
 TEST_CASE("correct: a level starts from the scaled coarse offsets of lowest energy", "[correct]")
@@ -957,13 +968,7 @@ TEST_CASE("correct: a level starts from the scaled coarse offsets of lowest ener
     host::CorrectReport rep;
     run(hts, w, h, p, &rep);
     REQUIRE(rep.levels.size() == 2);
-    // The coarse level alone, as the pyramid ran it (to the tolerance: only
-    // the finest level stops on a predicted fall).
-    const auto small = host::area_downsample(hts, w, h, cw, ch);
-    auto pc = p;
-    pc.levels = 1;
-    pc.predict_stop = false;
-    const auto coarse = run(small, cw, ch, pc);
+    const auto coarse = coarsest_alone(hts, w, h, cw, ch, p);
     const auto [best, factor] = golden_start(hts, w, h, scale, coarse, cw, ch);
     const auto& fine = rep.levels.back();
     CHECK(fine.start_factor == factor);
@@ -989,10 +994,7 @@ TEST_CASE("correct: a level above the finest measures its own start", "[correct]
     host::CorrectReport rep;
     run(hts, w, h, p, &rep);
     REQUIRE(rep.levels.size() == 3);
-    auto pc = p;
-    pc.levels = 1;
-    pc.predict_stop = false;  // as the pyramid's coarsest level
-    const auto coarse = run(host::area_downsample(hts, w, h, cw, ch), cw, ch, pc);
+    const auto coarse = coarsest_alone(hts, w, h, cw, ch, p);
     const auto [best, factor] =
         golden_start(host::area_downsample(hts, w, h, mw, mh), mw, mh, scale, coarse, cw, ch);
     const auto& mid = rep.levels[1];
