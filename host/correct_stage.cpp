@@ -135,6 +135,40 @@ void to_texels(std::vector<float>& c, const NodeGrid& g, bool forward)
     }
 }
 
+// The corner solve minimises the energy of the corner mesh, but the output
+// is the mean of each texel's four corners, and its mesh (the texel centres
+// at their own heights) is what a bake shows. On a cliff the means can squeeze
+// a centre triangle the corner energy does not see (a 1024^2 desert cliff:
+// one triangle at 0.3% of its 3-D area carrying 97% of the delivered
+// energy). A few iterations of the centre-node solver from the means (the
+// same kernels, the same guarantees on the delivered mesh: its energy
+// never rises, no triangle flips) remove it: the delivered energy fell
+// 2.8x in one iteration there, 4% on an ordinary wall.
+CorrectPolish polish_delivered_mesh(ComputeContext& ctx, const std::vector<float>& texels,
+                                    const std::vector<float>& fix, int w, int h, const CorrectParams& p,
+                                    std::vector<float>& offsets)
+{
+    const auto t0 = std::chrono::steady_clock::now();
+    CorrectParams q = p;
+    q.corner_nodes = false;
+    q.iterations = p.polish;
+    q.hats = CorrectParams::Hats::Off;
+    q.global = CorrectParams::Global::Off;
+    const LevelInput in = level_input(texels, fix.empty() ? nullptr : &fix, w, h, w, q);
+    to_texels(offsets, in.grid, true);
+    LevelSolver s(ctx, in.grid, in.z, in.fix, q);
+    s.upload(offsets);
+    CorrectPolish r;
+    r.energy_start = s.energy();
+    const CorrectLevel lv = s.solve({}, q.tolerance, r.energy_start, true, false);
+    r.iterations = lv.iterations;
+    r.energy_end = lv.energy_end;
+    s.download(offsets);
+    to_texels(offsets, in.grid, false);
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return r;
+}
+
 }  // namespace
 
 void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h, const CorrectParams& p,
@@ -175,6 +209,9 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
             return;
         }
 
+        // The centre mesh needs room to move, as the corner one did.
+        const bool polishing = p.corner_nodes && p.polish > 0 && (p.periodic.x ? w >= 2 : w >= 3) &&
+                               (p.periodic.y ? h >= 2 : h >= 3);
         const auto sizes = pyramid_sizes(w, h, p.levels);
         double total_weight = 0.0, done = 0.0;
         for (const auto& s : sizes)
@@ -256,7 +293,7 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
             lv.start_factor = start_factor;
             lv.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - level_t0).count();
             done += weight;
-            if (progress)
+            if (progress && !(L == 0 && polishing))
                 progress(std::min(1.0, done));
             s.download(offsets);
             to_texels(offsets, in.grid, false);
@@ -269,7 +306,12 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
             }
             rep.levels.push_back(lv);
         }
-        const std::vector<float> out = texel_offsets(offsets, finest.grid);
+        std::vector<float> out = texel_offsets(offsets, finest.grid);
+        if (polishing) {
+            rep.polish = polish_delivered_mesh(ctx, texels, fix, w, h, p, out);
+            if (progress)
+                progress(1.0);
+        }
         std::copy(out.begin(), out.end(), offsets_out);
     } catch (const cl::Error& e) {
         throw opencl_error("correction", e);

@@ -56,6 +56,11 @@ struct CorrectParams {
     // tests, comparisons) or never.
     enum class Global { Off = 0, Auto = 1, Always = 2 };
     Global global = Global::Auto;
+    // After a corner solve, node iterations on the delivered mesh (docs/
+    // design.md §4.5.3f): the texel-centre nodes, started from the means of
+    // their corners, each moving only if the delivered mesh's energy falls.
+    // 0: the output is the corner means.
+    int polish = 1;
 };
 
 struct DistortionStats {
@@ -76,10 +81,19 @@ struct CorrectLevel {
     double seconds = 0.0;
 };
 
+// The polish of the delivered texel-centre mesh (CorrectParams::polish).
+struct CorrectPolish {
+    int iterations = 0;
+    // The delivered mesh's energy before (the corner means) and after.
+    double energy_start = 0.0, energy_end = 0.0;
+    double seconds = 0.0;
+};
+
 struct CorrectReport {
     bool skipped = false;        // nothing to correct: zero offsets, no solve
     double energy_before = 0.0;  // finest level, zero offsets
-    double energy_after = 0.0;
+    double energy_after = 0.0;   // the solved mesh's (corner nodes: before the polish)
+    CorrectPolish polish;        // corner nodes, polish > 0
     DistortionStats anisotropy_before, anisotropy_after;  // s1/s2 per triangle
     DistortionStats area_before, area_after;              // s1 s2 per triangle
     std::vector<CorrectLevel> levels;                     // coarsest first

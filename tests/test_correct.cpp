@@ -58,6 +58,7 @@ host::CorrectParams one_iteration(host::CorrectParams p)
     p.iterations = 1;
     p.skip_tiles = false;
     p.threshold = 0.0;
+    p.polish = 0;
     return p;
 }
 
@@ -314,6 +315,58 @@ TEST_CASE("correct: corner nodes, one device iteration equals the golden model's
             CHECK(largest > 1e-2);
             CHECK(worst <= search.agreement * largest);
         }
+}
+
+TEST_CASE("correct: the polish is centre-node iterations on the delivered mesh from the corner means",
+          "[correct]")
+{
+    // Corner nodes deliver each texel the mean of its four corners; the
+    // polish then runs the centre-node solver from those means: the golden
+    // model's iterate() on the centre grid, `polish` times. Its report holds
+    // the delivered mesh's energy before and after.
+    using P = host::Periodic;
+    for (auto [w, h, periodic] : {std::tuple{24, 16, P(true)}, std::tuple{20, 19, P(false)},
+                                  std::tuple{23, 18, P(true, false)}, std::tuple{20, 17, P(false, true)}}) {
+        const auto hts = waves(w, h, 1.0, 10);
+        const double scale = 0.3;
+        auto p = one_iteration(params(scale, periodic, true));
+        const auto means = run(hts, w, h, p);
+        p.polish = 2;
+        host::CorrectReport rep;
+        const auto out = run(hts, w, h, p, &rep);
+        const ref::CorrectionGrid g = centre_grid(hts, w, h, scale, periodic);
+        std::vector<double> c = agreement(means, std::vector<double>(means.size(), 0.0), w, h).device;
+        const std::vector<double> start = c;
+        const double e_means = ref::total_energy(g, c);
+        ref::iterate(g, c);
+        ref::iterate(g, c);
+        const double e_gold = ref::total_energy(g, c);
+        double moved = 0.0;  // the golden polish's largest move
+        for (std::size_t k = 0; k < c.size(); ++k)
+            moved = std::max(moved, std::abs(c[k] - start[k]));
+        const auto [dev, worst, largest] = agreement(out, c, w, h);
+        INFO(w << "x" << h << " periodic x " << periodic.x << " y " << periodic.y << ": delivered energy "
+               << e_means << " -> " << e_gold << " (device " << rep.polish.energy_start << " -> "
+               << rep.polish.energy_end << "); largest polish move " << moved
+               << " texels, max |device - golden| " << worst);
+        CHECK(moved > 1e-3);
+        // Brent's 1% per step, over two iterations (one: 1e-2, as above).
+        CHECK(worst <= 2e-2 * moved);
+        CHECK(rep.polish.iterations == 2);
+        CHECK(e_gold < e_means);
+        CHECK(std::abs(rep.polish.energy_start - e_means) <= 1e-5 * e_means);
+        CHECK(std::abs(rep.polish.energy_end - e_gold) <= 1e-4 * e_gold);
+        CHECK(std::abs(ref::total_energy(g, dev) - e_gold) <= 1e-4 * e_gold);
+        CHECK(rep.polish.seconds > 0.0);
+    }
+    // Centre nodes deliver their own mesh: nothing to polish.
+    host::CorrectReport rep;
+    const auto hts = waves(24, 16, 1.0, 10);
+    auto p = one_iteration(params(0.3, true, false));
+    const auto plain = run(hts, 24, 16, p);
+    p.polish = 2;
+    CHECK(run(hts, 24, 16, p, &rep) == plain);
+    CHECK(rep.polish.iterations == 0);
 }
 
 TEST_CASE("correct: the energy never rises, iteration after iteration", "[correct]")

@@ -48,7 +48,7 @@ bool same_options(const OperationCall& a, const OperationCall& b)
            a.fix_file == b.fix_file && c.iterations == d.iterations && c.tolerance == d.tolerance &&
            c.levels == d.levels && c.threshold == d.threshold && c.skip_tiles == d.skip_tiles &&
            c.search == d.search && c.relax == d.relax && c.hats == d.hats && c.global == d.global &&
-           a.bake.filter == b.bake.filter && a.bake.colorspace == b.bake.colorspace &&
+           c.polish == d.polish && a.bake.filter == b.bake.filter && a.bake.colorspace == b.bake.colorspace &&
            a.bake.kind == b.bake.kind && a.bake.wrap == b.bake.wrap &&
            a.normals.convention == b.normals.convention && a.normals.scale == b.normals.scale &&
            a.normals.boundary == b.normals.boundary && same_tessellation(a.tessellation, b.tessellation) &&
@@ -641,6 +641,8 @@ TEST_CASE("validate: a rule reads the same from validate(), the modifiers and th
          "levels=31 must be an integer in [1, 30] or auto"},
         {"correct", "relax=2", [](OperationCall& c) { c.correct.relax = 2.0f; },
          "relax=2 is out of range; it must be in [1, 2)"},
+        {"correct", "polish=-1", [](OperationCall& c) { c.correct.polish = -1; },
+         "polish=-1 must be an integer in [0, 1000]"},
         {"normals", "scale=0", [](OperationCall& c) { c.normals.scale = 0.0f; },
          "scale=0 is out of range; it must be in (0, 1e+09]"},
         {"tessellation", "patch=0", [](OperationCall& c) { c.tessellation.patch = 0; },

@@ -691,6 +691,24 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
              p.corner_nodes = true;
              p.periodic = host::Periodic(false, true);
          }},
+        {"corner nodes, polish 0",
+         [](CorrectOptions& o) {
+             o.nodes = CorrectNodes::Corner;
+             o.polish = 0;
+         },
+         [](host::CorrectParams& p) {
+             p.corner_nodes = true;
+             p.polish = 0;
+         }},
+        {"corner nodes, polish 3",
+         [](CorrectOptions& o) {
+             o.nodes = CorrectNodes::Corner;
+             o.polish = 3;
+         },
+         [](host::CorrectParams& p) {
+             p.corner_nodes = true;
+             p.polish = 3;
+         }},
         {"scale 0.5", [](CorrectOptions& o) { o.scale = 0.5f; },
          [](host::CorrectParams& p) { p.scale = 0.5f; }},
         {"3 iterations", [](CorrectOptions& o) { o.iterations = 3; },
@@ -746,6 +764,9 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
         CHECK(r.energy_before == want.report.energy_before);
         CHECK(r.energy_after == want.report.energy_after);
         CHECK(r.iterations == want.report.total_iterations());
+        CHECK(r.polish.iterations == want.report.polish.iterations);
+        CHECK(r.polish.energy_start == want.report.polish.energy_start);
+        CHECK(r.polish.energy_end == want.report.polish.energy_end);
         REQUIRE(r.levels.size() == want.report.levels.size());
         for (std::size_t l = 0; l < r.levels.size(); ++l) {
             const host::CorrectLevel& hl = want.report.levels[l];
@@ -773,6 +794,8 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
         CHECK(json["width"] == 40);
         CHECK(json["height"] == 36);
         CHECK(json["levels"].size() == r.levels.size());
+        CHECK(json["polish"].value("iterations", -1) == r.polish.iterations);
+        CHECK(json["polish"].value("energy_end", -1.0) == r.polish.energy_end);
         for (std::size_t l = 0; l < r.levels.size(); ++l) {
             CHECK(json["levels"][l].value("start_factor", -1.0) == r.levels[l].start_factor);
             CHECK(json["levels"][l].value("hat_sweeps", -1) == r.levels[l].hat_sweeps);
@@ -799,6 +822,8 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
                                                   : p.global == host::CorrectParams::Global::Always
                                                       ? "always"
                                                       : "auto")) != std::string::npos);
+        CHECK(par.find(" polish=" + std::to_string(p.corner_nodes ? p.polish : 0)) != std::string::npos);
+        CHECK(r.polish.iterations == (p.corner_nodes && !r.skipped ? p.polish : 0));
         CHECK(par.find(" levels=" + (p.levels ? std::to_string(p.levels) : std::string("auto"))) !=
               std::string::npos);
         CHECK(par.find(" iterations=" + (p.iterations ? std::to_string(p.iterations)
@@ -1121,6 +1146,8 @@ TEST_CASE("options: inconsistent or out-of-range options are refused by the API"
          "tolerance=0 is out of range; it must be in (0, 1)"},
         {"negative threshold", [](CorrectOptions& o) { o.threshold = -1.0f; },
          "threshold=-1 is out of range; it must be in [0, 1e+09]"},
+        {"polish above 1000", [](CorrectOptions& o) { o.polish = 1001; },
+         "polish=1001 must be an integer in [0, 1000]"},
         {"negative levels", [](CorrectOptions& o) { o.levels = -1; },
          "levels=-1 must be an integer in [1, 30] or auto"},
         {"NaN scale", [](CorrectOptions& o) { o.scale = std::nanf(""); }, "scale=nan is not a number"},

@@ -81,15 +81,24 @@ struct CorrectLevelReport {
     int global_steps = 0;  // global steps taken (CorrectGlobal)
 };
 
+// The polish of the delivered mesh (CorrectOptions::polish).
+struct CorrectPolishReport {
+    int iterations = 0;
+    // The delivered texel-centre mesh's energy: the corner means', then the output's.
+    double energy_start = 0.0, energy_end = 0.0;
+    double seconds = 0.0;
+};
+
 struct CorrectReport {
-    bool skipped = false;        // nothing could distort: zero offsets, no solve
-    std::string boundary;        // "periodic", "fixed" or x's,y's ("periodic,fixed"), as chosen
-    std::string nodes;           // "corner" or "center"
-    double scale = 0.0;          // the displacement scale used
-    double energy_before = 0.0;  // at zero offsets
-    double energy_after = 0.0;
-    int iterations = 0;                                     // over all levels
-    std::vector<CorrectLevelReport> levels;                 // coarsest first
+    bool skipped = false;                    // nothing could distort: zero offsets, no solve
+    std::string boundary;                    // "periodic", "fixed" or x's,y's ("periodic,fixed"), as chosen
+    std::string nodes;                       // "corner" or "center"
+    double scale = 0.0;                      // the displacement scale used
+    double energy_before = 0.0;              // at zero offsets
+    double energy_after = 0.0;               // of the solved mesh (corner nodes: before the polish)
+    CorrectPolishReport polish;              // nodes=corner with polish > 0
+    int iterations = 0;                      // over all levels
+    std::vector<CorrectLevelReport> levels;  // coarsest first
     DistortionSummary anisotropy_before, anisotropy_after;  // s1/s2
     DistortionSummary area_before, area_after;              // s1 s2 (3D area / texture area)
     double seconds = 0.0;
@@ -132,6 +141,10 @@ struct CorrectOptions {
     float relax = 1.5f;
     CorrectHats hats = CorrectHats::Off;
     CorrectGlobal global = CorrectGlobal::Auto;
+    // nodes=corner: after the solve, node iterations on the delivered mesh
+    // (the texel centres, started from the means of their four corners), each
+    // move lowering its energy. 0: the output is the corner means.
+    int polish = 1;
     CorrectReport* report = nullptr;  // filled when given
     Execution exec;
 };

@@ -93,6 +93,10 @@ std::string CorrectReport::to_json() const
                                {"start_factor", l.start_factor},
                                {"hat_sweeps", l.hat_sweeps},
                                {"global_steps", l.global_steps}});
+    j["polish"] = {{"iterations", polish.iterations},
+                   {"energy_start", polish.energy_start},
+                   {"energy_end", polish.energy_end},
+                   {"seconds", polish.seconds}};
     j["anisotropy"] = {{"before", stats(anisotropy_before)}, {"after", stats(anisotropy_after)}};
     j["area_ratio"] = {{"before", stats(area_before)}, {"after", stats(area_after)}};
     j["seconds"] = seconds;
@@ -164,6 +168,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
                    : options.search == CorrectSearch::Golden ? host::CorrectParams::Search::Golden
                                                              : host::CorrectParams::Search::Brent;
         p.relax = options.relax;
+        p.polish = options.polish;
         p.hats = options.hats == CorrectHats::Off      ? host::CorrectParams::Hats::Off
                  : options.hats == CorrectHats::Always ? host::CorrectParams::Hats::Always
                                                        : host::CorrectParams::Hats::Auto;
@@ -187,6 +192,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         rep.scale = p.scale;
         rep.energy_before = hr.energy_before;
         rep.energy_after = hr.energy_after;
+        rep.polish = {hr.polish.iterations, hr.polish.energy_start, hr.polish.energy_end, hr.polish.seconds};
         rep.iterations = hr.total_iterations();
         for (const auto& l : hr.levels)
             rep.levels.push_back({l.width, l.height, l.iterations, l.energy_start, l.energy_end, l.converged,
@@ -225,6 +231,12 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
                             "correct: stopped at " + std::to_string(options.max_iterations) + " iterations" +
                                 counted_as_iterations(rep.levels.back()) +
                                 " before the relative energy change fell below " + f(options.tolerance));
+            if (rep.polish.iterations > 0)
+                detail::say(ex, Severity::Info,
+                            "correct: polish of the delivered texel-centre mesh: " +
+                                std::to_string(rep.polish.iterations) + " iteration(s), energy " +
+                                f(rep.polish.energy_start) + " -> " + f(rep.polish.energy_end) + ", " +
+                                detail::format_double("%.2f s", rep.polish.seconds));
             detail::say(ex, Severity::Info,
                         "correct: energy " + f(rep.energy_before) + " -> " + f(rep.energy_after) +
                             "; anisotropy s1/s2 mean/p95/max " + f(rep.anisotropy_before.mean) + "/" +
@@ -256,7 +268,8 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
             << " iterations=" << (p.iterations ? std::to_string(p.iterations) : "auto")
             << " levels=" << (p.levels ? std::to_string(p.levels) : "auto") << " threshold=" << p.threshold
             << " search=" << search_name(options.search) << " relax=" << p.relax
-            << " hats=" << hats_name(options.hats) << " global=" << global_name(options.global);
+            << " hats=" << hats_name(options.hats) << " global=" << global_name(options.global)
+            << " polish=" << (p.corner_nodes ? p.polish : 0);
         spec.attribute("relief:parameters", par.str());
         detail::set_result(dst, spec, offsets.data());
         return true;

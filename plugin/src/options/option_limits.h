@@ -36,6 +36,7 @@ inline constexpr Limits tolerance{"tolerance", false, 0, true, 1, true, "", null
 inline constexpr Limits levels{"levels", true, 1, false, 30, false, "", "auto"};
 inline constexpr Limits threshold{"threshold", false, 0, false, 1e9, false, "", nullptr};
 inline constexpr Limits relax{"relax", false, 1, false, 2, true, "", nullptr};
+inline constexpr Limits polish{"polish", true, 0, false, 1000, false, "", nullptr};
 // normals, tessellation, mesh: the surface is scale x height
 inline constexpr Limits surface_scale{"scale", false, 0, true, 1e9, false, "", nullptr};
 inline constexpr Limits patch{"patch", true, 1, false, 4096, false, "texels", nullptr};

@@ -84,15 +84,15 @@ std::string validate(const HeightOptions& o)
 
 std::string validate(const CorrectOptions& o)
 {
-    if (std::string p =
-            first({choice_problem("nodes", o.nodes, 2, "corner|center"),
-                   choice_problem("boundary", o.boundary.x, 3, "auto|periodic|fixed"),
-                   choice_problem("boundary", o.boundary.y, 3, "auto|periodic|fixed"),
-                   choice_problem("search", o.search, 3, "brent|golden|ternary"),
-                   range_problem(limits::displacement_scale, o.scale), range_problem(limits::theta, o.theta),
-                   range_problem(limits::iterations, o.iterations),
-                   range_problem(limits::tolerance, o.tolerance), range_problem(limits::levels, o.levels),
-                   range_problem(limits::threshold, o.threshold), range_problem(limits::relax, o.relax)});
+    if (std::string p = first(
+            {choice_problem("nodes", o.nodes, 2, "corner|center"),
+             choice_problem("boundary", o.boundary.x, 3, "auto|periodic|fixed"),
+             choice_problem("boundary", o.boundary.y, 3, "auto|periodic|fixed"),
+             choice_problem("search", o.search, 3, "brent|golden|ternary"),
+             range_problem(limits::displacement_scale, o.scale), range_problem(limits::theta, o.theta),
+             range_problem(limits::iterations, o.iterations), range_problem(limits::tolerance, o.tolerance),
+             range_problem(limits::levels, o.levels), range_problem(limits::threshold, o.threshold),
+             range_problem(limits::relax, o.relax), range_problem(limits::polish, o.polish)});
         !p.empty())
         return p;
     if (o.max_iterations < 1)

@@ -132,6 +132,10 @@ Operation correct_operation()
             "global steps (every node at once along the gradient summed over hats of every scale, the "
             "step searched on the total energy): auto after each iteration while they pay, always or "
             "off; off under fix"),
+        number(
+            detail::limits::polish, [k](auto& c) -> auto& { return k(c).polish; }, "N", "",
+            "nodes=corner: N iterations on the delivered mesh after the solve (texel centres from the "
+            "means of their corners, each move lowering its energy; 0: the corner means)"),
     };
     op.validate = [](const OperationCall& c) {
         CorrectOptions o = c.correct;
