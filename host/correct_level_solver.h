@@ -45,6 +45,9 @@ inline constexpr double kHatSweepCostPerScale = 2.5;
 inline constexpr double kGlobalStepCost = 0.5;
 // The least relative fall of the total energy that keeps a global step.
 inline constexpr double kGlobalGain = 1e-6;
+// A global step's quasi-Newton pair is used while s.y exceeds this times
+// |s| |y| (the usual guard against a near-zero curvature).
+inline constexpr double kQuasiCurvature = 1e-8;
 
 // One level's device state and the kernels that work on it.
 class LevelSolver {
@@ -436,6 +439,9 @@ private:
                                                  "distortion correction's global steps"));
             limits_ = c_.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * (limits_items / limits_group),
                                 "distortion correction's global steps");
+            for (cl::Buffer* b : {&x_last_, &g_last_})
+                *b = c_.buffer(CL_MEM_READ_WRITE, sizeof(cl_float2) * nodes_,
+                               "distortion correction's global steps");
         }
         cl::Buffer &grad = global_bufs_[0], &S = global_bufs_[1], &after = global_bufs_[2];
         const cl_int periodic = g_.periodic.bits();
@@ -449,39 +455,99 @@ private:
         gradient_k_.setArg(a++, grad);
         stop_if_cancelled();
         c_.launch(gradient_k_, nodes_);
-        // Down the lattices by full weighting, then up: each lattice plus
-        // the coarser one interpolated, the finest into S.
-        const std::size_t L = lattices_.size();
-        for (std::size_t l = 0; l < L; ++l) {
-            const cl::Buffer& fine = l == 0 ? grad : global_bufs_[3 + l - 1];
-            const int fnx = l == 0 ? g_.nx : lattices_[l - 1].first,
-                      fny = l == 0 ? g_.ny : lattices_[l - 1].second;
-            a = 0;
-            restrict_k_.setArg(a++, fine);
-            restrict_k_.setArg(a++, cl_int(fnx));
-            restrict_k_.setArg(a++, cl_int(fny));
-            restrict_k_.setArg(a++, periodic);
-            restrict_k_.setArg(a++, global_bufs_[3 + l]);
-            restrict_k_.setArg(a++, cl_int(lattices_[l].first));
-            restrict_k_.setArg(a++, cl_int(lattices_[l].second));
-            c_.launch(restrict_k_, std::size_t(lattices_[l].first) * lattices_[l].second);
+        // The multilevel sum of `in` (the preconditioner H0): down the
+        // lattices by full weighting, then up, each lattice plus the
+        // coarser one interpolated, the finest into S.
+        const auto multilevel_sum = [&](const cl::Buffer& in) {
+            const std::size_t L = lattices_.size();
+            for (std::size_t l = 0; l < L; ++l) {
+                const cl::Buffer& fine = l == 0 ? in : global_bufs_[3 + l - 1];
+                const int fnx = l == 0 ? g_.nx : lattices_[l - 1].first,
+                          fny = l == 0 ? g_.ny : lattices_[l - 1].second;
+                a = 0;
+                restrict_k_.setArg(a++, fine);
+                restrict_k_.setArg(a++, cl_int(fnx));
+                restrict_k_.setArg(a++, cl_int(fny));
+                restrict_k_.setArg(a++, periodic);
+                restrict_k_.setArg(a++, global_bufs_[3 + l]);
+                restrict_k_.setArg(a++, cl_int(lattices_[l].first));
+                restrict_k_.setArg(a++, cl_int(lattices_[l].second));
+                c_.launch(restrict_k_, std::size_t(lattices_[l].first) * lattices_[l].second);
+            }
+            c_.queue.enqueueCopyBuffer(in, S, 0, 0, sizeof(cl_float2) * nodes_);
+            for (std::size_t l = L; l-- > 0;) {
+                // Lattice l interpolated into the next finer one (S at the end).
+                cl::Buffer& fine = l == 0 ? S : global_bufs_[3 + l - 1];
+                const int fnx = l == 0 ? g_.nx : lattices_[l - 1].first,
+                          fny = l == 0 ? g_.ny : lattices_[l - 1].second;
+                a = 0;
+                prolong_k_.setArg(a++, global_bufs_[3 + l]);
+                prolong_k_.setArg(a++, cl_int(lattices_[l].first));
+                prolong_k_.setArg(a++, cl_int(lattices_[l].second));
+                prolong_k_.setArg(a++, fine);
+                prolong_k_.setArg(a++, cl_int(fnx));
+                prolong_k_.setArg(a++, cl_int(fny));
+                prolong_k_.setArg(a++, periodic);
+                c_.launch(prolong_k_, std::size_t(fnx) * fny);
+            }
+        };
+        const std::size_t dot_items = round_up((nodes_ + kSumNodes - 1) / kSumNodes, dot_group_);
+        const auto dot = [&](const cl::Buffer& u, const cl::Buffer& v) {
+            int k = 0;
+            dot_k_.setArg(k++, u);
+            dot_k_.setArg(k++, v);
+            dot_k_.setArg(k++, cl_int(nodes_));
+            dot_k_.setArg(k++, partial_);
+            dot_k_.setArg(k++, cl::Local(esize * dot_group_));
+            c_.queue.enqueueNDRangeKernel(dot_k_, cl::NullRange, cl::NDRange(dot_items),
+                                          cl::NDRange(dot_group_));
+            double sum = 0.0;
+            add_partials(dot_items / dot_group_, sum);
+            return sum;
+        };
+        const auto minus = [&](const cl::Buffer& u, const cl::Buffer& v, double t, cl::Buffer& out) {
+            int k = 0;  // out = u - t v
+            step_k_.setArg(k++, u);
+            step_k_.setArg(k++, v);
+            step_k_.setArg(k++, float(t));
+            step_k_.setArg(k++, cl_int(nodes_));
+            step_k_.setArg(k++, out);
+            c_.launch(step_k_, nodes_);
+        };
+        const auto copy = [&](const cl::Buffer& from, cl::Buffer& to) {
+            c_.queue.enqueueCopyBuffer(from, to, 0, 0, sizeof(cl_float2) * nodes_);
+        };
+        // S = H G, H the memoryless BFGS update of H0 by the pair s = x -
+        // x', y = G - G' from the last global step tried (x' its offsets,
+        // G' its gradient), kept while s.y > 1e-8 |s| |y| and H G descends;
+        // else S = H0 G. The pair carries the curvature along the motion of
+        // a whole iteration (the nodes' phases and the step): the smooth,
+        // map-wide modes a cliff map's tail crawls along (docs/design.md
+        // §4.5.3c). x' and G' become s and y in place, then the new x', G'.
+        bool quasi = false;
+        if (have_last_) {
+            cl::Buffer &s = x_last_, &y = g_last_;
+            minus(c_buf_, x_last_, 1.0, s);
+            minus(grad, g_last_, 1.0, y);
+            const double sy = dot(s, y), ss = dot(s, s), yy = dot(y, y);
+            quasi = std::isfinite(sy) && std::isfinite(ss) && std::isfinite(yy) &&
+                    sy > kQuasiCurvature * std::sqrt(ss * yy);
+            if (quasi) {
+                const double rho = 1.0 / sy, alpha = rho * dot(s, grad);
+                minus(grad, y, alpha, after);  // q = G - alpha y
+                multilevel_sum(after);
+                const double beta = rho * dot(y, S);
+                minus(S, s, beta - alpha, after);  // S = H0 q + (alpha - beta) s
+                std::swap(S, after);
+                const double gs = dot(grad, S);
+                quasi = std::isfinite(alpha) && std::isfinite(beta) && std::isfinite(gs) && gs > 0.0;
+            }
         }
-        c_.queue.enqueueCopyBuffer(grad, S, 0, 0, sizeof(cl_float2) * nodes_);
-        for (std::size_t l = L; l-- > 0;) {
-            // Lattice l interpolated into the next finer one (S at the end).
-            cl::Buffer& fine = l == 0 ? S : global_bufs_[3 + l - 1];
-            const int fnx = l == 0 ? g_.nx : lattices_[l - 1].first,
-                      fny = l == 0 ? g_.ny : lattices_[l - 1].second;
-            a = 0;
-            prolong_k_.setArg(a++, global_bufs_[3 + l]);
-            prolong_k_.setArg(a++, cl_int(lattices_[l].first));
-            prolong_k_.setArg(a++, cl_int(lattices_[l].second));
-            prolong_k_.setArg(a++, fine);
-            prolong_k_.setArg(a++, cl_int(fnx));
-            prolong_k_.setArg(a++, cl_int(fny));
-            prolong_k_.setArg(a++, periodic);
-            c_.launch(prolong_k_, std::size_t(fnx) * fny);
-        }
+        copy(c_buf_, x_last_);
+        copy(grad, g_last_);
+        have_last_ = true;
+        if (!quasi)
+            multilevel_sum(grad);
         // The first flip and the largest move along D, and the slope.
         a = 0;
         limits_k_.setArg(a++, c_buf_);
@@ -500,32 +566,14 @@ private:
             flip = std::min(flip, double(v.s[0]));
             largest = std::max(largest, double(v.s[1]));
         }
-        const std::size_t dot_items = round_up((nodes_ + kSumNodes - 1) / kSumNodes, dot_group_);
-        a = 0;
-        dot_k_.setArg(a++, grad);
-        dot_k_.setArg(a++, S);
-        dot_k_.setArg(a++, cl_int(nodes_));
-        dot_k_.setArg(a++, partial_);
-        dot_k_.setArg(a++, cl::Local(esize * dot_group_));
-        c_.queue.enqueueNDRangeKernel(dot_k_, cl::NullRange, cl::NDRange(dot_items), cl::NDRange(dot_group_));
-        double gs = 0.0;
-        add_partials(dot_items / dot_group_, gs);
-        const double slope = -gs;
+        const double slope = -dot(grad, S);
         if (!(slope < 0.0) || !std::isfinite(slope) || !(largest > 0.0) || !std::isfinite(largest) ||
             !(flip > 0.0))
             return false;
         // E(0) is the energy the caller tracks: one evaluation of the
         // three or more a step costs (4% of a 1024^2 wall's run).
         const double E0 = std::isfinite(energy) ? energy : this->energy();
-        const auto offsets_at = [&](double t) {
-            int k = 0;
-            step_k_.setArg(k++, c_buf_);
-            step_k_.setArg(k++, S);
-            step_k_.setArg(k++, float(t));
-            step_k_.setArg(k++, cl_int(nodes_));
-            step_k_.setArg(k++, after);
-            c_.launch(step_k_, nodes_);
-        };
+        const auto offsets_at = [&](double t) { minus(c_buf_, S, t, after); };
         double best = E0, best_t = 0.0, last_t = 0.0;
         const auto probe_at = [&](double t) {
             offsets_at(t);
@@ -657,9 +705,13 @@ private:
     std::vector<std::pair<int, int>> lattices_;  // the global step's coarser lattices, finest first
     std::vector<cl::Buffer> global_bufs_;        // gradient, S, offsets after a step, then the lattices
     cl::Buffer limits_;                          // per work-group: first flip, largest move
-    std::size_t dot_group_ = 1;                  // work-group of correct_dot
-    std::vector<int> hat_scales_;                // B of each scale of hat moves; empty: none
-    cl::NDRange phase_group_;                    // of correct_phase: within one tile
+    // The last global step's offsets and gradient (its quasi-Newton pair's
+    // x' and G'), once a step has been tried.
+    cl::Buffer x_last_, g_last_;
+    bool have_last_ = false;
+    std::size_t dot_group_ = 1;    // work-group of correct_dot
+    std::vector<int> hat_scales_;  // B of each scale of hat moves; empty: none
+    cl::NDRange phase_group_;      // of correct_phase: within one tile
     int tiles_x_ = 0, tiles_y_ = 0;
     std::vector<std::pair<int, int>> phases_;
     cl::Kernel energy_k_, phase_k_, active_k_, gain_sum_k_;

@@ -425,20 +425,34 @@ TEST_CASE("correct: convergence from the nodes' energy falls decides as the ener
         INFO("tolerance " << tolerance << (global ? " with" : " without") << " global steps: iterations "
                           << fa.iterations << " and " << fb.iterations << ", tiles run " << fa.tile_phases_run
                           << " of " << fa.tile_phases);
-        CHECK(fa.iterations == fb.iterations);
         CHECK(fa.converged);
         CHECK(fb.converged);
         if (global) {
             // A global step starts its line search from the energy the
             // level tracks (falls or recomputed: ~1e-7 apart), so the two
-            // step lengths differ in their last bits.
-            CHECK(std::abs(fa.energy_end - fb.energy_end) <= 1e-6 * fb.energy_end);
+            // step lengths differ in their last bits, and through the
+            // quasi-Newton pairs carry that on, the node searches' choices
+            // amplifying it (measured at iterations 3 to 12: 1e-6 growing
+            // to 1.1e-4 of the energy, against falls of 0.1% to 3% an
+            // iteration): a fall near the tolerance may stop one run an
+            // iteration later (measured: 13 and 12 at 1e-4). Run for the
+            // same iterations, they agree to within the tolerance.
+            CHECK(std::abs(fa.iterations - fb.iterations) <= 1);
+            p.iterations = std::min(fa.iterations, fb.iterations);
+            host::CorrectReport fixed_falls, fixed_energy;
+            run(hts, w, h, p, &fixed_energy);
+            p.energy_each_iteration = false;
+            run(hts, w, h, p, &fixed_falls);
+            const auto &ga = fixed_falls.levels.back(), &gb = fixed_energy.levels.back();
+            CHECK(std::abs(ga.energy_end - gb.energy_end) <= tolerance * gb.energy_end);
+            CHECK(ga.global_steps == gb.global_steps);
         } else {
+            CHECK(fa.iterations == fb.iterations);
             CHECK(fa.energy_end == fb.energy_end);
             CHECK(a == b);
+            CHECK(fa.global_steps == fb.global_steps);
         }
         CHECK(fa.iterations > 3);
-        CHECK(fa.global_steps == fb.global_steps);
         if (global)
             CHECK(fa.global_steps > 0);
         else
@@ -1249,6 +1263,54 @@ TEST_CASE("correct: one device iteration with a global step equals the golden mo
         REQUIRE(rep.levels.size() == 1);
         CHECK(rep.levels[0].global_steps == 1);
         CHECK(worst <= 2e-2 * largest);
+        CHECK(std::abs(e_dev - e_gold) <= 1e-4 * e_gold);
+    }
+}
+
+TEST_CASE("correct: a level's second global step is quasi-Newton, as the golden model's", "[correct]")
+{
+    // global=always at two iterations: the second step's direction is the
+    // memoryless BFGS update of the multilevel sum by the pair (s, y) from
+    // the first step's offsets and gradient (the golden model's
+    // GlobalStepMemory). Without the pair the second step differs.
+    using P = host::Periodic;
+    for (auto [w, h, periodic] : {std::tuple{32, 32, P(true)}, std::tuple{33, 25, P(false)},
+                                  std::tuple{32, 21, P(true, false)}, std::tuple{40, 32, P(false, true)}}) {
+        const auto hts = waves(w, h, 1.0, 24);
+        const double scale = 0.5;
+        ref::CorrectionGrid g = centre_grid(hts, w, h, scale, periodic);
+        std::vector<double> c(2 * std::size_t(w) * h, 0.0);
+        ref::GlobalStepMemory memory;
+        ref::iterate(g, c);
+        const bool first = ref::global_step(g, c, &memory);
+        ref::iterate(g, c);
+        std::vector<double> plain = c;
+        ref::global_step(g, plain);
+        const bool second = ref::global_step(g, c, &memory);
+        const double e_gold = ref::total_energy(g, c), e_plain = ref::total_energy(g, plain);
+        auto p = one_iteration(params(scale, periodic));
+        p.iterations = 2;
+        p.hats = host::CorrectParams::Hats::Off;
+        p.global = host::CorrectParams::Global::Always;
+        host::CorrectReport rep;
+        const auto out = run(hts, w, h, p, &rep);
+        const auto [dev, worst, largest] = agreement(out, c, w, h);
+        const auto plain_gap = agreement(out, plain, w, h).worst;
+        const double e_dev = ref::total_energy(g, dev);
+        INFO(w << "x" << h << " periodic x " << periodic.x << " y " << periodic.y
+               << ": energy after the steps " << e_gold << " (device " << e_dev << ", a plain second step "
+               << e_plain << "); max |offset| " << largest << ", max |device - golden| " << worst
+               << ", from the plain step's " << plain_gap);
+        CHECK(first);
+        CHECK(second);
+        CHECK(memory.used_pair);
+        REQUIRE(rep.levels.size() == 1);
+        CHECK(rep.levels[0].global_steps == 2);
+        CHECK(worst <= 2e-2 * largest);
+        // The plain step lands elsewhere (by 0.4% to 3.5% of the largest
+        // offset, 5e-4 to 2e-3 of the energy): the device took the pair.
+        CHECK(worst < plain_gap);
+        CHECK(std::abs(e_dev - e_gold) < 0.5 * std::abs(e_plain - e_gold));
         CHECK(std::abs(e_dev - e_gold) <= 1e-4 * e_gold);
     }
 }

@@ -536,27 +536,8 @@ bool lattice_halves(int n, bool periodic)
     return periodic ? n % 2 == 0 && n / 2 >= 4 : (n - 1) / 2 + 1 >= 3;
 }
 
-}  // namespace
-
-std::vector<double> multilevel_gradient(const CorrectionGrid& g, const std::vector<double>& c)
-{
-    Lattice G{g.nx, g.ny, std::vector<double>(2 * std::size_t(g.nx) * g.ny, 0.0)};
-    for (int j = 0; j < g.ny; ++j)
-        for (int i = 0; i < g.nx; ++i)
-            if (movable(g, i, j)) {
-                const Vec2 d = fan_gradient(g, c, i, j);
-                G.v[2 * (std::size_t(j) * g.nx + i)] = d[0];
-                G.v[2 * (std::size_t(j) * g.nx + i) + 1] = d[1];
-            }
-    std::vector<Lattice> lat{G};
-    while (lattice_halves(lat.back().nx, g.periodic_x) && lattice_halves(lat.back().ny, g.periodic_y))
-        lat.push_back(restrict_lattice(lat.back(), g.periodic_x, g.periodic_y));
-    for (std::size_t l = lat.size() - 1; l > 0; --l)
-        prolong_lattice(lat[l], lat[l - 1], g.periodic_x, g.periodic_y);
-    return lat[0].v;
-}
-
-bool global_step(const CorrectionGrid& g, std::vector<double>& c)
+// Every movable node's energy gradient (pinned nodes 0).
+std::vector<double> node_gradients(const CorrectionGrid& g, const std::vector<double>& c)
 {
     std::vector<double> G(2 * std::size_t(g.nx) * g.ny, 0.0);
     for (int j = 0; j < g.ny; ++j)
@@ -566,7 +547,65 @@ bool global_step(const CorrectionGrid& g, std::vector<double>& c)
                 G[2 * (std::size_t(j) * g.nx + i)] = d[0];
                 G[2 * (std::size_t(j) * g.nx + i) + 1] = d[1];
             }
-    const std::vector<double> S = multilevel_gradient(g, c);
+    return G;
+}
+
+double dot(const std::vector<double>& u, const std::vector<double>& v)
+{
+    double s = 0.0;
+    for (std::size_t k = 0; k < u.size(); ++k)
+        s += u[k] * v[k];
+    return s;
+}
+
+}  // namespace
+
+std::vector<double> multilevel_sum(const CorrectionGrid& g, std::vector<double> v)
+{
+    std::vector<Lattice> lat{Lattice{g.nx, g.ny, std::move(v)}};
+    while (lattice_halves(lat.back().nx, g.periodic_x) && lattice_halves(lat.back().ny, g.periodic_y))
+        lat.push_back(restrict_lattice(lat.back(), g.periodic_x, g.periodic_y));
+    for (std::size_t l = lat.size() - 1; l > 0; --l)
+        prolong_lattice(lat[l], lat[l - 1], g.periodic_x, g.periodic_y);
+    return lat[0].v;
+}
+
+std::vector<double> multilevel_gradient(const CorrectionGrid& g, const std::vector<double>& c)
+{
+    return multilevel_sum(g, node_gradients(g, c));
+}
+
+bool global_step(const CorrectionGrid& g, std::vector<double>& c, GlobalStepMemory* memory)
+{
+    const std::vector<double> G = node_gradients(g, c);
+    std::vector<double> S;
+    if (memory && !memory->x.empty()) {
+        std::vector<double> s(c.size()), y(c.size());
+        for (std::size_t k = 0; k < c.size(); ++k) {
+            s[k] = c[k] - memory->x[k];
+            y[k] = G[k] - memory->G[k];
+        }
+        const double sy = dot(s, y);
+        if (sy > 1e-8 * std::sqrt(dot(s, s) * dot(y, y))) {
+            const double a = dot(s, G) / sy;
+            std::vector<double> q(G.size());
+            for (std::size_t k = 0; k < q.size(); ++k)
+                q[k] = G[k] - a * y[k];
+            S = multilevel_sum(g, q);
+            const double b = dot(y, S) / sy;
+            for (std::size_t k = 0; k < S.size(); ++k)
+                S[k] += (a - b) * s[k];
+            if (!(dot(G, S) > 0.0))
+                S.clear();
+        }
+    }
+    if (memory) {
+        memory->used_pair = !S.empty();
+        memory->x = c;
+        memory->G = G;
+    }
+    if (S.empty())
+        S = multilevel_sum(g, G);
     double slope = 0.0, largest = 0.0;
     for (std::size_t k = 0; k < S.size(); k += 2) {
         slope -= G[k] * S[k] + G[k + 1] * S[k + 1];

@@ -75,11 +75,25 @@ int hat_sweep(const CorrectionGrid& g, std::vector<double>& c);
 // weighting (1, 1/2 per axis off centre; pinned nodes 0) interpolated
 // bilinearly back (2 per node).
 std::vector<double> multilevel_gradient(const CorrectionGrid& g, const std::vector<double>& c);
+// The multilevel sum above of any field v (the steps' H0).
+std::vector<double> multilevel_sum(const CorrectionGrid& g, std::vector<double> v);
+
+// What a level's global steps remember: the last step's offsets x' and
+// gradient G' (set by the first step tried), and whether the last step
+// used their pair.
+struct GlobalStepMemory {
+    std::vector<double> x, G;
+    bool used_pair = false;
+};
 // One step along -S: t from a probe at min(half the first flip of any
 // triangle, 1 / max |S|) and the minimum of the parabola through E(0),
 // E'(0) = -G.S and it (capped at 0.95 of the flip; then 1/8 and 1/64 of
 // the probe while neither was lower), the lowest kept if it lowers the
 // total energy by more than 1e-6 relative. Returns whether it moved.
-bool global_step(const CorrectionGrid& g, std::vector<double>& c);
+// With `memory` holding the last step's x', G': S = H G, the memoryless
+// BFGS update of H0 by s = c - x', y = G - G' (H G = H0 q + (a - b) s,
+// q = G - a y, a = s.G / s.y, b = y.H0 q / s.y), used while s.y > 1e-8
+// |s| |y| and G.S > 0, else S = H0 G; the memory then holds c, G.
+bool global_step(const CorrectionGrid& g, std::vector<double>& c, GlobalStepMemory* memory = nullptr);
 
 }  // namespace relief::reference
