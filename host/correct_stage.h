@@ -24,7 +24,7 @@ struct CorrectParams {
     // where it started), or null.
     const float* fix_weights = nullptr;
     int iterations = 0;  // per level; 0 = until the relative energy change < tolerance
-    double tolerance = 1e-5;
+    double tolerance = 2e-5;
     int max_iterations = 1000;  // per level, for iterations = 0
     int levels = 0;             // pyramid levels; 0 = down to 16 texels, 1 = single resolution
     // Nothing is corrected (zero offsets, no solve) when no triangle's
@@ -60,7 +60,7 @@ struct CorrectParams {
     // design.md §4.5.3f): the texel-centre nodes, started from the means of
     // their corners, each moving only if the delivered mesh's energy falls.
     // 0: the output is the corner means.
-    int polish = 1;
+    int polish = 2;
 };
 
 struct DistortionStats {

@@ -568,9 +568,10 @@ TEST_CASE("cli: global=always steps after every iteration, and -v, --report and 
     CHECK(c.spec().get_string_attribute("relief:parameters").find(" global=always") != std::string::npos);
 }
 
-TEST_CASE("cli: polish=N polishes the delivered mesh N times, and -v, --report and the parameters say so; "
-          "polish=0 delivers the corner means",
-          "[cli]")
+TEST_CASE(
+    "cli: polish=N polishes the delivered mesh N times (2 by default), and -v, --report and the parameters "
+    "say so; polish=0 delivers the corner means",
+    "[cli]")
 {
     auto dir = scratch("polish");
     const std::string height = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
@@ -582,28 +583,27 @@ TEST_CASE("cli: polish=N polishes the delivered mesh N times, and -v, --report a
         REQUIRE(r.rc == 0);
         return r.err;
     };
-    const std::string said2 = correct(":polish=2", "two"), said0 = correct(":polish=0", "none"),
+    const std::string said1 = correct(":polish=1", "one"), said0 = correct(":polish=0", "none"),
                       said = correct("", "default");
-    const std::string json = slurp(dir / "two.json");
+    const std::string json = slurp(dir / "one.json");
     const std::size_t at = json.find("\"polish\": ");
     REQUIRE(at != std::string::npos);
-    CHECK(relief::test::json_number(json, "iterations", at) == 2.0);
+    CHECK(relief::test::json_number(json, "iterations", at) == 1.0);
     const double start = relief::test::json_number(json, "energy_start", at),
                  end = relief::test::json_number(json, "energy_end", at);
     CHECK(end < start);
-    CHECK(said2.find("polish of the delivered texel-centre mesh: 2 iteration(s)") != std::string::npos);
-    CHECK(said.find("polish of the delivered texel-centre mesh: 1 iteration(s)") != std::string::npos);
+    CHECK(said1.find("polish of the delivered texel-centre mesh: 1 iteration(s)") != std::string::npos);
+    CHECK(said.find("polish of the delivered texel-centre mesh: 2 iteration(s)") != std::string::npos);
     CHECK(said0.find("polish of the delivered") == std::string::npos);
     const std::string none = slurp(dir / "none.json");
     CHECK(relief::test::json_number(none, "iterations", none.find("\"polish\": ")) == 0.0);
     std::vector<std::vector<float>> out;
-    for (const char* name : {"two", "none", "default"}) {
+    for (const char* name : {"one", "none", "default"}) {
         OIIO::ImageBuf c((dir / (std::string(name) + ".exr")).string());
         REQUIRE(c.read());
         const std::string par = c.spec().get_string_attribute("relief:parameters");
-        CHECK(par.find(std::string(" polish=") + (name[0] == 't'   ? "2"
-                                                  : name[0] == 'n' ? "0"
-                                                                   : "1")) != std::string::npos);
+        const char* polish = name[0] == 'o' ? "1" : name[0] == 'n' ? "0" : "2";
+        CHECK(par.find(std::string(" polish=") + polish) != std::string::npos);
         out.emplace_back(std::size_t(c.spec().image_pixels()) * 2);
         c.get_pixels(c.roi(), OIIO::TypeDesc::FLOAT, out.back().data());
     }

@@ -57,12 +57,13 @@ TEST_CASE("parse: the API's defaults are the documented ones", "[cli][parse]")
     CHECK(c.fix_mask == nullptr);
     CHECK(c.fix_width == 0.0f);
     CHECK(c.iterations == 0);
-    CHECK(c.tolerance == 1e-5f);
+    CHECK(c.tolerance == 2e-5f);
     CHECK(c.levels == 0);
     CHECK(c.threshold == 1e-3f);
     CHECK(c.skip_tiles);
     CHECK(c.search == CorrectSearch::Brent);
     CHECK(c.relax == 1.5f);
+    CHECK(c.polish == 2);
     const BakeOptions b;
     CHECK(b.filter == BakeFilter::Bilinear);
     CHECK(b.colorspace == BakeColorspace::Auto);

@@ -126,7 +126,7 @@ struct CorrectOptions {
     // (the node phases, or a global step) is below this; the finest level
     // also when its next change, shrinking at the rate of the last ones,
     // is predicted below it.
-    float tolerance = 1e-5f;
+    float tolerance = 2e-5f;
     // Per level, for auto: node iterations, each hat sweep and global step
     // counted as the iterations it costs (2.5 a scale of hats, 0.5 a step).
     int max_iterations = 1000;
@@ -144,7 +144,7 @@ struct CorrectOptions {
     // nodes=corner: after the solve, node iterations on the delivered mesh
     // (the texel centres, started from the means of their four corners), each
     // move lowering its energy. 0: the output is the corner means.
-    int polish = 1;
+    int polish = 2;
     CorrectReport* report = nullptr;  // filled when given
     Execution exec;
 };
