@@ -45,6 +45,20 @@ std::vector<float> upsample_offsets(const std::vector<float>& coarse, const Node
 // the offsets are read half a texel shifted).
 std::vector<float> texel_offsets(const std::vector<float>& node_offsets, const NodeGrid& g);
 
+// The triangles of `g`'s mesh with offsets c (float2 per node, in texels)
+// whose texture area is not positive (flipped or degenerate), each once,
+// as the node that owns it (docs/design.md §4.5.1: [p, p+(1,0), p+(1,-1)]
+// is triangle 0, [p, p+(1,-1), p+(0,-1)] triangle 1) times 2 plus its index.
+std::vector<long long> flipped_triangles(const std::vector<float>& c, const NodeGrid& g);
+
+// Unflips the mesh: each movable corner of a flipped triangle (in index
+// order, round after round) moves towards the mean of its neighbours'
+// offsets by 1/4, 1/2, 3/4 or all the way, whichever leaves the fewest
+// flipped triangles around it (the shortest of equals), when that is fewer
+// than before. Stops when nothing is flipped, nothing moved in a round, or
+// after `rounds`. Returns the moves made. c: float2 per node, in texels.
+int unflip_mesh(std::vector<float>& c, const NodeGrid& g, int rounds);
+
 // Texel sizes of the pyramid, finest first: each level halves (rounding up)
 // while both sides of the next stay >= min_side; at most `levels` (0 = no
 // limit, 1 = single resolution).

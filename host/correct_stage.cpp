@@ -135,6 +135,10 @@ void to_texels(std::vector<float>& c, const NodeGrid& g, bool forward)
     }
 }
 
+// Rounds of unflipping moves before the polish's iterations (each a pass
+// over the mesh).
+constexpr int kUnflipRounds = 20;
+
 // The corner solve minimises the energy of the corner mesh, but the output
 // is the mean of each texel's four corners, and its mesh (the texel centres
 // at their own heights) is what a bake shows. On a cliff the means can squeeze
@@ -143,10 +147,13 @@ void to_texels(std::vector<float>& c, const NodeGrid& g, bool forward)
 // energy). A few iterations of the centre-node solver from the means (the
 // same kernels, the same guarantees on the delivered mesh: its energy
 // never rises, no triangle flips) remove it: the delivered energy fell
-// 2.8x in one iteration there, 4% on an ordinary wall.
-CorrectPolish polish_delivered_mesh(ComputeContext& ctx, const std::vector<float>& texels,
-                                    const std::vector<float>& fix, int w, int h, const CorrectParams& p,
-                                    std::vector<float>& offsets)
+// 2.8x in one iteration there, 4% on an ordinary wall. Where the means
+// flip triangles (a 4096^2 cliff's held 569), unflip_mesh() mends them
+// first: a flipped triangle's infinite energy is nothing a node search
+// can lower.
+CorrectPolish polish_mesh(ComputeContext& ctx, const std::vector<float>& texels,
+                          const std::vector<float>& fix, int w, int h, const CorrectParams& p,
+                          std::vector<float>& offsets)
 {
     const auto t0 = std::chrono::steady_clock::now();
     CorrectParams q = p;
@@ -156,9 +163,14 @@ CorrectPolish polish_delivered_mesh(ComputeContext& ctx, const std::vector<float
     q.global = CorrectParams::Global::Off;
     const LevelInput in = level_input(texels, fix.empty() ? nullptr : &fix, w, h, w, q);
     to_texels(offsets, in.grid, true);
+    CorrectPolish r;
+    r.flipped = (long long)flipped_triangles(offsets, in.grid).size();
+    if (r.flipped > 0) {
+        r.repairs = unflip_mesh(offsets, in.grid, kUnflipRounds);
+        r.flipped_left = (long long)flipped_triangles(offsets, in.grid).size();
+    }
     LevelSolver s(ctx, in.grid, in.z, in.fix, q);
     s.upload(offsets);
-    CorrectPolish r;
     r.energy_start = s.energy();
     const CorrectLevel lv = s.solve({}, q.tolerance, r.energy_start, true, false);
     r.iterations = lv.iterations;
@@ -170,6 +182,23 @@ CorrectPolish polish_delivered_mesh(ComputeContext& ctx, const std::vector<float
 }
 
 }  // namespace
+
+CorrectPolish polish_delivered_mesh(ComputeContext& ctx, const std::vector<float>& heights,
+                                    const std::vector<float>& fix_weights, int w, int h,
+                                    const CorrectParams& p, std::vector<float>& offsets)
+{
+    validate(p, w, h);
+    const std::size_t n = std::size_t(w) * h;
+    expects(heights.size() == n && offsets.size() == 2 * n &&
+                (fix_weights.empty() || fix_weights.size() == n),
+            "polish_delivered_mesh: a height and an offset per texel");
+    std::lock_guard<std::mutex> lock(ctx.impl().mutex);
+    try {
+        return polish_mesh(ctx, heights, fix_weights, w, h, p, offsets);
+    } catch (const cl::Error& e) {
+        throw opencl_error("correction", e);
+    }
+}
 
 void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h, const CorrectParams& p,
                         float* offsets_out, CorrectReport* report, const CorrectProgress& progress)
@@ -308,7 +337,7 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
         }
         std::vector<float> out = texel_offsets(offsets, finest.grid);
         if (polishing) {
-            rep.polish = polish_delivered_mesh(ctx, texels, fix, w, h, p, out);
+            rep.polish = polish_mesh(ctx, texels, fix, w, h, p, out);
             if (progress)
                 progress(1.0);
         }

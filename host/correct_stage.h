@@ -83,6 +83,10 @@ struct CorrectLevel {
 
 // The polish of the delivered texel-centre mesh (CorrectParams::polish).
 struct CorrectPolish {
+    // Triangles of the corner means' mesh that were flipped, the moves that
+    // unflipped them, and those left flipped (none so far).
+    long long flipped = 0, flipped_left = 0;
+    int repairs = 0;
     int iterations = 0;
     // The delivered mesh's energy before (the corner means) and after.
     double energy_start = 0.0, energy_end = 0.0;
@@ -108,6 +112,14 @@ using CorrectProgress = std::function<void(double)>;
 void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h, const CorrectParams& params,
                         float* offsets_out, CorrectReport* report = nullptr,
                         const CorrectProgress& progress = {});
+
+// The polish of correct_distortion() (CorrectParams::polish; docs/design.md
+// §4.5.3f) on given texel-centre offsets (float2 per texel, texture units;
+// for corner nodes the means of the corners), in place: flipped triangles
+// unflipped first, then p.polish iterations of the centre-node solver.
+CorrectPolish polish_delivered_mesh(ComputeContext& ctx, const std::vector<float>& heights,
+                                    const std::vector<float>& fix_weights, int w, int h,
+                                    const CorrectParams& p, std::vector<float>& offsets);
 
 // The energy and per-triangle statistics of given node offsets (float2 per
 // node, texture units) on the finest grid: for tests and benchmarks that

@@ -6,6 +6,7 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <random>
 #include <utility>
@@ -367,6 +368,135 @@ TEST_CASE("correct: the polish is centre-node iterations on the delivered mesh f
     p.polish = 2;
     CHECK(run(hts, 24, 16, p, &rep) == plain);
     CHECK(rep.polish.iterations == 0);
+}
+
+namespace {
+
+// Texture-space areas of every triangle of a centre grid (offsets in
+// texels), written out from node positions: the flipped ones' codes (2 x
+// owner + 0 for [p, p+(1,0), p+(1,-1)], 1 for [p, p+(1,-1), p+(0,-1)]).
+std::vector<long long> flipped_by_positions(const std::vector<float>& c, int w, int h,
+                                            host::Periodic periodic)
+{
+    std::vector<long long> out;
+    const auto pos = [&](int i, int j, double& x, double& y) {
+        if ((!periodic.x && (i < 0 || i >= w)) || (!periodic.y && (j < 0 || j >= h)))
+            return false;
+        const int wi = (i + w) % w, wj = (j + h) % h;
+        x = i + c[2 * (std::size_t(wj) * w + wi)];
+        y = j + c[2 * (std::size_t(wj) * w + wi) + 1];
+        return true;
+    };
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i)
+            for (int t = 0; t < 2; ++t) {
+                double px, py, ax, ay, bx, by;
+                const bool ok = pos(i, j, px, py) && pos(i + 1, j - (t == 0 ? 0 : 1), ax, ay) &&
+                                pos(i + (t == 0 ? 1 : 0), j - 1, bx, by);
+                if (ok && !((ay - py) * (bx - px) - (ax - px) * (by - py) > 0.0))
+                    out.push_back(2 * (std::size_t(j) * w + i) + t);
+            }
+    return out;
+}
+
+// A smooth field of offsets (texels) with two folds: one node pushed past
+// its right neighbour, and a pair pushed through each other.
+std::vector<float> folded_offsets(int w, int h)
+{
+    std::vector<float> c(2 * std::size_t(w) * h);
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) {
+            c[2 * (std::size_t(j) * w + i)] = float(0.2 * std::sin(6.283 * i / w) * std::cos(6.283 * j / h));
+            c[2 * (std::size_t(j) * w + i) + 1] = float(0.15 * std::cos(6.283 * i / w));
+        }
+    c[2 * (std::size_t(5) * w + 6)] += 1.6f;
+    c[2 * (std::size_t(5) * w + 6) + 1] += 0.3f;
+    c[2 * (std::size_t(8) * w + 10)] += 1.2f;
+    c[2 * (std::size_t(8) * w + 11)] -= 1.1f;
+    return c;
+}
+
+}  // namespace
+
+TEST_CASE("correct: unflip_mesh mends folds and leaves the rest of the mesh", "[correct]")
+{
+    using P = host::Periodic;
+    for (auto [w, h, periodic] : {std::tuple{20, 14, P(true)}, std::tuple{19, 13, P(false)},
+                                  std::tuple{20, 13, P(true, false)}, std::tuple{19, 14, P(false, true)}}) {
+        const host::NodeGrid g(w, h, false, periodic);
+        std::vector<float> c = folded_offsets(w, h);
+        const std::vector<float> start = c;
+        const auto before = flipped_by_positions(c, w, h, periodic);
+        INFO(w << "x" << h << " periodic x " << periodic.x << " y " << periodic.y << ": " << before.size()
+               << " flipped");
+        CHECK(before.size() >= 4);
+        CHECK(host::flipped_triangles(c, g) == before);
+        const int moves = host::unflip_mesh(c, g, 20);
+        CHECK(moves > 0);
+        CHECK(flipped_by_positions(c, w, h, periodic).empty());
+        CHECK(host::flipped_triangles(c, g).empty());
+        // Only nodes near the folds moved (within 4 rings of their
+        // triangles' corners), never a pinned border node.
+        for (int j = 0; j < h; ++j)
+            for (int i = 0; i < w; ++i) {
+                const std::size_t k = 2 * (std::size_t(j) * w + i);
+                const bool moved = c[k] != start[k] || c[k + 1] != start[k + 1];
+                const bool pinned =
+                    (!periodic.x && (i == 0 || i == w - 1)) || (!periodic.y && (j == 0 || j == h - 1));
+                const bool near = (std::abs(i - 6) <= 5 && std::abs(j - 5) <= 5) ||
+                                  (std::abs(i - 10.5) <= 5.5 && std::abs(j - 8) <= 5);
+                if (pinned || !near) {
+                    INFO("node " << i << ", " << j);
+                    CHECK_FALSE(moved);
+                }
+            }
+        // An unfolded mesh is left alone.
+        std::vector<float> smooth = folded_offsets(w, h);
+        smooth[2 * (std::size_t(5) * w + 6)] -= 1.6f;
+        smooth[2 * (std::size_t(5) * w + 6) + 1] -= 0.3f;
+        smooth[2 * (std::size_t(8) * w + 10)] -= 1.2f;
+        smooth[2 * (std::size_t(8) * w + 11)] += 1.1f;
+        const std::vector<float> kept = smooth;
+        CHECK(host::flipped_triangles(smooth, g).empty());
+        CHECK(host::unflip_mesh(smooth, g, 20) == 0);
+        CHECK(smooth == kept);
+    }
+}
+
+TEST_CASE("correct: the polish unflips the delivered mesh before its iterations", "[correct]")
+{
+    // Texel offsets with folds (as a cliff's corner means can hold): the
+    // polish unflips them, then its iterations lower a finite energy.
+    using P = host::Periodic;
+    for (auto [w, h, periodic] : {std::tuple{20, 14, P(true)}, std::tuple{19, 13, P(false)}}) {
+        const auto hts = waves(w, h, 1.0, 10);
+        auto p = params(0.3, periodic);
+        p.polish = 2;
+        std::vector<float> c = folded_offsets(w, h);
+        for (std::size_t k = 0; k < c.size(); k += 2) {
+            c[k] /= float(w);
+            c[k + 1] /= float(h);
+        }
+        auto ctx = host::ComputeContext::acquire("auto");
+        const host::CorrectPolish r = host::polish_delivered_mesh(*ctx, hts, {}, w, h, p, c);
+        INFO(w << "x" << h << ": " << r.flipped << " flipped, " << r.repairs << " moves, " << r.flipped_left
+               << " left; energy " << r.energy_start << " -> " << r.energy_end);
+        CHECK(r.flipped >= 4);
+        CHECK(r.repairs > 0);
+        CHECK(r.flipped_left == 0);
+        CHECK(std::isfinite(r.energy_start));
+        CHECK(r.energy_end < r.energy_start);
+        CHECK(r.iterations == 2);
+        std::vector<float> texels(c.size());
+        for (std::size_t k = 0; k < c.size(); k += 2) {
+            texels[k] = c[k] * float(w);
+            texels[k + 1] = c[k + 1] * float(h);
+        }
+        CHECK(flipped_by_positions(texels, w, h, periodic).empty());
+        const ref::CorrectionGrid g = centre_grid(hts, w, h, 0.3, periodic);
+        const double e = ref::total_energy(g, agreement(c, std::vector<double>(c.size(), 0.0), w, h).device);
+        CHECK(e == Approx(r.energy_end).epsilon(1e-4));
+    }
 }
 
 TEST_CASE("correct: the energy never rises, iteration after iteration", "[correct]")

@@ -767,6 +767,8 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
         CHECK(r.polish.iterations == want.report.polish.iterations);
         CHECK(r.polish.energy_start == want.report.polish.energy_start);
         CHECK(r.polish.energy_end == want.report.polish.energy_end);
+        CHECK(r.polish.flipped == want.report.polish.flipped);
+        CHECK(r.polish.repairs == want.report.polish.repairs);
         REQUIRE(r.levels.size() == want.report.levels.size());
         for (std::size_t l = 0; l < r.levels.size(); ++l) {
             const host::CorrectLevel& hl = want.report.levels[l];

@@ -83,6 +83,11 @@ struct CorrectLevelReport {
 
 // The polish of the delivered mesh (CorrectOptions::polish).
 struct CorrectPolishReport {
+    // Triangles of the corner means' mesh found flipped, the moves that
+    // unflipped them (each node towards its neighbours or deeper inside its
+    // fan), and any left flipped.
+    long long flipped = 0, flipped_left = 0;
+    int repairs = 0;
     int iterations = 0;
     // The delivered texel-centre mesh's energy: the corner means', then the output's.
     double energy_start = 0.0, energy_end = 0.0;

@@ -93,7 +93,10 @@ std::string CorrectReport::to_json() const
                                {"start_factor", l.start_factor},
                                {"hat_sweeps", l.hat_sweeps},
                                {"global_steps", l.global_steps}});
-    j["polish"] = {{"iterations", polish.iterations},
+    j["polish"] = {{"flipped", polish.flipped},
+                   {"repairs", polish.repairs},
+                   {"flipped_left", polish.flipped_left},
+                   {"iterations", polish.iterations},
                    {"energy_start", polish.energy_start},
                    {"energy_end", polish.energy_end},
                    {"seconds", polish.seconds}};
@@ -192,7 +195,8 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         rep.scale = p.scale;
         rep.energy_before = hr.energy_before;
         rep.energy_after = hr.energy_after;
-        rep.polish = {hr.polish.iterations, hr.polish.energy_start, hr.polish.energy_end, hr.polish.seconds};
+        rep.polish = {hr.polish.flipped,      hr.polish.flipped_left, hr.polish.repairs, hr.polish.iterations,
+                      hr.polish.energy_start, hr.polish.energy_end,   hr.polish.seconds};
         rep.iterations = hr.total_iterations();
         for (const auto& l : hr.levels)
             rep.levels.push_back({l.width, l.height, l.iterations, l.energy_start, l.energy_end, l.converged,
@@ -234,9 +238,24 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
             if (rep.polish.iterations > 0)
                 detail::say(ex, Severity::Info,
                             "correct: polish of the delivered texel-centre mesh: " +
+                                (rep.polish.flipped
+                                     ? std::to_string(rep.polish.flipped) +
+                                           " flipped triangle(s) of the corner means mended by " +
+                                           std::to_string(rep.polish.repairs) + " move(s)" +
+                                           (rep.polish.flipped_left
+                                                ? " (" + std::to_string(rep.polish.flipped_left) + " left)"
+                                                : std::string()) +
+                                           ", "
+                                     : std::string()) +
                                 std::to_string(rep.polish.iterations) + " iteration(s), energy " +
                                 f(rep.polish.energy_start) + " -> " + f(rep.polish.energy_end) + ", " +
                                 detail::format_double("%.2f s", rep.polish.seconds));
+            if (rep.polish.flipped_left > 0)
+                detail::say(
+                    ex, Severity::Warning,
+                    "correct: " + std::to_string(rep.polish.flipped_left) +
+                        " triangle(s) of the delivered mesh stay flipped (nodes=center solves that mesh "
+                        "itself)");
             detail::say(ex, Severity::Info,
                         "correct: energy " + f(rep.energy_before) + " -> " + f(rep.energy_after) +
                             "; anisotropy s1/s2 mean/p95/max " + f(rep.anisotropy_before.mean) + "/" +
