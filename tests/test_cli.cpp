@@ -570,7 +570,7 @@ TEST_CASE("cli: global=always steps after every iteration, and -v, --report and 
 
 TEST_CASE(
     "cli: polish=N polishes the delivered mesh N times (2 by default), and -v, --report and the parameters "
-    "say so; polish=0 delivers the corner means",
+    "say so, and polish=0 delivers the corner means",
     "[cli]")
 {
     auto dir = scratch("polish");

@@ -136,7 +136,8 @@ TEST_CASE("operations: defaults are the option structs' own, and each parses bac
     CHECK(find("height", "rays").default_value == std::to_string(HeightOptions{}.rays));
     CHECK(find("height", "radius").default_value == "64");
     CHECK(find("correct", "theta").default_value == "5");
-    CHECK(find("correct", "tolerance").default_value == "1e-05");
+    CHECK(find("correct", "tolerance").default_value == "2e-05");
+    CHECK(find("correct", "polish").default_value == "2");
     CHECK(find("correct", "scale").default_value == "auto");
     CHECK(find("slopes", "max_angle").default_value == "85");
     CHECK(find("bake", "filter").default_value == "bilinear");

@@ -288,6 +288,7 @@ class Keywords(unittest.TestCase):
         ("correct", ["hills.exr"], {"scale": 0.05}, {"relax": 1.2}, True),
         ("correct", ["hills.exr"], {"scale": 0.05}, {"hats": "always"}, True),
         ("correct", ["hills.exr"], {"scale": 0.05}, {"global": "off"}, True),
+        ("correct", ["hills.exr"], {"scale": 0.05}, {"polish": 0}, True),
         ("bake", ["t.png", "off.exr"], {}, {"filter": "bicubic"}, True),
         ("bake", ["t.png", "off.exr"], {}, {"colorspace": "linear"}, True),
         ("bake", ["t.png", "off.exr"], {}, {"kind": "data"}, True),
