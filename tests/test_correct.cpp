@@ -413,6 +413,7 @@ std::vector<float> folded_offsets(int w, int h)
     c[2 * (std::size_t(5) * w + 6) + 1] += 0.3f;
     c[2 * (std::size_t(8) * w + 10)] += 1.2f;
     c[2 * (std::size_t(8) * w + 11)] -= 1.1f;
+    c[2 * (std::size_t(3) * w + 1)] -= 1.6f;  // past the left border's node
     return c;
 }
 
@@ -443,8 +444,15 @@ TEST_CASE("correct: unflip_mesh mends folds and leaves the rest of the mesh", "[
                 const bool moved = c[k] != start[k] || c[k + 1] != start[k + 1];
                 const bool pinned =
                     (!periodic.x && (i == 0 || i == w - 1)) || (!periodic.y && (j == 0 || j == h - 1));
-                const bool near = (std::abs(i - 6) <= 5 && std::abs(j - 5) <= 5) ||
-                                  (std::abs(i - 10.5) <= 5.5 && std::abs(j - 8) <= 5);
+                // Distances wrap along a periodic axis.
+                const auto dist = [&](double a, double b, int n, bool wraps) {
+                    const double d = std::abs(a - b);
+                    return wraps ? std::min(d, n - d) : d;
+                };
+                const auto near_to = [&](double x, double y, double r) {
+                    return dist(i, x, w, periodic.x) <= r && dist(j, y, h, periodic.y) <= 5;
+                };
+                const bool near = near_to(6, 5, 5) || near_to(10.5, 8, 5.5) || near_to(1, 3, 5);
                 if (pinned || !near) {
                     INFO("node " << i << ", " << j);
                     CHECK_FALSE(moved);
@@ -456,6 +464,7 @@ TEST_CASE("correct: unflip_mesh mends folds and leaves the rest of the mesh", "[
         smooth[2 * (std::size_t(5) * w + 6) + 1] -= 0.3f;
         smooth[2 * (std::size_t(8) * w + 10)] -= 1.2f;
         smooth[2 * (std::size_t(8) * w + 11)] += 1.1f;
+        smooth[2 * (std::size_t(3) * w + 1)] += 1.6f;
         const std::vector<float> kept = smooth;
         CHECK(host::flipped_triangles(smooth, g).empty());
         CHECK(host::unflip_mesh(smooth, g, 20) == 0);
