@@ -9,7 +9,7 @@
 // affine fit (scale and offset of a height are arbitrary). A rule "hits" a
 // case when the boundary it picks scores within 5% (or 0.005) of the best
 // of the four. Two rules are set side by side: the per-axis rule of
-// host/tiling.h (slope correlation and block heights), and the slope test
+// host/poisson/tiling.h (slope correlation and block heights), and the slope test
 // alone with one choice for both axes (periodic when both axes pass).
 // Cases:
 //   shared   the real maps of ../shared/data against their authored heights
@@ -36,7 +36,7 @@
 
 #include "relief/relief.h"
 #include "support/fields.h"
-#include "tiling.h"
+#include "poisson/tiling.h"
 
 namespace fs = std::filesystem;
 using OIIO::ImageBuf;

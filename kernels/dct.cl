@@ -57,7 +57,7 @@ inline float re_rotated(float c, float s, float2 z)
 }
 
 // The twiddles w0[k] = (cos, sin)(pi k / 2n0), w1 likewise along axis 1
-// (host/dct_plan.cpp, from double), combined by the angle-sum rules: a
+// (host/fft/dct_plan.cpp, from double), combined by the angle-sum rules: a
 // table read costs less than a cospi()/sinpi() call.
 __kernel void dct_forward_post(__global const float2* V, int n0, int n1, __global float* X,
                                __global const float2* w0, __global const float2* w1)

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // Device behaviour that no OpenCL query reports, probed once per context
-// (host/compute_context.cpp).
+// (host/device/compute_context.cpp).
 
 // A work-item runs n steps of a recurrence the compiler cannot fold; the
 // host compares the result with its own. Mesa's llvmpipe (Rusticl) ends a
@@ -17,7 +17,7 @@ __kernel void device_loop_probe(uint seed, uint n, __global uint* out)
 }
 
 // Sets `count` 32-bit words from `first` on to `pattern`: relief's own
-// clEnqueueFillBuffer (host/compute_context.cpp, fill), because Oclgrind's
+// clEnqueueFillBuffer (host/device/compute_context.cpp, fill), because Oclgrind's
 // uninitialised-value checks do not see that call and report every value
 // read from a filled buffer (tests/portability/fill_buffer.cpp).
 __kernel void device_fill_words(__global uint* words, uint first, uint count, uint pattern)

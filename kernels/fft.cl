@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // Transposes of an R2C half spectrum between the two passes of a 2-D FFT
-// (host/fft_plan.cpp): rows x columns complex values <-> columns x rows.
+// (host/fft/fft_plan.cpp): rows x columns complex values <-> columns x rows.
 // common.h is prepended by the host.
 
 __kernel void fft_transpose(__global const float2* in, int rows, int columns, __global float2* out)
@@ -12,7 +12,7 @@ __kernel void fft_transpose(__global const float2* in, int rows, int columns, __
 }
 
 // Where VkFFT plans no real-to-complex transform of the rows' length n0
-// (host/fft_plan.cpp), the rows go through a complex transform: widened to
+// (host/fft/fft_plan.cpp), the rows go through a complex transform: widened to
 // complex, the half spectrum kept (n0/2 + 1 values a row, the R2C layout),
 // and back: the whole Hermitian spectrum rebuilt, its inverse's real part
 // taken (the imaginary parts of the DC and Nyquist terms, which a C2R

@@ -13,9 +13,9 @@
 #include <fstream>
 #include <random>
 
-#include "bake_stage.h"
+#include "bake/bake_stage.h"
 #include "io/colour.h"
-#include "compute_context.h"
+#include "device/compute_context.h"
 #include "reference/bake_reference.h"
 #include "relief/bake.h"
 #include "relief/correct.h"

@@ -11,10 +11,10 @@
 #include <random>
 #include <utility>
 
-#include "compute_context.h"
-#include "correct_grid.h"
-#include "correct_stage.h"
-#include "correct_stop_rule.h"
+#include "device/compute_context.h"
+#include "correct/correct_grid.h"
+#include "correct/correct_stage.h"
+#include "correct/correct_stop_rule.h"
 #include "reference/correct_reference.h"
 #include "relief/correct.h"
 #include "relief/errors.h"

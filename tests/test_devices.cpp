@@ -13,10 +13,10 @@
 #include <string>
 #include <vector>
 
-#include "check_stage.h"
-#include "compute_context.h"
+#include "check/check_stage.h"
+#include "device/compute_context.h"
 #include "errors.h"
-#include "opencl_context.h"
+#include "device/opencl_context.h"
 #include "support/fields.h"
 #include "support/images.h"
 #include "support/run_cli.h"

@@ -11,16 +11,16 @@
 #include <thread>
 #include <vector>
 
-#include "binary_cache.h"
-#include "compute_context.h"
-#include "bake_stage.h"
-#include "correct_stage.h"
-#include "environment.h"
+#include "device/binary_cache.h"
+#include "device/compute_context.h"
+#include "bake/bake_stage.h"
+#include "correct/correct_stage.h"
+#include "device/environment.h"
 #include "errors.h"
-#include "memory_budget.h"
-#include "plan_cache.h"
-#include "setup_times.h"
-#include "slope_stage.h"
+#include "device/memory_budget.h"
+#include "fft/plan_cache.h"
+#include "device/setup_times.h"
+#include "slopes/slope_stage.h"
 #include "support/run_cli.h"
 
 using namespace relief::host;

@@ -15,8 +15,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "compute_context.h"
-#include "memory_budget.h"
+#include "device/compute_context.h"
+#include "device/memory_budget.h"
 #include "relief/relief.h"
 #include "text_file.h"
 #include "support/images.h"

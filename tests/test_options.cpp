@@ -13,14 +13,14 @@
 #include <functional>
 #include <random>
 
-#include "bake_stage.h"
-#include "compute_context.h"
-#include "correct_stage.h"
-#include "memory_budget.h"
-#include "poisson_stage.h"
-#include "ray_stage.h"
+#include "bake/bake_stage.h"
+#include "device/compute_context.h"
+#include "correct/correct_stage.h"
+#include "device/memory_budget.h"
+#include "poisson/poisson_stage.h"
+#include "rays/rays_stage.h"
 #include "relief/relief.h"
-#include "slope_stage.h"
+#include "slopes/slope_stage.h"
 #include "support/fields.h"
 #include "support/images.h"
 

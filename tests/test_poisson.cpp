@@ -6,14 +6,14 @@
 #include <cmath>
 #include <random>
 
-#include "compute_context.h"
-#include "poisson_stage.h"
+#include "device/compute_context.h"
+#include "poisson/poisson_stage.h"
 #include "reference/poisson_reference.h"
 #include "reference/zero_mean.h"
-#include "slope_stage.h"
+#include "slopes/slope_stage.h"
 #include "support/fields.h"
 #include "support/images.h"
-#include "tiling.h"
+#include "poisson/tiling.h"
 
 using namespace relief;
 

@@ -9,10 +9,10 @@
 #include <random>
 #include <string>
 
-#include "compute_context.h"
-#include "fft_plan.h"
-#include "poisson_stage.h"
-#include "slope_stage.h"
+#include "device/compute_context.h"
+#include "fft/fft_plan.h"
+#include "poisson/poisson_stage.h"
+#include "slopes/slope_stage.h"
 #include "support/fields.h"
 
 using namespace relief;

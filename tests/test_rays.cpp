@@ -6,12 +6,12 @@
 #include <cmath>
 #include <random>
 
-#include "compute_context.h"
-#include "ray_stage.h"
+#include "device/compute_context.h"
+#include "rays/rays_stage.h"
 #include "reference/rays_reference.h"
 #include "reference/zero_mean.h"
 #include "relief/relief.h"
-#include "slope_stage.h"
+#include "slopes/slope_stage.h"
 #include "support/fields.h"
 
 using namespace relief;

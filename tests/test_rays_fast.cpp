@@ -9,11 +9,11 @@
 #include <cstring>
 #include <random>
 
-#include "compute_context.h"
-#include "ray_stage.h"
-#include "ray_walk.h"
+#include "device/compute_context.h"
+#include "rays/rays_stage.h"
+#include "rays/rays_walk.h"
 #include "reference/rays_reference.h"
-#include "slope_stage.h"
+#include "slopes/slope_stage.h"
 #include "support/fields.h"
 #include "support/images.h"
 

@@ -9,13 +9,13 @@
 #include <fstream>
 #include <random>
 
-#include "compute_context.h"
-#include "ray_stage.h"
+#include "device/compute_context.h"
+#include "rays/rays_stage.h"
 #include "reference/ddm_reference.h"
 #include "reference/poisson_reference.h"
 #include "reference/rays_reference.h"
 #include "relief/relief.h"
-#include "slope_stage.h"
+#include "slopes/slope_stage.h"
 #include "support/fields.h"
 #include "support/images.h"
 #include "support/run_cli.h"

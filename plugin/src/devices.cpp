@@ -5,12 +5,12 @@
 
 #include <exception>
 
-#include "compute_context.h"
+#include "device/compute_context.h"
 #include "error_state.h"
 #include "io/colour.h"
-#include "poisson_stage.h"
-#include "setup_times.h"
-#include "vkfft_version.h"
+#include "poisson/poisson_stage.h"
+#include "device/setup_times.h"
+#include "fft/vkfft_version.h"
 
 namespace relief {
 

@@ -6,7 +6,7 @@
 // constructor, llvm::PointerType::get, or the mangler) in about half the
 // runs of relief's --height, whose prepare() thread builds the FFT's
 // programs while the main thread builds the DDM's. relief therefore holds
-// one process-wide lock around every build (host/opencl_context.h,
+// one process-wide lock around every build (host/device/opencl_context.h,
 // compiler_mutex); builds from the binary cache take milliseconds, so only a
 // cold process's first builds lose their overlap.
 //

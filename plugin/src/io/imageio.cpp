@@ -20,7 +20,7 @@
 
 #include "error_state.h"
 #include "library_output.h"
-#include "memory_budget.h"  // host/: no OpenCL types
+#include "device/memory_budget.h"  // host/: no OpenCL types
 #include "relief/output_files.h"
 #include "relief/version.h"
 #include "temporary_file.h"

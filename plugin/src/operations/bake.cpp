@@ -10,9 +10,9 @@
 #include <stdexcept>
 #include <vector>
 
-#include "bake_stage.h"
+#include "bake/bake_stage.h"
 #include "io/colour.h"
-#include "compute_context.h"
+#include "device/compute_context.h"
 #include "results.h"
 
 namespace relief {

@@ -7,9 +7,9 @@
 #include <stdexcept>
 #include <vector>
 
-#include "check_stage.h"
+#include "check/check_stage.h"
 #include "options/option_limits.h"
-#include "compute_context.h"
+#include "device/compute_context.h"
 #include "results.h"
 #include "seams.h"
 

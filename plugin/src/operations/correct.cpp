@@ -11,8 +11,8 @@
 #include <stdexcept>
 #include <vector>
 
-#include "compute_context.h"
-#include "correct_stage.h"
+#include "device/compute_context.h"
+#include "correct/correct_stage.h"
 #include "results.h"
 #include "seams.h"
 

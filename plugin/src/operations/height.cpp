@@ -15,14 +15,14 @@
 #include <stdexcept>
 #include <vector>
 
-#include "check_stage.h"
+#include "check/check_stage.h"
 #include "height_memory.h"
-#include "memory_budget.h"
+#include "device/memory_budget.h"
 #include "results.h"
 #include "slope_input.h"
-#include "poisson_stage.h"
-#include "ray_stage.h"
-#include "tiling.h"
+#include "poisson/poisson_stage.h"
+#include "rays/rays_stage.h"
+#include "poisson/tiling.h"
 
 namespace relief {
 

@@ -22,9 +22,9 @@
 #include <stdexcept>
 #include <unordered_map>
 
-#include "check_stage.h"
-#include "compute_context.h"
-#include "memory_budget.h"
+#include "check/check_stage.h"
+#include "device/compute_context.h"
+#include "device/memory_budget.h"
 #include "error_state.h"
 #include "results.h"
 #include "relief/errors.h"

@@ -13,7 +13,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "check_stage.h"
+#include "check/check_stage.h"
 #include "io/colour.h"
 #include "results.h"
 #include "slope_input.h"

@@ -10,11 +10,11 @@
 #include <utility>
 #include <vector>
 
-#include "cancel.h"
+#include "device/cancel.h"
 #include "io/library_output.h"
 #include "relief/options.h"
 #include "relief/validate.h"
-#include "slope_stage.h"
+#include "slopes/slope_stage.h"
 
 namespace relief::detail {
 
@@ -22,7 +22,7 @@ namespace relief::detail {
 OIIO::ROI resolve_roi(const OIIO::ImageBuf& image, OIIO::ROI roi);
 
 // While an operation runs: exec.cancel, asked once now and then before
-// each kernel (host/cancel.h), and exec.on_message, where the image
+// each kernel (host/device/cancel.h), and exec.on_message, where the image
 // libraries' output goes (io/library_output.h).
 class OperationScope : host::CancelCheck, LibraryOutputSink {
 public:

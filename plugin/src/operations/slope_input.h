@@ -6,9 +6,9 @@
 
 #include <memory>
 
-#include "compute_context.h"
+#include "device/compute_context.h"
 #include "relief/options.h"
-#include "slope_stage.h"
+#include "slopes/slope_stage.h"
 
 namespace relief::detail {
 

@@ -4,8 +4,8 @@
 #include <string>
 #include <vector>
 
-#include "binary_cache.h"
-#include "kernel_sources.h"
+#include "device/binary_cache.h"
+#include "device/kernel_sources.h"
 #include "relief/operations.h"
 #include "relief/version.h"
 

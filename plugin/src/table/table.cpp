@@ -11,7 +11,7 @@
 
 #include "error_state.h"
 #include "io/library_output.h"
-#include "memory_budget.h"
+#include "device/memory_budget.h"
 #include "schema.h"
 
 namespace relief::table {
