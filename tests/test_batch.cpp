@@ -827,3 +827,83 @@ TEST_CASE("batch: --log strings are JSON: escapes, UTF-8 as it is, other bytes a
         CHECK(read_back(text(bytes)) == bytes);
     }
 }
+
+namespace {
+
+// Per job, the seconds of its steps as -v prints them ("relief: job N:
+// read F: X s", "...: --op: X s (...)", "...: -o F: X s") and the job's own
+// line ("relief: job N (WHERE): ok, X s").
+struct VerboseTimes {
+    std::map<int, double> steps, job;
+};
+
+VerboseTimes verbose_times(const std::string& err)
+{
+    VerboseTimes t;
+    // (a single command line's steps say no job)
+    const std::regex step(R"(^relief: (?:job (\d+): )?(read .*|--[a-z]+|-o .*): ([0-9.]+) s)");
+    const std::regex job(R"(^relief: job (\d+) \(.*\): ok, ([0-9.]+) s$)");
+    std::istringstream in(err);
+    for (std::string l; std::getline(in, l);) {
+        std::smatch m;
+        if (std::regex_search(l, m, step))
+            t.steps[m[1].matched ? std::stoi(m[1]) : 0] += std::stod(m[3]);
+        else if (std::regex_match(l, m, job))
+            t.job[std::stoi(m[1])] = std::stod(m[2]);
+    }
+    return t;
+}
+
+}  // namespace
+
+TEST_CASE("batch: a job's seconds in --log and -v are its own steps', written ones included", "[batch][cli]")
+{
+    const fs::path d = scratch("own_seconds");
+    // a map whose write takes a while, then a small one (the first's write
+    // goes on behind the second's work)
+    const fs::path big = d / "big.exr";
+    const int n = 1024;
+    std::vector<float> px(std::size_t(n) * n * 3);
+    for (std::size_t i = 0; i < px.size(); ++i)
+        px[i] = i % 3 == 2 ? 1.0f : float((i * 2654435761u) % 1000) / 4000.0f;
+    REQUIRE(relief::write_image(relief::test::image(n, n, 3, px), big.string()));
+    const fs::path m = d / "jobs.txt";
+    std::ofstream(m) << "'" << big.string() << "' --slopes -o '" << (d / "s0.exr").string() << "'\n"
+                     << kDem << " --slopes -o '" << (d / "s1.exr").string() << "'\n";
+    const fs::path log = d / "log.jsonl";
+    const auto started = std::chrono::steady_clock::now();
+    const auto r = run_cli("-v --batch '" + m.string() + "' --log '" + log.string() + "'");
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    INFO(r.err);
+    REQUIRE(r.rc == 0);
+    const VerboseTimes t = verbose_times(r.err);
+    const std::vector<std::string> lines = lines_of(log);
+    REQUIRE(lines.size() == 2);
+    REQUIRE(t.job.size() == 2);
+    double total = 0.0;
+    for (int i = 0; i < 2; ++i) {
+        INFO("job " << i << ": " << lines[i]);
+        const double logged = nlohmann::json::parse(lines[i])["seconds"];
+        // -v and the log say the same, to the log's millisecond
+        CHECK(std::abs(t.job.at(i) - logged) <= 0.0015);
+        // at least its steps' time (its read, its operation and its
+        // write, the one done behind the next job included)
+        CHECK(logged >= t.steps.at(i) - 0.004);
+        total += logged;
+    }
+    CHECK(t.steps.at(0) > t.steps.at(1));
+    CHECK(total <= wall);
+
+    // one command line: its job's own time as well
+    const fs::path log1 = d / "one.jsonl";
+    const auto one = run_cli("-v '" + big.string() + "' --slopes -o '" + (d / "one.exr").string() +
+                             "' --log '" + log1.string() + "'");
+    INFO(one.err);
+    REQUIRE(one.rc == 0);
+    const VerboseTimes t1 = verbose_times(one.err);
+    const std::vector<std::string> one_lines = lines_of(log1);
+    REQUIRE(one_lines.size() == 1);
+    const double logged = nlohmann::json::parse(one_lines[0])["seconds"];
+    REQUIRE(t1.steps.count(0));
+    CHECK(logged >= t1.steps.at(0) - 0.004);
+}

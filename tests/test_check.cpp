@@ -21,8 +21,8 @@
 #include <sstream>
 #include <random>
 
-#include "check_stage.h"
-#include "compute_context.h"
+#include "check/check_stage.h"
+#include "device/compute_context.h"
 #include "reference/check_reference.h"
 #include "reference/ddm_reference.h"
 #include "relief/check.h"
@@ -938,6 +938,43 @@ TEST_CASE("preview: a height's own normals light as the height does, and the lig
     // Emboss: the ramp rises toward a light on the right: brighter than mid-grey.
     CHECK(panel_mean(from_right, 2, 0, pw, ph, 0) > 0.6);
     CHECK(panel_mean(from_left, 2, 0, pw, ph, 0) < 0.4);
+}
+
+TEST_CASE("preview: the emboss panel is the height one texel toward the light less the height, along x and y",
+          "[check][preview]")
+{
+    // Planes: the height one texel toward the light (bilinear between
+    // texels, exact on a plane) less the height is the same everywhere but
+    // at the clamped edges, under 1% of the texels here, so the panel is
+    // black where it is lower, white where it is higher.
+    const int w = 256, ht = 192;
+    const int pw = 344, ph = int(std::lround(192 * 344.0 / 256));
+    NormalsOptions no;
+    no.boundary = Boundary::Free;
+    PreviewOptions o;
+    o.normals.convention = NormalConvention::OpenGL;
+    o.boundary = Boundary::Free;
+    const auto emboss = [&](double ax, double ay, float azimuth) {
+        std::vector<float> h(w * ht);
+        for (int y = 0; y < ht; ++y)
+            for (int x = 0; x < w; ++x)
+                h[y * w + x] = float(ax * x + ay * y);
+        const OIIO::ImageBuf height = test::image(w, ht, 1, h);
+        o.azimuth = azimuth;
+        const OIIO::ImageBuf sheet = relief::preview(relief::normals(height, no), height, o);
+        REQUIRE_FALSE(sheet.has_error());
+        return panel_mean(sheet, 2, 0, pw, ph, 0, 12);
+    };
+    // Rising down the image: the light from the top (azimuth 90) finds the
+    // texel above lower, from the bottom higher.
+    CHECK(emboss(0.0, 0.6, 90.0f) < 0.05);
+    CHECK(emboss(0.0, 0.6, 270.0f) > 0.95);
+    // Azimuth 45 looks 0.71 texels right and 0.71 up (between texels):
+    // 0.3 x 0.71 higher and 0.6 x 0.71 lower; 315 looks right and down.
+    CHECK(emboss(0.3, 0.6, 45.0f) < 0.05);
+    CHECK(emboss(0.3, 0.6, 315.0f) > 0.95);
+    CHECK(emboss(0.6, 0.3, 45.0f) > 0.95);
+    CHECK(emboss(0.6, 0.3, 135.0f) < 0.05);
 }
 
 TEST_CASE("preview: the procedural sky lights an upward surface pale blue, every channel lit",

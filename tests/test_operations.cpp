@@ -7,9 +7,11 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <future>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -495,6 +497,139 @@ TEST_CASE("C ABI: a result carries every relief:* attribute of the API's result,
                  coffin = {w, h, 2, RELIEF_FLOAT, op.data(), off_meta.data()};
     auto [cb, baked] = both("bake", "kind=data", {&tex, &off}, {ctex, coffin});
     relief_image_free(&cb);
+}
+
+namespace {
+
+// What a host's relief_callbacks heard.
+struct Heard {
+    std::vector<std::pair<int, std::string>> messages;
+    std::vector<double> progress;
+    int cancel_at = 0;  // the progress call (1, 2, ...) that answers non-zero; 0: none
+};
+
+void heard_message(int severity, const char* text, void* user)
+{
+    static_cast<Heard*>(user)->messages.emplace_back(severity, text);
+}
+
+// Messages as "severity: text" lines, for a failure to show; times in
+// seconds (one run's own) as "#".
+std::string lines_of(const std::vector<std::pair<int, std::string>>& messages)
+{
+    std::string s;
+    for (const auto& [severity, text] : messages)
+        s += std::to_string(severity) + ": " +
+             std::regex_replace(text, std::regex(R"(\d+\.\d+ s\b)"), "# s") + "\n";
+    return s;
+}
+
+int heard_progress(double fraction, void* user)
+{
+    Heard& h = *static_cast<Heard*>(user);
+    h.progress.push_back(fraction);
+    return int(h.progress.size()) == h.cancel_at;
+}
+
+}  // namespace
+
+TEST_CASE("C ABI: relief_run_with tells the API's messages at their severity, its progress, and stops at a "
+          "cancel",
+          "[operations][abi]")
+{
+    // Float normals with a texel of zero length (a warning), an unknown
+    // convention (auto: a notice) and details (info).
+    const int w = 48, h = 40;
+    std::vector<float> normals = wavy_normals(w, h);
+    normals[3 * (5 * w + 7) + 0] = normals[3 * (5 * w + 7) + 1] = normals[3 * (5 * w + 7) + 2] = 0.0f;
+    const ImageBuf n = test::image(w, h, 3, normals);
+    const relief_image cn = {w, h, 3, RELIEF_FLOAT, normals.data(), nullptr};
+    for (const char* op : {"height", "correct"}) {
+        INFO(op);
+        // height's boundary=auto: a notice of the boundary it found
+        const std::string mods = op == std::string("height") ? "" : "scale=0.2:levels=2";
+        OperationCall call;
+        REQUIRE(parse_modifiers(call, "height", "boundary=free"));
+        ImageBuf heights;
+        REQUIRE(run_operation(heights, call, {&n}));
+        std::vector<float> hp = test::pixels(heights);
+        const relief_image ch = {w, h, 1, RELIEF_FLOAT, hp.data(), nullptr};
+        const bool is_height = op == std::string("height");
+        // the API's messages and progress, with the C severities
+        std::vector<std::pair<int, std::string>> said;
+        std::vector<double> done;
+        Execution exec;
+        exec.on_message = [&](Severity s, const std::string& text) {
+            const int c = s == Severity::Debug    ? RELIEF_DEBUG
+                          : s == Severity::Info   ? RELIEF_INFO
+                          : s == Severity::Notice ? RELIEF_NOTICE
+                                                  : RELIEF_WARNING;
+            said.emplace_back(c, text);
+        };
+        exec.on_progress = [&](double f) { done.push_back(f); };
+        OperationCall op_call;
+        REQUIRE(parse_modifiers(op_call, op, mods));
+        ImageBuf api;
+        REQUIRE(run_operation(api, op_call, {is_height ? &n : &heights}, exec));
+        Heard heard;
+        relief_callbacks cb = {heard_message, heard_progress, &heard};
+        relief_image out{};
+        REQUIRE(relief_run_with("auto", op, mods.c_str(), is_height ? &cn : &ch, 1, &out, &cb) == RELIEF_OK);
+        CHECK(lines_of(heard.messages) == lines_of(said));
+        CHECK(heard.progress == done);
+        CHECK(std::vector<float>(static_cast<const float*>(out.pixels),
+                                 static_cast<const float*>(out.pixels) +
+                                     std::size_t(out.width) * out.height * out.channels) ==
+              test::pixels(api));
+        relief_image_free(&out);
+        if (is_height) {
+            const auto has = [&](int severity, const std::string& text) {
+                for (const auto& [s, t] : heard.messages)
+                    if (s == severity && t.find(text) != std::string::npos)
+                        return true;
+                return false;
+            };
+            CHECK(has(RELIEF_WARNING, "1 texel(s) had NaN, infinite, zero-length or downward normals"));
+            CHECK(has(RELIEF_NOTICE, "boundary: "));
+            CHECK(has(RELIEF_INFO, "device"));
+        }
+        REQUIRE(done.size() >= (is_height ? 2 : 3));
+        // a non-zero answer at a report before the last (height's first,
+        // before any work): no report after it, no image, why told once as
+        // an error
+        Heard stop;
+        stop.cancel_at = is_height ? 1 : 2;
+        relief_callbacks cancel = {heard_message, heard_progress, &stop};
+        relief_image never;
+        std::memset(&never, 0x5a, sizeof never);
+        CHECK(relief_run_with("auto", op, mods.c_str(), is_height ? &cn : &ch, 1, &never, &cancel) ==
+              RELIEF_CANCELLED);
+        CHECK(int(stop.progress.size()) == stop.cancel_at);
+        CHECK((never.pixels == nullptr && never.metadata == nullptr && never.width == 0));
+        CHECK(std::string(relief_last_error()) == std::string(op) + ": cancelled");
+        REQUIRE(!stop.messages.empty());
+        CHECK(stop.messages.back() == std::make_pair(int(RELIEF_ERROR), std::string(relief_last_error())));
+        int errors = 0;
+        for (const auto& m : stop.messages)
+            errors += m.first == RELIEF_ERROR;
+        CHECK(errors == 1);
+    }
+    // a refusal: RELIEF_INVALID, told once as an error, no progress
+    Heard refused;
+    relief_callbacks cb = {heard_message, heard_progress, &refused};
+    relief_image out;
+    CHECK(relief_run_with("auto", "height", "rays=-3", &cn, 1, &out, &cb) == RELIEF_INVALID);
+    REQUIRE(refused.messages.size() == 1);
+    CHECK(refused.messages[0] == std::make_pair(int(RELIEF_ERROR), std::string(relief_last_error())));
+    CHECK(refused.messages[0].second.find("rays=-3") != std::string::npos);
+    CHECK(refused.progress.empty());
+    // messages without progress: nothing asks to cancel, nothing reported
+    Heard quiet;
+    relief_callbacks only_messages = {heard_message, nullptr, &quiet};
+    REQUIRE(relief_run_with("auto", "height", "boundary=free", &cn, 1, &out, &only_messages) == RELIEF_OK);
+    CHECK(!quiet.messages.empty());
+    CHECK(quiet.progress.empty());
+    relief_image_free(&out);
 }
 
 TEST_CASE("prepare: set-up ahead, beside a running height, changes nothing but the time",

@@ -24,6 +24,7 @@
 
 #include "relief/relief.h"
 #include "support/images.h"
+#include "support/taken_names.h"
 #include "support/run_cli.h"
 
 namespace fs = std::filesystem;
@@ -173,6 +174,42 @@ TEST_CASE(
     REQUIRE(relief::write_text_file((d / "r.json").string(), "{}\n"));
     CHECK(slurp(d / "r.json") == "{}\n");
     CHECK(temporaries(d).size() == kept.size() - 1);
+}
+
+TEST_CASE("output files: a temporary name another writer took is passed over, eight in a row fail",
+          "[io][files]")
+{
+    const fs::path d = relief::test::scratch("output_files/taken");
+    for (int taken : {1, 7}) {
+        INFO(taken << " taken");
+        const fs::path out = d / ("r" + std::to_string(taken) + ".json");
+        relief::test::take_temporary_names(taken);
+        REQUIRE(relief::write_text_file(out.string(), "{}\n"));
+        CHECK(slurp(out) == "{}\n");
+        // each try drew a name of its own; the other writer's files stay
+        const std::vector<std::string> names = relief::test::temporary_names_taken();
+        CHECK(names.size() == std::size_t(taken));
+        CHECK(std::set<std::string>(names.begin(), names.end()).size() == names.size());
+        for (const std::string& n : names)
+            CHECK(fs::exists(n));
+    }
+    relief::test::take_temporary_names(8);
+    const fs::path never = d / "never.json";
+    CHECK_FALSE(relief::write_text_file(never.string(), "{}\n"));
+    CHECK(relief::geterror().find("no free temporary name in '" + d.string() + "'") != std::string::npos);
+    CHECK_FALSE(fs::exists(never));
+    CHECK(relief::test::temporary_names_taken().size() == 8);
+    relief::test::take_temporary_names(0);
+    // any other reason is the system's, at once, without another try
+    std::ofstream(d / "file") << "x";
+    for (const auto& [where, why] :
+         {std::pair<fs::path, std::string>{d / "absent" / "r.json", "No such file"},
+          {d / "file" / "r.json", "Not a directory"}}) {
+        INFO(where);
+        CHECK_FALSE(relief::write_text_file(where.string(), "{}\n"));
+        CHECK(relief::geterror().find(why) != std::string::npos);
+        CHECK(relief::geterror().find("no free temporary name") == std::string::npos);
+    }
 }
 
 TEST_CASE(

@@ -278,3 +278,75 @@ TEST_CASE("udim through the C ABI: relief_run_tiles equals height_udim, refusals
     for (const relief_image& r : o)
         CHECK(r.pixels == nullptr);
 }
+
+namespace {
+
+// The same images numbered elsewhere on the 10-wide grid of tiles.
+Set renumbered(const Set& s, int first)
+{
+    Set r;
+    for (const auto& [n, img] : s.images)
+        r.images[first + (n - 1001)] = img;
+    return r;
+}
+
+}  // namespace
+
+TEST_CASE(
+    "udim: a set laid out anywhere on the grid gives the same heights, with edges between neighbours only",
+    "[udim]")
+{
+    const OIIO::ImageBuf whole = whole_map();
+    const Set s = set_of(whole);
+    for (UdimMode mode : {UdimMode::Joint, UdimMode::Auto}) {
+        const std::vector<OIIO::ImageBuf> want = height_udim(s.tiles(), with_boundary(Boundary::Free, mode));
+        REQUIRE(want.size() == 4);
+        // the right column (u 8, 9) and the top rows (v 98, 99) of the grid
+        // (whose last tile is 1999: u 8)
+        for (int first : {1009, 1981, 1988}) {
+            INFO("mode " << int(mode) << ", first tile " << first);
+            const Set r = renumbered(s, first);
+            UdimReport report;
+            std::vector<OIIO::ImageBuf> dst;
+            REQUIRE(height_udim(dst, r.tiles(), with_boundary(Boundary::Free, mode), &report));
+            REQUIRE(dst.size() == 4);
+            for (int i = 0; i < 4; ++i)
+                CHECK(pixels(dst[i]) == pixels(want[i]));
+            CHECK(report.groups.size() == 1);
+        }
+    }
+    // one row at the top of the grid: the two tiles' own canvas, no row of
+    // missing tiles beside them (which rays, refusing masks, could not solve)
+    const Set bottom = set_of(whole, {1001, 1002});
+    Set top;
+    top.images[1991] = bottom.images.at(1001);
+    top.images[1992] = bottom.images.at(1002);
+    for (HeightMethod method : {HeightMethod::Poisson, HeightMethod::Rays}) {
+        HeightOptions o = with_boundary(Boundary::Free);
+        o.method = method;
+        const std::vector<OIIO::ImageBuf> want = height_udim(bottom.tiles(), o);
+        std::vector<OIIO::ImageBuf> dst;
+        INFO("method " << int(method));
+        REQUIRE(height_udim(dst, top.tiles(), o));
+        REQUIRE(dst.size() == 2);
+        CHECK(pixels(dst[0]) == pixels(want[0]));
+        CHECK(pixels(dst[1]) == pixels(want[1]));
+        CHECK(dst[0].spec().get_string_attribute("relief:udim") == "joint 1991,1992");
+    }
+    // edges: only between tiles side by side on the grid (u 9 and the next
+    // row's u 0 are not), and between rows
+    UdimReport report;
+    std::vector<OIIO::ImageBuf> dst;
+    Set pair;
+    pair.images[1010] = s.images.at(1001);
+    pair.images[1011] = s.images.at(1002);
+    REQUIRE(height_udim(dst, pair.tiles(), with_boundary(Boundary::Auto, UdimMode::Auto), &report));
+    CHECK(report.edges.empty());
+    CHECK(report.groups.size() == 2);
+    pair.images.clear();
+    pair.images[1009] = s.images.at(1001);
+    pair.images[1010] = s.images.at(1002);
+    REQUIRE(height_udim(dst, pair.tiles(), with_boundary(Boundary::Auto, UdimMode::Auto), &report));
+    REQUIRE(report.edges.size() == 1);
+    CHECK((report.edges[0].a == 1009 && report.edges[0].b == 1010));
+}

@@ -475,6 +475,42 @@ class Udim(unittest.TestCase):
         for n, tile in self.tiles.items():
             np.testing.assert_array_equal(np.asarray(got[n]), np.asarray(relief.height(tile)), str(n))
 
+    def test_the_order_given_does_not_matter(self):
+        want = relief.height_udim(self.tiles, boundary="free")
+        for order in ([1012, 1001, 1011, 1002], [1002, 1012, 1001, 1011]):
+            got = relief.height_udim([(n, self.tiles[n]) for n in order], boundary="free")
+            self.assertEqual(list(got), order)
+            for n in order:
+                np.testing.assert_array_equal(np.asarray(got[n]), np.asarray(want[n]), str(n))
+                self.assertEqual(got[n].metadata, want[n].metadata)
+
+    def test_equals_the_command_line_on_the_same_files(self):
+        with tempfile.TemporaryDirectory() as d:
+            for n, tile in self.tiles.items():
+                self.assertTrue(oiio.ImageBuf(np.ascontiguousarray(tile)).write(os.path.join(d, f"n.{n}.png")))
+            read = {n: relief.read(os.path.join(d, f"n.{n}.png")) for n in self.tiles}
+            for mods in ([], ["udim=joint", "boundary=free"], ["udim=each"]):
+                cli(os.path.join(d, "n.<UDIM>.png"), "--height" + "".join(":" + m for m in mods),
+                    "-o", os.path.join(d, "h.<UDIM>.exr"))
+                got = relief.height_udim(read, **dict(m.split("=") for m in mods))
+                for n in self.tiles:
+                    want = relief.read(os.path.join(d, f"h.{n}.exr"))
+                    np.testing.assert_array_equal(np.asarray(got[n]), np.asarray(want), f"{mods} {n}")
+                    self.assertEqual(got[n].metadata.get("relief:udim"), want.metadata.get("relief:udim"))
+
+    def test_messages_progress_cancel_and_device_reach_the_set(self):
+        heard, done = [], []
+        relief.height_udim(self.tiles, udim="joint", boundary="free",
+                           messages=lambda s, t: heard.append((s, t)), progress=done.append)
+        self.assertIn(("notice", "udim: 1001,1002,1011,1012 solved as one surface (2x2 tiles, 400x344 texels)"),
+                      heard)
+        self.assertEqual((done[0], done[-1]), (0.0, 1.0))
+        self.assertEqual(done, sorted(done))
+        with self.assertRaises(relief.CancelledError):
+            relief.height_udim(self.tiles, progress=lambda f: True)
+        with self.assertRaisesRegex(RuntimeError, "9:9"):
+            relief.height_udim(self.tiles, device="9:9")
+
     def test_bad_sets_raise(self):
         with self.assertRaisesRegex(RuntimeError, "1001"):
             relief.height_udim({1001: self.tiles[1001], 1002: self.tiles[1002][:100]}, udim="joint")

@@ -16,7 +16,7 @@
 #include "height_memory.h"
 #include "relief/slopes.h"
 #include "results.h"
-#include "tiling.h"
+#include "poisson/tiling.h"
 
 namespace relief {
 
@@ -79,7 +79,7 @@ Canvas canvas_of(const std::vector<int>& group, const std::vector<UdimTile>& til
                  const std::map<int, std::size_t>& at)
 {
     const ImageSpec& first = tiles[at.at(group.front())].normals->spec();
-    int u0 = 9, u1 = 0, v0 = 98, v1 = 0;
+    int u0 = 9, u1 = 0, v0 = 99, v1 = 0;
     for (int n : group) {
         const ImageSpec& s = tiles[at.at(n)].normals->spec();
         if (s.width != first.width || s.height != first.height || s.nchannels != first.nchannels ||
