@@ -243,10 +243,8 @@ py::tuple run(const std::string& op, const std::vector<py::array>& arrays,
               py::object messages, py::object progress)
 {
     const relief::OperationCall call = parse_call(op, modifiers);
-    const relief::OperationInfo& info = *relief::find_operation(op);
-    if (arrays.size() != info.inputs.size())
-        throw py::value_error(op + " takes " + std::to_string(info.inputs.size()) + " image(s), got " +
-                              std::to_string(arrays.size()));
+    if (const std::string why = relief::call_problem(op, arrays.size()); !why.empty())
+        throw py::value_error(why);
     const std::vector<ImageBuf> bufs = to_imagebufs(op, arrays, metadata, false);
     PythonCallbacks callbacks(std::move(messages), std::move(progress));
     const relief::Execution exec = callbacks.execution(device);
@@ -271,11 +269,8 @@ py::list run_tiles(const std::string& op, const std::vector<int>& numbers,
                    const std::string& device, py::object messages, py::object progress)
 {
     const relief::OperationCall call = parse_call(op, modifiers);
-    if (relief::find_operation(op)->inputs.size() != 1)
-        throw py::value_error(op + " does not take the tiles of a UDIM set at once");
-    if (numbers.size() != arrays.size())
-        throw py::value_error(op + ": " + std::to_string(numbers.size()) + " tile number(s) for " +
-                              std::to_string(arrays.size()) + " image(s)");
+    if (const std::string why = relief::tiles_call_problem(op, numbers.size(), arrays.size()); !why.empty())
+        throw py::value_error(why);
     const std::vector<ImageBuf> bufs = to_imagebufs(op, arrays, metadata, true);
     PythonCallbacks callbacks(std::move(messages), std::move(progress));
     const relief::Execution exec = callbacks.execution(device);

@@ -71,29 +71,27 @@ std::vector<std::string> temporary_names_taken()
 
 }  // namespace relief::test
 
+// The mode argument of open(2): there only when the flags create a file.
+#define RELIEF_OPEN_MODE(flags, mode)                                                                        \
+    mode_t mode = 0;                                                                                         \
+    if (((flags)&O_CREAT) || ((flags)&O_TMPFILE) == O_TMPFILE) {                                             \
+        va_list ap;                                                                                          \
+        va_start(ap, flags);                                                                                 \
+        mode = mode_t(va_arg(ap, int));                                                                      \
+        va_end(ap);                                                                                          \
+    }
+
 extern "C" {
 
 int open(const char* path, int flags, ...)
 {
-    mode_t mode = 0;
-    if ((flags & O_CREAT) || (flags & O_TMPFILE) == O_TMPFILE) {
-        va_list ap;
-        va_start(ap, flags);
-        mode = mode_t(va_arg(ap, int));
-        va_end(ap);
-    }
+    RELIEF_OPEN_MODE(flags, mode)
     return relief::test::open_next("open", path, flags, mode);
 }
 
 int open64(const char* path, int flags, ...)
 {
-    mode_t mode = 0;
-    if ((flags & O_CREAT) || (flags & O_TMPFILE) == O_TMPFILE) {
-        va_list ap;
-        va_start(ap, flags);
-        mode = mode_t(va_arg(ap, int));
-        va_end(ap);
-    }
+    RELIEF_OPEN_MODE(flags, mode)
     return relief::test::open_next("open64", path, flags, mode);
 }
 

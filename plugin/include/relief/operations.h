@@ -134,6 +134,16 @@ RELIEF_API bool parse_modifiers(OperationCall& call, const std::string& operatio
 RELIEF_API bool parse_modifiers(OperationCall& call, const std::string& operation,
                                 const std::vector<std::pair<std::string, std::string>>& modifiers);
 
+// Why `operation` cannot be called on `images` images ("" when it can): the
+// number the table's inputs say, a one-line message naming both otherwise.
+// Every front end (run_operation, the C ABI, Python) asks this before it
+// converts anything.
+RELIEF_API std::string call_problem(const std::string& operation, std::size_t images);
+// The same for a call over the tiles of a UDIM set: an operation of one
+// input that joins tiles, at least one tile, a number for each image.
+RELIEF_API std::string tiles_call_problem(const std::string& operation, std::size_t numbers,
+                                          std::size_t images);
+
 // Runs `call` on `inputs` (as many as the table's inputs, in that order),
 // with `exec` (device, messages, progress, cancel). Progress is 0 first and
 // 1 last, whatever steps the operation reports between. Reads

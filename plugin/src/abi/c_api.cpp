@@ -275,9 +275,10 @@ int relief_run_with(const char* device, const char* operation, const char* modif
             const relief::OperationCall call = parse_call(device, operation, modifiers);
             const std::string op = operation;
             const relief::OperationInfo& info = *relief::find_operation(op);
-            if (n_inputs != int(info.inputs.size()) || (n_inputs > 0 && !inputs))
-                throw Refused(op + " takes " + std::to_string(info.inputs.size()) + " image(s), got " +
-                              std::to_string(inputs ? n_inputs : 0));
+            if (const std::string why =
+                    relief::call_problem(op, std::size_t(inputs ? std::max(n_inputs, 0) : 0));
+                !why.empty())
+                throw Refused(why);
             std::vector<ImageBuf> bufs;
             bufs.reserve(n_inputs);
             for (int i = 0; i < n_inputs; ++i)
@@ -310,10 +311,10 @@ int relief_run_tiles(const char* device, const char* operation, const char* modi
             const relief::OperationCall call = parse_call(device, operation, modifiers);
             const std::string op = operation;
             const relief::OperationInfo& info = *relief::find_operation(op);
-            if (info.inputs.size() != 1)
-                throw Refused(op + " does not take the tiles of a UDIM set at once");
-            if (n_tiles < 1 || !tiles || !inputs)
-                throw Refused(op + ": a UDIM set needs at least one tile, its number and its image");
+            const std::size_t given = n_tiles > 0 ? std::size_t(n_tiles) : 0;
+            if (const std::string why = relief::tiles_call_problem(op, tiles ? given : 0, inputs ? given : 0);
+                !why.empty())
+                throw Refused(why);
             std::vector<ImageBuf> bufs;
             bufs.reserve(n_tiles);
             for (int i = 0; i < n_tiles; ++i)

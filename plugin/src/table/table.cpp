@@ -228,16 +228,52 @@ OperationCall with_execution(const OperationCall& call, const Execution& exec)
     return c;
 }
 
+// Reports 0, runs `run`, reports 1 when it succeeded: every operation
+// reports both ends, also those too quick for steps of their own, and a
+// cancel asked at 0 stops it before any work.
+template <class Run>
+bool with_progress_ends(const Execution& exec, Run run)
+{
+    if (exec.on_progress)
+        exec.on_progress(0.0);
+    if (!run())
+        return false;
+    if (exec.on_progress)
+        exec.on_progress(1.0);
+    return true;
+}
+
 }  // namespace
+
+std::string call_problem(const std::string& operation, std::size_t images)
+{
+    const Operation& op = find_or_throw(operation);
+    if (images != op.info.inputs.size())
+        return op.info.name + " takes " + std::to_string(op.info.inputs.size()) + " image(s), got " +
+               std::to_string(images);
+    return "";
+}
+
+std::string tiles_call_problem(const std::string& operation, std::size_t numbers, std::size_t images)
+{
+    const Operation& op = find_or_throw(operation);
+    if (!op.run_tiles || op.info.inputs.size() != 1)
+        return op.info.name + " does not take the tiles of a UDIM set at once";
+    if (numbers < 1 || images < 1)
+        return op.info.name + ": a UDIM set needs at least one tile, its number and its image";
+    if (numbers != images)
+        return op.info.name + ": " + std::to_string(numbers) + " tile number(s) for " +
+               std::to_string(images) + " image(s)";
+    return "";
+}
 
 bool run_operation(ImageBuf& dst, const OperationCall& call, const std::vector<const ImageBuf*>& inputs,
                    const Execution& exec)
 {
     try {
         const Operation& op = find_or_throw(call.operation);
-        if (inputs.size() != op.info.inputs.size())
-            throw std::invalid_argument(op.info.name + " takes " + std::to_string(op.info.inputs.size()) +
-                                        " image(s), got " + std::to_string(inputs.size()));
+        if (const std::string why = call_problem(op.info.name, inputs.size()); !why.empty())
+            throw std::invalid_argument(why);
         // Channel counts are the operations' own to check (their messages say
         // what the channels mean); the C ABI and Python check them against the
         // table's slots before converting.
@@ -247,15 +283,7 @@ bool run_operation(ImageBuf& dst, const OperationCall& call, const std::vector<c
                                             "' is missing (null)");
         // (The mask and fix files are read here, before the operation.)
         const detail::LibraryOutputSink library_output(exec.on_message);
-        // Every operation reports 0 and 1, also those too quick for steps of
-        // their own; a cancel asked at 0 stops it before any work.
-        if (exec.on_progress)
-            exec.on_progress(0.0);
-        if (!op.run(dst, with_execution(call, exec), inputs))
-            return false;
-        if (exec.on_progress)
-            exec.on_progress(1.0);
-        return true;
+        return with_progress_ends(exec, [&] { return op.run(dst, with_execution(call, exec), inputs); });
     } catch (const std::exception& e) {
         detail::set_error(e.what());
         return false;
@@ -269,21 +297,14 @@ bool run_operation_on_tiles(std::vector<ImageBuf>& dst, const OperationCall& cal
     dst.clear();
     try {
         const Operation& op = find_or_throw(call.operation);
-        if (!op.run_tiles || op.info.inputs.size() != 1)
-            throw std::invalid_argument(op.info.name + " does not take the tiles of a UDIM set at once");
-        if (tiles.size() != inputs.size())
-            throw std::invalid_argument(op.info.name + ": " + std::to_string(tiles.size()) +
-                                        " tile number(s) for " + std::to_string(inputs.size()) + " image(s)");
+        if (const std::string why = tiles_call_problem(op.info.name, tiles.size(), inputs.size());
+            !why.empty())
+            throw std::invalid_argument(why);
         for (const ImageBuf* in : inputs)
             if (!in)
                 throw std::invalid_argument(op.info.name + ": a tile's image is missing (null)");
-        if (exec.on_progress)
-            exec.on_progress(0.0);
-        if (!op.run_tiles(dst, with_execution(call, exec), tiles, inputs))
-            return false;
-        if (exec.on_progress)
-            exec.on_progress(1.0);
-        return true;
+        return with_progress_ends(
+            exec, [&] { return op.run_tiles(dst, with_execution(call, exec), tiles, inputs); });
     } catch (const std::exception& e) {
         detail::set_error(e.what());
         return false;

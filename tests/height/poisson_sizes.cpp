@@ -113,7 +113,7 @@ TEST_CASE("Poisson at every kind of FFT size equals the analytic field", "[poiss
             }
 }
 
-TEST_CASE("VkFFT under a GPU's limits: one and several passes, Bluestein, the DCT", "[poisson]")
+TEST_CASE("VkFFT under a GPU's limits: one and several passes, Bluestein, the DCT", "[poisson][stress]")
 {
     // With 32 KiB of local memory (Rusticl's llvmpipe, many GPUs) VkFFT does
     // 4096 complex points in one pass; 8192 and 16384 along a thin map take
@@ -131,7 +131,7 @@ TEST_CASE("VkFFT under a GPU's limits: one and several passes, Bluestein, the DC
             }
 }
 
-TEST_CASE("a prime length along the strided axis goes through transposes", "[poisson]")
+TEST_CASE("a prime length along the strided axis goes through transposes", "[poisson][stress]")
 {
     // VkFFT's Bluestein along a strided axis crashed (SIGSEGV at 16x4099):
     // such a plan transforms rows, transposes and transforms rows again.
@@ -187,7 +187,7 @@ TEST_CASE("masked Poisson at awkward sizes equals the analytic field", "[poisson
         }
 }
 
-TEST_CASE("masked Poisson keeps the lowest mode of a 16384-long map", "[poisson][mask]")
+TEST_CASE("masked Poisson keeps the lowest mode of a 16384-long map", "[poisson][mask][stress]")
 {
     // The lowest frequency's eigenvalue, 2 - 2 cos(pi / 16384) in float, is
     // 0: a solver built on it loses the mode that carries a ramp.
@@ -220,7 +220,7 @@ TEST_CASE("masked Poisson keeps the lowest mode of a 16384-long map", "[poisson]
         }
 }
 
-TEST_CASE("a mask of all ones but one texel at 0.999 barely changes the answer", "[poisson][mask]")
+TEST_CASE("a mask of all ones but one texel at 0.999 barely changes the answer", "[poisson][mask][slow]")
 {
     // The masked and unmasked solves are one problem: all-ones weights give
     // the unmasked answer, and the answer moves continuously with them.

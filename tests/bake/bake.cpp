@@ -539,7 +539,7 @@ OIIO::ImageBuf read(const std::string& path)
 
 }  // namespace
 
-TEST_CASE("cli: correct and bake, the documented examples, equal the API's results", "[cli][bake]")
+TEST_CASE("cli: correct and bake, the documented examples, equal the API's results", "[cli][bake][slow]")
 {
     auto dir = scratch("examples");
     const std::string height = kData + "/height.png", normal = kData + "/normal.png";

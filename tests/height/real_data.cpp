@@ -151,7 +151,7 @@ TEST_CASE("real sample: Poisson heights match the author's height map", "[real][
     CHECK(e < 0.02);
 }
 
-TEST_CASE("shared data set: auto finds every map's convention", "[real][shared]")
+TEST_CASE("shared data set: auto finds every map's convention", "[real][shared][slow]")
 {
     int checked = 0;
     for (const fs::path& set : shared_sets()) {
@@ -166,7 +166,7 @@ TEST_CASE("shared data set: auto finds every map's convention", "[real][shared]"
     CHECK(checked >= 13);
 }
 
-TEST_CASE("shared data set: boundary=auto agrees with the maps' tiling", "[real][shared]")
+TEST_CASE("shared data set: boundary=auto agrees with the maps' tiling", "[real][shared][slow]")
 {
     // provenance.txt says "tiling: yes", "no" or "approximately" (judged by
     // eye and by height-map metrics); the approximate ones may go either way.

@@ -185,7 +185,7 @@ TEST_CASE("devices: RELIEF_FP64 picks the accumulation path and -v names it", "[
 }
 
 TEST_CASE("devices: with RELIEF_FP64=off the Poisson, ray and correction results equal the fp64 ones",
-          "[devices]")
+          "[devices][slow][kernel]")
 {
     // The float paths: Kahan-compensated ray sums, prefix sums re-anchored in
     // blocks, the correction's energies summed in float per work-group (the
@@ -281,7 +281,7 @@ TEST_CASE("devices: work-groups come from the device's and the kernel's limits",
 }
 
 TEST_CASE("devices: results under 64-item groups and 16 KiB equal the device's own launch shapes",
-          "[devices]")
+          "[devices][slow][kernel]")
 {
     // Every stage whose sums or tiles follow the group size: the masked
     // solve's dot products, the correction's energy sums and phases, the
@@ -329,7 +329,8 @@ TEST_CASE("devices: results under 64-item groups and 16 KiB equal the device's o
     }
 }
 
-TEST_CASE("devices: a loop limit is found by the probe and respected by the launch shapes", "[devices]")
+TEST_CASE("devices: a loop limit is found by the probe and respected by the launch shapes",
+          "[devices][slow][kernel]")
 {
     {
         ComputeContext ctx(choose_device("auto"));
@@ -393,7 +394,7 @@ TEST_CASE("devices: a loop limit is found by the probe and respected by the laun
 }
 
 TEST_CASE("devices: PoCL, Rusticl and Oclgrind registered at once are all listed and each can be picked",
-          "[devices]")
+          "[devices][slow]")
 {
     const char* libs[] = {"/usr/lib/x86_64-linux-gnu/libpocl.so.2",
                           "/usr/lib/x86_64-linux-gnu/libRusticlOpenCL.so.1",

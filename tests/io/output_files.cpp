@@ -215,7 +215,7 @@ TEST_CASE("output files: a temporary name another writer took is passed over, ei
 TEST_CASE(
     "output files: SIGTERM and SIGINT remove the temporary file and exit 128+signal, after SIGKILL the next "
     "run removes it",
-    "[io][files][cli]")
+    "[io][files][cli][slow]")
 {
     const fs::path d = relief::test::scratch("output_files/signals");
     const fs::path in = big_input(d);
@@ -261,7 +261,7 @@ TEST_CASE(
 }
 
 TEST_CASE("output files: batches sharing one --log append whole lines, none lost or torn",
-          "[batch][files][cli]")
+          "[batch][files][cli][slow]")
 {
     const fs::path d = relief::test::scratch("output_files/shared_log");
     // Jobs that fail at once (a missing input): no device, many records.
@@ -322,7 +322,7 @@ TEST_CASE("output files: a name the file system cannot take is refused before th
 TEST_CASE(
     "output files: a write that would clobber an input, the manifest or another output is refused before "
     "any work",
-    "[files][cli][parse]")
+    "[files][cli][parse][slow]")
 {
     const fs::path d = relief::test::scratch("output_files/clobber");
     const std::string in = (d / "in.png").string();
@@ -388,7 +388,7 @@ TEST_CASE(
 }
 
 TEST_CASE("output files: --update recomputes an output cut short, whatever keeps its header",
-          "[batch][files][cli]")
+          "[batch][files][cli][slow]")
 {
     const fs::path d = relief::test::scratch("output_files/truncated");
     const std::string in = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
@@ -415,7 +415,7 @@ TEST_CASE("output files: --update recomputes an output cut short, whatever keeps
 TEST_CASE(
     "output files: a --batch --update killed at random moments and rerun ends whole, as a clean run, with "
     "no litter",
-    "[batch][files][cli]")
+    "[batch][files][cli][slow]")
 {
     const fs::path d = relief::test::scratch("output_files/kills");
     const std::string in = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
@@ -471,7 +471,7 @@ TEST_CASE(
 }
 
 TEST_CASE("output files: two writers of one output in separate PID namespaces leave one whole result",
-          "[files][cli]")
+          "[files][cli][slow]")
 {
     // In containers every process can be PID 1: the temporary names differ
     // by the PID namespace, so neither writer opens the other's file.
@@ -513,7 +513,7 @@ TEST_CASE("output files: two writers of one output in separate PID namespaces le
 TEST_CASE(
     "output files: a job reading an earlier job's output runs in its shard, after it, and a later writer is "
     "refused",
-    "[batch][files][cli]")
+    "[batch][files][cli][slow]")
 {
     const fs::path d = relief::test::scratch("output_files/chains");
     const std::string in = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
@@ -557,7 +557,7 @@ TEST_CASE(
 
 TEST_CASE(
     "output files: --mesh estimates its memory and is refused under RELIEF_MEMORY_LIMIT before building",
-    "[files][cli][mesh]")
+    "[files][cli][mesh][slow]")
 {
     const fs::path d = relief::test::scratch("output_files/mesh_memory");
     const std::string h = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";

@@ -161,7 +161,8 @@ TEST_CASE("io: (child) write a mesh to $RELIEF_TEST_CHILD_ARG", "[.][io-child]")
     std::_Exit(relief::geterror().find("cannot write '" + std::string(path) + "'") == 0 ? 0 : 5);
 }
 
-TEST_CASE("io: a full disk during a mesh write keeps the old file, in every format", "[io][errors][mesh]")
+TEST_CASE("io: a full disk during a mesh write keeps the old file, in every format",
+          "[io][errors][mesh][slow]")
 {
     const auto dir = relief::test::scratch("io/mesh");
     const std::string child = "io: (child) write a mesh to $RELIEF_TEST_CHILD_ARG";

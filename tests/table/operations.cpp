@@ -633,7 +633,7 @@ TEST_CASE("C ABI: relief_run_with tells the API's messages at their severity, it
 }
 
 TEST_CASE("prepare: set-up ahead, beside a running height, changes nothing but the time",
-          "[operations][prepare]")
+          "[operations][prepare][slow]")
 {
     // sizes no other test plans, so that prepare() really plans them here
     const int w = 70, h = 54;

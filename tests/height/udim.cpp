@@ -315,8 +315,9 @@ TEST_CASE(
             CHECK(report.groups.size() == 1);
         }
     }
-    // one row at the top of the grid: the two tiles' own canvas, no row of
-    // missing tiles beside them (which rays, refusing masks, could not solve)
+    // one row at the top of the grid (v 99): the two tiles' own canvas, no
+    // row of missing tiles below them (which rays, refusing masks, could not
+    // solve)
     const Set bottom = set_of(whole, {1001, 1002});
     Set top;
     top.images[1991] = bottom.images.at(1001);

@@ -125,7 +125,7 @@ TEST_CASE("cli: results are bit-identical whatever the PoCL thread count", "[cli
     CHECK(pa == pb);
 }
 
-TEST_CASE("cli: bad input fails with a clear message, a non-zero exit and no output", "[cli][errors]")
+TEST_CASE("cli: bad input fails with a clear message, a non-zero exit and no output", "[cli][errors][slow]")
 {
     auto dir = scratch("bad");
     const std::string out = "'" + (dir / "out.exr").string() + "'";
@@ -511,7 +511,7 @@ TEST_CASE("cli: -d half warns for offsets wider than half floats hold to 1/8 tex
     }
 }
 
-TEST_CASE("cli: hats=always sweeps every iteration of every level, and -v and --report say so", "[cli]")
+TEST_CASE("cli: hats=always sweeps every iteration of every level, and -v and --report say so", "[cli][slow]")
 {
     auto dir = scratch("hat_sweeps");
     const std::string height = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
@@ -571,7 +571,7 @@ TEST_CASE("cli: global=always steps after every iteration, and -v, --report and 
 TEST_CASE(
     "cli: polish=N polishes the delivered mesh N times (2 by default), and -v, --report and the parameters "
     "say so, and polish=0 delivers the corner means",
-    "[cli]")
+    "[cli][slow]")
 {
     auto dir = scratch("polish");
     const std::string height = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";

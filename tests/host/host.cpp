@@ -270,7 +270,7 @@ TEST_CASE("VkFFT's programs are kept on disk too, and an unusable entry falls ba
         CHECK(relief::test::slurp(p) != relief::test::slurp(ddm));
 }
 
-TEST_CASE("plans are kept by kind and size, the least recently used dropped first", "[host][cache]")
+TEST_CASE("plans are kept by kind and size, the least recently used dropped first", "[host][cache][slow]")
 {
     auto ctx = ComputeContext::acquire("auto");
     auto& c = ctx->impl();

@@ -286,7 +286,7 @@ TEST_CASE(
 // TIFF header made a 40 x 65320 map): such lengths are refused with what to
 // do before the integration starts, and clip rays walk every ray instead.
 TEST_CASE("hardening: an axis too long for Bluestein's FFT is refused, clip rays walk instead",
-          "[cli][errors]")
+          "[cli][errors][slow][kernel]")
 {
     const fs::path dir = test::scratch("hardening/bluestein");
     const int w = 40, h = 25013;  // prime; wide enough for clip's FFT interior at radius 8

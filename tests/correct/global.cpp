@@ -1,0 +1,153 @@
+// SPDX-License-Identifier: Apache-2.0
+// Distortion correction: global steps (§4.5.3c), plain and quasi-Newton, against the
+// golden model, and when auto steps.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <utility>
+
+#include "device/compute_context.h"
+#include "correct/correct_grid.h"
+#include "correct/correct_stage.h"
+#include "correct/correct_stop_rule.h"
+#include "reference/correct_reference.h"
+#include "relief/correct.h"
+#include "relief/errors.h"
+#include "support/fields.h"
+#include "support/images.h"
+#include "correct/correct_test.h"
+
+using namespace relief;
+using namespace relief::test::correction;
+namespace ref = relief::reference;
+using relief::test::waves;
+
+TEST_CASE("correct: one device iteration with a global step equals the golden model's", "[correct]")
+{
+    // global=always at one iteration: the node phases, then one step along
+    // the multilevel gradient, as the golden model's iterate() then
+    // global_step(). Periodic, fixed (an odd width) and mixed axes.
+    using P = host::Periodic;
+    for (auto [w, h, periodic] : {std::tuple{32, 32, P(true)}, std::tuple{33, 25, P(false)},
+                                  std::tuple{32, 21, P(true, false)}, std::tuple{40, 32, P(false, true)}}) {
+        const auto hts = waves(w, h, 1.0, 24);
+        const double scale = 0.5;
+        ref::CorrectionGrid g = centre_grid(hts, w, h, scale, periodic);
+        std::vector<double> c(2 * std::size_t(w) * h, 0.0);
+        ref::iterate(g, c);
+        const double e_nodes = ref::total_energy(g, c);
+        const bool moved = ref::global_step(g, c);
+        const double e_gold = ref::total_energy(g, c);
+        auto p = one_iteration(params(scale, periodic));
+        p.hats = host::CorrectParams::Hats::Off;
+        p.global = host::CorrectParams::Global::Always;
+        host::CorrectReport rep;
+        const auto out = run(hts, w, h, p, &rep);
+        const auto [dev, worst, largest] = agreement(out, c, w, h);
+        const double e_dev = ref::total_energy(g, dev);
+        INFO(w << "x" << h << " periodic x " << periodic.x << " y " << periodic.y
+               << ": energy after the nodes " << e_nodes << ", after the step " << e_gold << " (device "
+               << e_dev << "); max |offset| " << largest << ", max |device - golden| " << worst);
+        CHECK(moved);
+        CHECK(e_gold < e_nodes * (1.0 - 1e-4));  // the step lowered the energy
+        REQUIRE(rep.levels.size() == 1);
+        CHECK(rep.levels[0].global_steps == 1);
+        CHECK(worst <= 2e-2 * largest);
+        CHECK(std::abs(e_dev - e_gold) <= 1e-4 * e_gold);
+    }
+}
+
+TEST_CASE("correct: a level's second global step is quasi-Newton, as the golden model's", "[correct]")
+{
+    // global=always at two iterations: the second step's direction is the
+    // memoryless BFGS update of the multilevel sum by the pair (s, y) from
+    // the first step's offsets and gradient (the golden model's
+    // GlobalStepMemory). Without the pair the second step differs.
+    using P = host::Periodic;
+    for (auto [w, h, periodic] : {std::tuple{32, 32, P(true)}, std::tuple{33, 25, P(false)},
+                                  std::tuple{32, 21, P(true, false)}, std::tuple{40, 32, P(false, true)}}) {
+        const auto hts = waves(w, h, 1.0, 24);
+        const double scale = 0.5;
+        ref::CorrectionGrid g = centre_grid(hts, w, h, scale, periodic);
+        std::vector<double> c(2 * std::size_t(w) * h, 0.0);
+        ref::GlobalStepMemory memory;
+        ref::iterate(g, c);
+        const bool first = ref::global_step(g, c, &memory);
+        ref::iterate(g, c);
+        std::vector<double> plain = c;
+        ref::global_step(g, plain);
+        const bool second = ref::global_step(g, c, &memory);
+        const double e_gold = ref::total_energy(g, c), e_plain = ref::total_energy(g, plain);
+        auto p = one_iteration(params(scale, periodic));
+        p.iterations = 2;
+        p.hats = host::CorrectParams::Hats::Off;
+        p.global = host::CorrectParams::Global::Always;
+        host::CorrectReport rep;
+        const auto out = run(hts, w, h, p, &rep);
+        const auto [dev, worst, largest] = agreement(out, c, w, h);
+        const auto plain_gap = agreement(out, plain, w, h).worst;
+        const double e_dev = ref::total_energy(g, dev);
+        INFO(w << "x" << h << " periodic x " << periodic.x << " y " << periodic.y
+               << ": energy after the steps " << e_gold << " (device " << e_dev << ", a plain second step "
+               << e_plain << "); max |offset| " << largest << ", max |device - golden| " << worst
+               << ", from the plain step's " << plain_gap);
+        CHECK(first);
+        CHECK(second);
+        CHECK(memory.used_pair);
+        REQUIRE(rep.levels.size() == 1);
+        CHECK(rep.levels[0].global_steps == 2);
+        CHECK(worst <= 2e-2 * largest);
+        // The plain step lands elsewhere (by 0.4% to 3.5% of the largest
+        // offset, 5e-4 to 2e-3 of the energy): the device took the pair.
+        CHECK(worst < plain_gap);
+        CHECK(std::abs(e_dev - e_gold) < 0.5 * std::abs(e_plain - e_gold));
+        CHECK(std::abs(e_dev - e_gold) <= 1e-4 * e_gold);
+    }
+}
+
+TEST_CASE("correct: global steps never raise the energy, and auto ends lower than without", "[correct]")
+{
+    const int w = 48, h = 40;
+    const auto hts = waves(w, h, 1.0, 26);
+    for (bool corner : {false, true})
+        for (const host::Periodic periodic :
+             {host::Periodic(true), host::Periodic(false), host::Periodic(false, true)}) {
+            INFO("corner " << corner << " periodic x " << periodic.x << " y " << periodic.y);
+            double previous = INFINITY;
+            for (int it = 1; it <= 4; ++it) {
+                auto p = params(0.5, periodic, corner);
+                p.levels = 1;
+                p.iterations = it;
+                p.threshold = 0.0;
+                p.hats = host::CorrectParams::Hats::Off;
+                p.global = host::CorrectParams::Global::Always;
+                host::CorrectReport rep;
+                run(hts, w, h, p, &rep);
+                INFO("iterations " << it << ": energy " << rep.energy_after << ", steps "
+                                   << rep.levels[0].global_steps);
+                REQUIRE(std::isfinite(rep.energy_after));  // no triangle flipped
+                CHECK(rep.energy_after <= previous * (1.0 + 1e-7));
+                CHECK(rep.levels[0].global_steps >= 1);
+                previous = rep.energy_after;
+            }
+        }
+    // Auto, to the tolerance on the whole pyramid: lower than without.
+    const int n = 128;
+    const auto big = waves(n, n, 1.0, 27);
+    auto p = params(0.05, host::Periodic(true));
+    host::CorrectReport with, without;
+    run(big, n, n, p, &with);
+    p.global = host::CorrectParams::Global::Off;
+    run(big, n, n, p, &without);
+    int steps = 0;
+    for (const auto& l : with.levels)
+        steps += l.global_steps;
+    for (const auto& l : without.levels)
+        CHECK(l.global_steps == 0);
+    INFO("energy with " << with.energy_after << " (" << steps << " steps), without " << without.energy_after);
+    CHECK(steps > 0);
+    CHECK(with.energy_after < without.energy_after);
+}
