@@ -2,6 +2,7 @@
 #include "command_line.h"
 
 #include <algorithm>
+#include <iterator>
 #include <charconv>
 #include <cstdio>
 #include <filesystem>
@@ -310,18 +311,19 @@ Program parse_command_line(const std::vector<std::string>& args, bool check_inpu
         if (a.rfind("--help:", 0) == 0)
             throw UsageError(
                 a + ": --help takes :format=markdown (the operations as Markdown tables) or nothing");
-        if (a == "--help" || a == "-h") {
-            prog.help = true;
-        } else if (a == "--version") {
-            prog.version = true;
-        } else if (a == "-v") {
-            prog.verbose = true;
-        } else if (a == "--list-devices") {
-            prog.list_devices = true;
-        } else if (a == "--update") {
-            prog.update = true;
-        } else if (a == "--dry-run") {
-            prog.dry_run = true;
+        // The switches: each sets its flag.
+        static const std::pair<const char*, bool Program::*> switches[] = {
+            {"--help", &Program::help},
+            {"-h", &Program::help},
+            {"--version", &Program::version},
+            {"-v", &Program::verbose},
+            {"--list-devices", &Program::list_devices},
+            {"--update", &Program::update},
+            {"--dry-run", &Program::dry_run}};
+        const auto flag = std::find_if(std::begin(switches), std::end(switches),
+                                       [&](const auto& s) { return a == s.first; });
+        if (flag != std::end(switches)) {
+            prog.*(flag->second) = true;
         } else if (a == "--report") {
             prog.report = text_output(a, value_of(i));
         } else if (a == "--batch") {
@@ -398,14 +400,6 @@ Program parse_command_line(const std::vector<std::string>& args, bool check_inpu
         }
         if (total == 0 || most > 1)
             throw UsageError("--report needs one " + names + ", at most one of each; there are " + counts);
-    }
-    for (Step& s : prog.steps) {
-        s.correct.exec.device = prog.device;
-        s.bake.exec.device = prog.device;
-        s.slopes.exec.device = prog.device;
-        s.height.exec.device = prog.device;
-        s.normals.exec.device = prog.device;
-        s.tessellation.exec.device = prog.device;
     }
     return prog;
 }

@@ -75,20 +75,14 @@ std::string digest_of(const Program& prog)
             h.file(s.path);
             break;
         case Step::Kind::Operation: {
-            // mask, fix and env files count by their bytes, not their paths
-            OperationCall call = s;
-            call.mask_file.clear();
-            call.fix_file.clear();
-            call.preview.env.clear();
+            // the files it reads (mask=, fix=, env=) count by their bytes,
+            // not their names, in the table's order
             h.text(s.operation);
-            h.text(modifier_text(call));
-            for (const std::string* file : {&s.mask_file, &s.fix_file, &s.preview.env})
-                if (!file->empty()) {
-                    h.text(file == &s.mask_file  ? "mask file"
-                           : file == &s.fix_file ? "fix file"
-                                                 : "env file");
-                    h.file(*file);
-                }
+            h.text(modifier_text(relief::without_files_read(s)));
+            for (const std::string& file : relief::files_read(s)) {
+                h.text("file read");
+                h.file(file);
+            }
             break;
         }
         case Step::Kind::Dup: h.text("dup"); break;

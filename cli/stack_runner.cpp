@@ -72,24 +72,13 @@ public:
                 s.kind == Step::Kind::Read ? ("read " + s.path).c_str() : s.text.c_str(), sec);
     }
 
-    // An operation's call as this program runs it: its mask and fix files
-    // read into `mask`, `fix`; its report to `report`; its written files counted.
-    relief::OperationCall prepare_call(const Step& s, OIIO::ImageBuf& mask, OIIO::ImageBuf& fix,
-                                       std::string& report)
+    // An operation's call as this program runs it: its report to `report`,
+    // its written files counted. (The files it reads, mask= and fix=, the
+    // table reads as it runs the call.)
+    relief::OperationCall prepare_call(const Step& s, std::string& report)
     {
         const relief::OperationInfo& op = *relief::find_operation(s.operation);
         relief::OperationCall call = s;
-        // Mask and fixation files are read here, quietly like every read.
-        if (!s.mask_file.empty()) {
-            if (!read(mask, s.mask_file))
-                throw RunError("mask: " + relief::geterror());
-            call.height.mask = &mask;
-        }
-        if (!s.fix_file.empty()) {
-            if (!read(fix, s.fix_file))
-                throw RunError("fix: " + relief::geterror());
-            call.correct.fix_mask = &fix;
-        }
         // A file it writes (mesh's out=) records its digest, as -o images do.
         // (Numbered as output_files() lists them: one file per operation today.)
         const std::size_t written = relief::files_written(s).size();
@@ -163,9 +152,8 @@ public:
         }
         case Step::Kind::Operation: {
             const relief::OperationInfo& op = *relief::find_operation(s.operation);
-            OIIO::ImageBuf mask, fix;
             std::string report;
-            const relief::OperationCall call = prepare_call(s, mask, fix, report);
+            const relief::OperationCall call = prepare_call(s, report);
             // The inputs are the top of the stack, the first input deepest.
             std::vector<OIIO::ImageBuf> in(op.inputs.size());
             for (std::size_t i = in.size(); i-- > 0;)
@@ -339,12 +327,12 @@ DeferredWrites run_tile_steps(const std::vector<Program>& tiles, const std::vect
         }
         StackRunner& first = *rs.front();
         first.timed(s, [&] {
-            std::vector<OIIO::ImageBuf> mask(rs.size()), fix(rs.size()), in(rs.size()), out;
+            std::vector<OIIO::ImageBuf> in(rs.size()), out;
             std::vector<std::string> report(rs.size());
             std::vector<relief::OperationCall> calls;
             std::vector<const OIIO::ImageBuf*> inputs;
             for (std::size_t t = 0; t < rs.size(); ++t) {
-                calls.push_back(rs[t]->prepare_call(tiles[t].steps[k], mask[t], fix[t], report[t]));
+                calls.push_back(rs[t]->prepare_call(tiles[t].steps[k], report[t]));
                 in[t] = rs[t]->pop();
                 inputs.push_back(&in[t]);
             }

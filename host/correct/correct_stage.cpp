@@ -122,9 +122,22 @@ LevelInput level_input(const std::vector<float>& texel_heights, const std::vecto
     return in;
 }
 
-std::vector<float> fix_weights(const CorrectParams& p, std::size_t n)
+// The caller's heights and fixation weights (none: empty), and the finest
+// level's input made of them.
+struct FinestInput {
+    std::vector<float> texels, fix;
+    LevelInput level;
+};
+
+FinestInput finest_input(const float* heights, int w, int h, const CorrectParams& p)
 {
-    return p.fix_weights ? std::vector<float>(p.fix_weights, p.fix_weights + n) : std::vector<float>();
+    const std::size_t n = std::size_t(w) * h;
+    FinestInput in;
+    in.texels.assign(heights, heights + n);
+    if (p.fix_weights)
+        in.fix.assign(p.fix_weights, p.fix_weights + n);
+    in.level = level_input(in.texels, p.fix_weights ? &in.fix : nullptr, w, h, w, p);
+    return in;
 }
 
 void to_texels(std::vector<float>& c, const NodeGrid& g, bool forward)
@@ -207,15 +220,15 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
     const std::size_t n = std::size_t(w) * h;
     std::fill(offsets_out, offsets_out + 2 * n, 0.0f);
     CorrectReport rep;
-    const std::vector<float> texels(heights, heights + n);
-    const std::vector<float> fix = fix_weights(p, n);
+    const FinestInput input = finest_input(heights, w, h, p);
+    const std::vector<float>&texels = input.texels, &fix = input.fix;
+    const LevelInput& finest = input.level;
 
     auto& c = ctx.impl();
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
         // The finest level's distortion at zero offsets decides whether
         // there is anything to do.
-        const LevelInput finest = level_input(texels, p.fix_weights ? &fix : nullptr, w, h, w, p);
         std::vector<float> aniso, area, zero(2 * std::size_t(finest.grid.nx) * finest.grid.ny, 0.0f);
         {
             LevelSolver s(ctx, finest.grid, finest.z, finest.fix, p);
@@ -353,13 +366,10 @@ double correction_energy(ComputeContext& ctx, const float* heights, int w, int h
                          const float* node_offsets, DistortionStats* anisotropy, DistortionStats* area)
 {
     validate(p, w, h);
-    const std::size_t n = std::size_t(w) * h;
-    const std::vector<float> texels(heights, heights + n);
-    const std::vector<float> fix = fix_weights(p, n);
+    const LevelInput in = finest_input(heights, w, h, p).level;
     auto& c = ctx.impl();
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
-        const LevelInput in = level_input(texels, p.fix_weights ? &fix : nullptr, w, h, w, p);
         std::vector<float> start(node_offsets, node_offsets + 2 * std::size_t(in.grid.nx) * in.grid.ny);
         to_texels(start, in.grid, true);
         LevelSolver s(ctx, in.grid, in.z, in.fix, p);

@@ -10,6 +10,7 @@
 
 #include "device/compute_context.h"
 #include "correct/correct_grid.h"
+#include "relief/correct_types.h"
 
 namespace relief::host {
 
@@ -31,8 +32,10 @@ struct CorrectParams {
     // anisotropy s1/s2 - 1 or area ratio |s1 s2 - 1| exceeds this.
     double threshold = 1e-3;
     bool skip_tiles = true;  // skip tiles whose nodes cannot move (bit-identical result)
-    // The line search per node (kernels/correct.cl's CORRECT_SEARCH).
-    enum class Search { Ternary = 0, Golden = 1, Brent = 2 };
+    // The choices of relief/correct_types.h, the public API's own.
+    using Search = relief::CorrectSearch;  // the line search per node
+    using Hats = relief::CorrectHats;
+    using Global = relief::CorrectGlobal;
     Search search = Search::Brent;
     // Over-relaxation: a node moves relax x its searched step when that
     // lowers its fan energy too (1 = exact line-search steps).
@@ -48,13 +51,11 @@ struct CorrectParams {
     // Hat moves (docs/design.md §4.5.3b): regions of nodes moved together
     // under bilinear hats of every scale, where the nodes alone converge
     // slowly (auto), every iteration (always: tests, comparisons) or never.
-    enum class Hats { Off = 0, Auto = 1, Always = 2 };
     Hats hats = Hats::Off;
     // Global steps (docs/design.md §4.5.3c): every node at once along the
     // multilevel-preconditioned negative gradient, where they pay more than
     // the nodes' own iterations (auto), after every iteration (always:
     // tests, comparisons) or never.
-    enum class Global { Off = 0, Auto = 1, Always = 2 };
     Global global = Global::Auto;
     // After a corner solve, node iterations on the delivered mesh (docs/
     // design.md §4.5.3f): the texel-centre nodes, started from the means of
@@ -63,9 +64,9 @@ struct CorrectParams {
     int polish = 2;
 };
 
-struct DistortionStats {
-    double mean = 0.0, p95 = 0.0, max = 0.0;
-};
+// The report's types are the public API's (relief/correct_types.h: plain
+// data), so that the plugin passes them on as they are.
+using DistortionStats = relief::DistortionSummary;  // mean, 95th percentile, max
 
 struct CorrectLevel {
     int width = 0, height = 0;  // texels
@@ -82,16 +83,7 @@ struct CorrectLevel {
 };
 
 // The polish of the delivered texel-centre mesh (CorrectParams::polish).
-struct CorrectPolish {
-    // Triangles of the corner means' mesh that were flipped, the moves that
-    // unflipped them, and those left flipped (none so far).
-    long long flipped = 0, flipped_left = 0;
-    int repairs = 0;
-    int iterations = 0;
-    // The delivered mesh's energy before (the corner means) and after.
-    double energy_start = 0.0, energy_end = 0.0;
-    double seconds = 0.0;
-};
+using CorrectPolish = relief::CorrectPolishReport;
 
 struct CorrectReport {
     bool skipped = false;        // nothing to correct: zero offsets, no solve

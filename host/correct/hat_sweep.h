@@ -11,20 +11,16 @@
 
 namespace relief::host {
 
-// What a sweep of hat moves costs, in node iterations per scale of hats
-// (measured on PoCL, 513^2 and 1025^2 nodes: 1.7 to 3.7, more for the
-// larger scales). Deterministic, unlike a clock: the schedule must give
-// the same bits on every run.
-inline constexpr double kHatSweepCostPerScale = 2.5;
-
 class HatSweep {
 public:
     // No scales (never due) with hats=off or fixation: hat moves leave
     // fixation out of their energy.
     explicit HatSweep(LevelState& s);
 
-    // What a sweep costs, in node iterations.
-    double cost() const { return kHatSweepCostPerScale * double(scales_.size()); }
+    // What a sweep costs, in node iterations: a price per scale of hats,
+    // deterministic (unlike a clock) so that the schedule gives the same
+    // bits on every run.
+    double cost() const;
 
     // hats=always: every iteration. hats=auto: the first sweep once the
     // nodes' falls, shrinking geometrically at their last rate, would take

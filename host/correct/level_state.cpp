@@ -11,6 +11,17 @@ namespace relief::host {
 
 namespace {
 
+// The line search's number in correct.cl (CORRECT_SEARCH).
+int search_number(CorrectParams::Search s)
+{
+    switch (s) {
+    case CorrectParams::Search::Ternary: return 0;
+    case CorrectParams::Search::Golden: return 1;
+    case CorrectParams::Search::Brent: return 2;
+    }
+    return 2;
+}
+
 // correct.cl built for a level: fp64 sums where the device has them, the
 // area exponent as a constant when it is whole (its powers unrolled), the
 // quads per work-item and the line search.
@@ -20,7 +31,7 @@ cl::Program& level_program(ComputeContext::Impl& c, bool fp64, const CorrectPara
     return c.program("correct.cl", std::string(fp64 ? "-DRELIEF_FP64" : "") +
                                        (whole ? " -DCORRECT_ITHETA=" + std::to_string(int(p.theta)) : "") +
                                        " -DCORRECT_NODES=" + std::to_string(nodes_per_item) +
-                                       " -DCORRECT_SEARCH=" + std::to_string(int(p.search)));
+                                       " -DCORRECT_SEARCH=" + std::to_string(search_number(p.search)));
 }
 
 }  // namespace

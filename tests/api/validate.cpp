@@ -23,12 +23,36 @@
 #include "support/option_cases.h"
 
 using namespace relief;
-using OIIO::ImageBuf;
-using OIIO::TypeDesc;
-using test::max_abs_diff;
-using test::pixels;
-using test::waves;
 using namespace relief::test::options;
+
+namespace {
+
+// An option set wrongly, and the words its refusal must hold.
+template <class Options>
+struct Refusal {
+    const char* what;
+    std::function<void(Options&)> set;
+    const char* message;
+};
+
+// Each refusal's options, from `base`, give `run`'s error (which must name
+// `operation` first) with the refusal's words in it.
+template <class Options, std::size_t N, class Run>
+void check_refusals(const Refusal<Options> (&refusals)[N], const Options& base, const std::string& operation,
+                    Run run)
+{
+    for (const Refusal<Options>& c : refusals) {
+        INFO(c.what);
+        Options o = base;
+        c.set(o);
+        const std::string e = run(o);
+        INFO(e);
+        CHECK(e.find(c.message) != std::string::npos);
+        CHECK(e.rfind(operation + ": ", 0) == 0);
+    }
+}
+
+}  // namespace
 
 TEST_CASE("options: inconsistent or out-of-range options are refused by the API", "[options][errors]")
 {
@@ -45,12 +69,7 @@ TEST_CASE("options: inconsistent or out-of-range options are refused by the API"
     std::vector<float> bad_values(std::size_t(w) * h, 0.5f);
     bad_values[17] = 1.5f;
     const ImageBuf over_mask = test::image(w, h, 1, bad_values);
-    struct HCase {
-        const char* what;
-        std::function<void(HeightOptions&)> set;
-        const char* message;
-    };
-    const HCase hcases[] = {
+    const Refusal<HeightOptions> hcases[] = {
         {"mask one row short", [&](HeightOptions& o) { o.mask = &short_mask; }, "the mask is 48x39"},
         {"mask one column short", [&](HeightOptions& o) { o.mask = &narrow_mask; }, "the mask is 47x40"},
         {"mask value above 1", [&](HeightOptions& o) { o.mask = &over_mask; },
@@ -94,16 +113,9 @@ TEST_CASE("options: inconsistent or out-of-range options are refused by the API"
          },
          "impl=fast needs directions=rational"},
     };
-    for (const HCase& c : hcases) {
-        INFO(c.what);
-        HeightOptions o;
-        o.normals.convention = NormalConvention::OpenGL;
-        c.set(o);
-        const std::string e = height_error(o);
-        INFO(e);
-        CHECK(e.find(c.message) != std::string::npos);
-        CHECK(e.rfind("height: ", 0) == 0);
-    }
+    HeightOptions opengl;
+    opengl.normals.convention = NormalConvention::OpenGL;
+    check_refusals(hcases, opengl, "height", height_error);
 
     const int cw = 40, ch = 36;
     const ImageBuf height = test::image(cw, ch, 1, waves(cw, ch, 1.0, 4));
@@ -113,12 +125,7 @@ TEST_CASE("options: inconsistent or out-of-range options are refused by the API"
     std::vector<float> negative(std::size_t(cw) * ch, 1.0f);
     negative[5] = -1.0f;
     const ImageBuf negative_fix = test::image(cw, ch, 1, negative);
-    struct CCase {
-        const char* what;
-        std::function<void(CorrectOptions&)> set;
-        const char* message;
-    };
-    const CCase ccases[] = {
+    const Refusal<CorrectOptions> ccases[] = {
         {"fixation mask one row long", [&](CorrectOptions& o) { o.fix_mask = &tall_fix; },
          "the fixation mask is 40x37, the height map 40x36"},
         {"fixation mask one column wide", [&](CorrectOptions& o) { o.fix_mask = &wide_fix; },
@@ -143,18 +150,13 @@ TEST_CASE("options: inconsistent or out-of-range options are refused by the API"
          "levels=-1 must be an integer in [1, 30] or auto"},
         {"NaN scale", [](CorrectOptions& o) { o.scale = std::nanf(""); }, "scale=nan is not a number"},
     };
-    for (const CCase& c : ccases) {
-        INFO(c.what);
-        CorrectOptions o;
-        o.scale = 0.3f;
-        c.set(o);
+    CorrectOptions scaled;
+    scaled.scale = 0.3f;
+    check_refusals(ccases, scaled, "correct", [&](const CorrectOptions& o) {
         ImageBuf out;
         CHECK_FALSE(relief::correct(out, height, o));
-        const std::string e = relief::geterror();
-        INFO(e);
-        CHECK(e.find(c.message) != std::string::npos);
-        CHECK(e.rfind("correct: ", 0) == 0);
-    }
+        return relief::geterror();
+    });
 }
 
 TEST_CASE("options: a failed call's returned image carries the error", "[options][errors]")

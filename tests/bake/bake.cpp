@@ -35,14 +35,6 @@ namespace {
 
 const std::string kData = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01";
 
-fs::path scratch(const std::string& name)
-{
-    fs::path d = fs::path(RELIEF_TEST_TMP) / "bake" / name;
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
-}
-
 OIIO::ImageBuf image(int w, int h, int nch, const std::vector<float>& px)
 {
     OIIO::ImageBuf b(OIIO::ImageSpec(w, h, nch, OIIO::TypeDesc::FLOAT));
@@ -327,7 +319,7 @@ TEST_CASE("bake: half and float normal maps (signed) bake to the golden gather's
 
 TEST_CASE("bake: colorspace=auto decodes 8-bit PNGs as sRGB, floats as linear", "[bake][colour]")
 {
-    const auto dir = scratch("auto_space");
+    const auto dir = relief::test::scratch("bake/auto_space");
     const int w = 16, h = 12;
     const auto src = random_field(std::size_t(w) * h * 3, 21, 0.0f, 1.0f);
     const auto off = random_field(2 * std::size_t(w) * h, 22, -0.1f, 0.1f);
@@ -400,7 +392,7 @@ TEST_CASE("bake: wrap=auto wraps when the offsets say periodic", "[bake]")
 
 TEST_CASE("bake: kind=auto tells normal and height maps by name and by origin", "[bake]")
 {
-    const auto dir = scratch("kinds");
+    const auto dir = relief::test::scratch("bake/kinds");
     const int w = 12, h = 10;
     const auto noise = random_field(std::size_t(w) * h * 3, 61, 0.0f, 1.0f);
     const auto off = image(w, h, 2, random_field(2 * std::size_t(w) * h, 62, -0.05f, 0.05f));
@@ -442,7 +434,7 @@ TEST_CASE("cli: bake uses the OCIO config named by $OCIO", "[cli][bake][colour]"
     // A config whose "sRGB" is a plain gamma 2 curve: a half-texel shift of
     // a black/white edge gives sqrt(0.5) = 0.7071 (180 of 255) with it and
     // 0.7354 (188) with the built-in sRGB curve.
-    const auto dir = scratch("ocio");
+    const auto dir = relief::test::scratch("bake/ocio");
     std::ofstream(dir / "config.ocio") << R"(ocio_profile_version: 2
 roles:
   default: linear
@@ -505,7 +497,7 @@ TEST_CASE("bake: a declared colour space needs a config that has it", "[bake][co
 
 TEST_CASE("cli: a baked 8-bit normal map keeps its type and the golden directions", "[cli][bake]")
 {
-    const auto dir = scratch("normal_png");
+    const auto dir = relief::test::scratch("bake/normal_png");
     const int w = 32, h = 24;
     REQUIRE(bumpy_normals(w, h, OIIO::TypeDesc::UINT8).write((dir / "wall_normal.png").string()));
     const auto off = random_field(2 * std::size_t(w) * h, 41, -0.05f, 0.05f);
@@ -541,7 +533,7 @@ OIIO::ImageBuf read(const std::string& path)
 
 TEST_CASE("cli: correct and bake, the documented examples, equal the API's results", "[cli][bake][slow]")
 {
-    auto dir = scratch("examples");
+    auto dir = relief::test::scratch("bake/examples");
     const std::string height = kData + "/height.png", normal = kData + "/normal.png";
     // The first example, with a report.
     auto r = run_cli("'" + height + "' --correct:scale=0.05:theta=5:nodes=center:boundary=periodic -o '" +
@@ -615,7 +607,7 @@ TEST_CASE("cli: correct and bake, the documented examples, equal the API's resul
 
 TEST_CASE("cli: correct and bake refuse bad input and leave nothing behind", "[cli][bake]")
 {
-    auto dir = scratch("bad");
+    auto dir = relief::test::scratch("bake/bad");
     const std::string height = kData + "/height.png", normal = kData + "/normal.png";
     const std::string out = (dir / "o.exr").string();
     auto r = run_cli("'" + height + "' --correct:scale=0 -o '" + out + "'");

@@ -22,11 +22,6 @@
 #include "support/option_cases.h"
 
 using namespace relief;
-using OIIO::ImageBuf;
-using OIIO::TypeDesc;
-using test::max_abs_diff;
-using test::pixels;
-using test::waves;
 using namespace relief::test::options;
 
 TEST_CASE("options: bake filter and wrap reach the gather", "[options][bake]")

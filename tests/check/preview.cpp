@@ -36,9 +36,6 @@
 #include "check/check_test.h"
 
 using namespace relief;
-namespace fs = std::filesystem;
-using relief::test::json_number;
-using relief::test::run_cli;
 using namespace relief::test::checks;
 
 namespace {

@@ -24,14 +24,6 @@ namespace {
 
 const std::string kNormal = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
 
-fs::path scratch(const std::string& name)
-{
-    fs::path d = fs::path(RELIEF_TEST_TMP) / "cli" / name;
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
-}
-
 // Nothing named like the output, temporary files included, may remain.
 bool folder_is_empty_but(const fs::path& dir, const std::string& keep = "")
 {
@@ -45,7 +37,7 @@ bool folder_is_empty_but(const fs::path& dir, const std::string& keep = "")
 
 TEST_CASE("cli: the documented example writes a float EXR height map with metadata", "[cli]")
 {
-    auto dir = scratch("example");
+    auto dir = relief::test::scratch("cli/example");
     auto out = dir / "height.exr";
     auto r = run_cli("'" + kNormal +
                      "' --height:method=rays:impl=reference:normal=directx:rays=16:"
@@ -69,7 +61,7 @@ TEST_CASE("cli: the documented example writes a float EXR height map with metada
 
 TEST_CASE("cli: -v reports device and convention, integer outputs state their scale", "[cli]")
 {
-    auto dir = scratch("verbose");
+    auto dir = relief::test::scratch("cli/verbose");
     auto r = run_cli("-v '" + kNormal + "' --height:rays=8:radius=8 -o '" + (dir / "h.exr").string() +
                      "' -d uint16 -o '" + (dir / "h16.png").string() + "' -d uint8 -o '" +
                      (dir / "h8.png").string() + "' -o '" + (dir / "h8.tif").string() + "'");
@@ -98,7 +90,7 @@ TEST_CASE("cli: -v reports device and convention, integer outputs state their sc
 
 TEST_CASE("cli: --slopes pushes the 2-channel DDM and says which convention auto chose", "[cli]")
 {
-    auto dir = scratch("slopes");
+    auto dir = relief::test::scratch("cli/slopes");
     auto r = run_cli("'" + kNormal + "' --slopes:normal=auto -o '" + (dir / "s.exr").string() + "'");
     REQUIRE(r.rc == 0);
     CHECK(r.err.find("normal convention: directx (curl rms opengl") != std::string::npos);
@@ -111,7 +103,7 @@ TEST_CASE("cli: --slopes pushes the 2-channel DDM and says which convention auto
 
 TEST_CASE("cli: results are bit-identical whatever the PoCL thread count", "[cli]")
 {
-    auto dir = scratch("determinism");
+    auto dir = relief::test::scratch("cli/determinism");
     std::string a = (dir / "a.exr").string(), b = (dir / "b.exr").string();
     std::string cmd = "'" + kNormal + "' --height:rays=12:radius=20:boundary=clip -o ";
     REQUIRE(run_cli(cmd + "'" + a + "'", "POCL_MAX_PTHREAD_COUNT=1").rc == 0);
@@ -127,7 +119,7 @@ TEST_CASE("cli: results are bit-identical whatever the PoCL thread count", "[cli
 
 TEST_CASE("cli: bad input fails with a clear message, a non-zero exit and no output", "[cli][errors][slow]")
 {
-    auto dir = scratch("bad");
+    auto dir = relief::test::scratch("cli/bad");
     const std::string out = "'" + (dir / "out.exr").string() + "'";
     {
         std::ofstream(dir / "empty.png");
@@ -214,7 +206,7 @@ TEST_CASE("cli: bad input fails with a clear message, a non-zero exit and no out
 
 TEST_CASE("cli: a failure never clobbers an existing output", "[cli][errors]")
 {
-    auto dir = scratch("clobber");
+    auto dir = relief::test::scratch("cli/clobber");
     fs::path kernels = dir / "kernels";
     fs::create_directories(kernels);
     for (const char* f : {"common.h", "ddm.cl"})
@@ -250,7 +242,7 @@ TEST_CASE("cli: nothing to do is a usage error, --list-devices lists", "[cli]")
 
 TEST_CASE("cli: warnings are printed without -v", "[cli]")
 {
-    auto dir = scratch("warnings");
+    auto dir = relief::test::scratch("cli/warnings");
     // A flat 8-bit map: no curl to tell the convention by.
     REQUIRE(relief::test::image(16, 16, 3, std::vector<float>(16 * 16 * 3, 0.5f), OIIO::TypeDesc::UINT8)
                 .write((dir / "flat.png").string()));
@@ -317,7 +309,7 @@ std::vector<float> cli_result(const fs::path& dir, const std::string& args)
 TEST_CASE("cli: results equal the API's for the same modifiers and files", "[cli][options]")
 {
     using namespace relief;
-    auto dir = scratch("equals_api");
+    auto dir = relief::test::scratch("cli/equals_api");
     const auto in = [](const fs::path& p) { return "'" + p.string() + "' "; };
     const int w = 64, h = 48;
     // A float normal map stored in [0, 1] (range=unsigned), RGBA with
@@ -411,7 +403,7 @@ TEST_CASE("cli: results equal the API's for the same modifiers and files", "[cli
 
 TEST_CASE("cli: a mask file weights the least-squares solve", "[cli][mask]")
 {
-    auto dir = scratch("mask");
+    auto dir = relief::test::scratch("cli/mask");
     // Exclude the left half of the sample.
     OIIO::ImageBuf m(OIIO::ImageSpec(512, 512, 1, OIIO::TypeDesc::UINT8));
     for (int y = 0; y < 512; ++y)
@@ -440,7 +432,7 @@ TEST_CASE("cli: a mask file weights the least-squares solve", "[cli][mask]")
 
 TEST_CASE("cli: a damaged file gives one line of relief's own, library noise only under -v", "[cli][errors]")
 {
-    auto dir = scratch("damaged");
+    auto dir = relief::test::scratch("cli/damaged");
     const std::string png = slurp(kNormal);
     std::ofstream(dir / "truncated.png", std::ios::binary) << png.substr(0, png.size() / 3);
     {
@@ -469,7 +461,7 @@ TEST_CASE("cli: a damaged file gives one line of relief's own, library noise onl
 
 TEST_CASE("cli: a buffer larger than the device allows is refused with the numbers", "[cli][errors]")
 {
-    auto dir = scratch("max_alloc");
+    auto dir = relief::test::scratch("cli/max_alloc");
     const std::string out = "'" + (dir / "out.exr").string() + "'";
     for (const char* op : {"--height", "--height:rays=8:radius=8", "--height:boundary=free"}) {
         INFO(op);
@@ -498,7 +490,7 @@ TEST_CASE("cli: a buffer larger than the device allows is refused with the numbe
 
 TEST_CASE("cli: -d half warns for offsets wider than half floats hold to 1/8 texel, not below", "[cli]")
 {
-    const fs::path dir = scratch("half-offsets");
+    const fs::path dir = relief::test::scratch("cli/half-offsets");
     for (const int w : {2048, 2049}) {
         const std::string in = (dir / ("h" + std::to_string(w) + ".exr")).string();
         REQUIRE(relief::test::image(w, 2, 1, std::vector<float>(std::size_t(w) * 2, 0.0f)).write(in));
@@ -513,7 +505,7 @@ TEST_CASE("cli: -d half warns for offsets wider than half floats hold to 1/8 tex
 
 TEST_CASE("cli: hats=always sweeps every iteration of every level, and -v and --report say so", "[cli][slow]")
 {
-    auto dir = scratch("hat_sweeps");
+    auto dir = relief::test::scratch("cli/hat_sweeps");
     const std::string height = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
     auto r = run_cli("-v '" + height + "' --correct:scale=10:iterations=3:hats=always:global=off -o '" +
                      (dir / "c.exr").string() + "' --report '" + (dir / "r.json").string() + "'");
@@ -540,7 +532,7 @@ TEST_CASE("cli: hats=always sweeps every iteration of every level, and -v and --
 TEST_CASE("cli: global=always steps after every iteration, and -v, --report and the parameters say so",
           "[cli]")
 {
-    auto dir = scratch("global_steps");
+    auto dir = relief::test::scratch("cli/global_steps");
     const std::string height = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
     auto r = run_cli("-v '" + height + "' --correct:scale=0.05:iterations=3:global=always -o '" +
                      (dir / "c.exr").string() + "' --report '" + (dir / "r.json").string() + "'");
@@ -573,7 +565,7 @@ TEST_CASE(
     "say so, and polish=0 delivers the corner means",
     "[cli][slow]")
 {
-    auto dir = scratch("polish");
+    auto dir = relief::test::scratch("cli/polish");
     const std::string height = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
     const auto correct = [&](const std::string& polish, const std::string& name) {
         auto r = run_cli("-v '" + height + "' --correct:scale=0.05:iterations=3" + polish + " -o '" +
@@ -622,7 +614,7 @@ TEST_CASE("cli: -v says which share of the coarser offsets each correction level
     // At scale 10 the bundled metal panel's levels start from part of the
     // coarser offsets (measured: 1/4 to 3/4); -v says it as the report
     // records it.
-    auto dir = scratch("start_factor");
+    auto dir = relief::test::scratch("cli/start_factor");
     const std::string height = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
     auto r = run_cli("-v '" + height + "' --correct:scale=10:iterations=3 -o '" + (dir / "c.exr").string() +
                      "' --report '" + (dir / "r.json").string() + "'");

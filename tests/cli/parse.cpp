@@ -271,7 +271,6 @@ TEST_CASE("parse: options apply to the steps that follow, the stack is tracked",
     REQUIRE(p.steps.size() == 8);
     CHECK(p.steps[0].kind == Step::Kind::Read);
     CHECK(p.steps[0].path == kIn);
-    CHECK(p.steps[1].height.exec.device == "cpu");
     const Step& a = p.steps[2];
     CHECK(a.kind == Step::Kind::Write);
     CHECK(a.path == "a.exr");
@@ -288,12 +287,12 @@ TEST_CASE("parse: options apply to the steps that follow, the stack is tracked",
     CHECK(c.compression == "zip");
     CHECK(p.steps[5].kind == Step::Kind::Read);
     CHECK(p.steps[6].operation == "correct");
-    CHECK(p.steps[6].correct.exec.device == "cpu");
     CHECK(p.steps[7].format == OIIO::TypeDesc::HALF);
     CHECK(parse_command_line({kIn, "-d", "uint8", "-o", "x.png"}).steps[1].format == OIIO::TypeDesc::UINT8);
     CHECK(parse_command_line({kIn, "-d", "float", "-o", "x.exr"}).steps[1].format == OIIO::TypeDesc::FLOAT);
-    CHECK(parse_command_line({kIn, "--slopes"}).steps[1].slopes.exec.device == "auto");
-    CHECK(parse_command_line({"--device", "0:0", kIn, kIn, "--bake"}).steps[2].bake.exec.device == "0:0");
+    // the device is the program's, for every step (stack_runner's Execution)
+    CHECK(parse_command_line({kIn, "--slopes"}).device == "auto");
+    CHECK(parse_command_line({"--device", "0:0", kIn, kIn, "--bake"}).device == "0:0");
     CHECK(parse_command_line({"--help"}).help);
     CHECK_FALSE(parse_command_line({"--help"}).help_markdown);
     CHECK(parse_command_line({"--help:format=markdown"}).help_markdown);

@@ -21,8 +21,6 @@
 
 using namespace relief;
 using namespace relief::test::correction;
-namespace ref = relief::reference;
-using relief::test::waves;
 
 TEST_CASE("correct: boundary=auto on a map one texel wide or tall is fixed (a seam needs two texels)",
           "[correct][boundary]")

@@ -13,6 +13,8 @@
 
 namespace relief::test::correction {
 
+using relief::test::waves;
+
 namespace ref = relief::reference;
 
 // The golden model's grid for centre nodes (heights in texels).
@@ -75,6 +77,39 @@ inline Agreement agreement(const std::vector<float>& out, const std::vector<doub
         a.worst = std::max(a.worst, std::abs(a.device[k] - c[k]));
         a.largest = std::max(a.largest, std::abs(c[k]));
     }
+    return a;
+}
+
+// `iterations` iterations at one level, every triangle counted (threshold
+// 0): the runs of the tests that the energy never rises.
+inline host::CorrectParams single_level(double scale, host::Periodic periodic, bool corner, int iterations)
+{
+    auto p = params(scale, periodic, corner);
+    p.levels = 1;
+    p.iterations = iterations;
+    p.threshold = 0.0;
+    return p;
+}
+
+// The boundaries those tests run every node kind on: periodic, fixed, mixed.
+inline const host::Periodic kBoundaries[] = {host::Periodic(true), host::Periodic(false),
+                                             host::Periodic(false, true)};
+
+// The golden model's centre-node grid for `hts`, its offsets after one
+// iteration of the nodes from zero, and the energy then: where the
+// comparisons of one device iteration with a hat sweep or a global step
+// start.
+struct AfterNodes {
+    ref::CorrectionGrid grid;
+    std::vector<double> c;
+    double energy = 0.0;
+};
+inline AfterNodes after_node_iteration(const std::vector<float>& hts, int w, int h, double scale,
+                                       host::Periodic periodic)
+{
+    AfterNodes a{centre_grid(hts, w, h, scale, periodic), std::vector<double>(2 * std::size_t(w) * h, 0.0)};
+    ref::iterate(a.grid, a.c);
+    a.energy = ref::total_energy(a.grid, a.c);
     return a;
 }
 

@@ -22,8 +22,6 @@
 
 using namespace relief;
 using namespace relief::test::correction;
-namespace ref = relief::reference;
-using relief::test::waves;
 
 TEST_CASE("correct: closed-form triangle energy equals the SVD's", "[correct]")
 {

@@ -22,30 +22,47 @@
 
 using namespace relief;
 using namespace relief::test::correction;
-namespace ref = relief::reference;
-using relief::test::waves;
+
+namespace {
+
+using P = host::Periodic;
+
+// The grids a device's global steps are compared with the golden model's
+// on: periodic, fixed (an odd width) and mixed axes; steep waves at scale
+// 0.5, so that the steps move.
+struct StepGrid {
+    int w, h;
+    P periodic;
+    std::vector<float> heights() const { return waves(w, h, 1.0, 24); }
+};
+const StepGrid kStepGrids[] = {
+    {32, 32, P(true)}, {33, 25, P(false)}, {32, 21, P(true, false)}, {40, 32, P(false, true)}};
+constexpr double kStepScale = 0.5;
+
+// `iterations` node iterations at one level, each followed by a global step.
+host::CorrectParams global_always(P periodic, int iterations)
+{
+    auto p = one_iteration(params(kStepScale, periodic));
+    p.iterations = iterations;
+    p.hats = host::CorrectParams::Hats::Off;
+    p.global = host::CorrectParams::Global::Always;
+    return p;
+}
+
+}  // namespace
 
 TEST_CASE("correct: one device iteration with a global step equals the golden model's", "[correct]")
 {
     // global=always at one iteration: the node phases, then one step along
     // the multilevel gradient, as the golden model's iterate() then
-    // global_step(). Periodic, fixed (an odd width) and mixed axes.
-    using P = host::Periodic;
-    for (auto [w, h, periodic] : {std::tuple{32, 32, P(true)}, std::tuple{33, 25, P(false)},
-                                  std::tuple{32, 21, P(true, false)}, std::tuple{40, 32, P(false, true)}}) {
-        const auto hts = waves(w, h, 1.0, 24);
-        const double scale = 0.5;
-        ref::CorrectionGrid g = centre_grid(hts, w, h, scale, periodic);
-        std::vector<double> c(2 * std::size_t(w) * h, 0.0);
-        ref::iterate(g, c);
-        const double e_nodes = ref::total_energy(g, c);
+    // global_step().
+    for (const auto& [w, h, periodic] : kStepGrids) {
+        const auto hts = StepGrid{w, h, periodic}.heights();
+        auto [g, c, e_nodes] = after_node_iteration(hts, w, h, kStepScale, periodic);
         const bool moved = ref::global_step(g, c);
         const double e_gold = ref::total_energy(g, c);
-        auto p = one_iteration(params(scale, periodic));
-        p.hats = host::CorrectParams::Hats::Off;
-        p.global = host::CorrectParams::Global::Always;
         host::CorrectReport rep;
-        const auto out = run(hts, w, h, p, &rep);
+        const auto out = run(hts, w, h, global_always(periodic, 1), &rep);
         const auto [dev, worst, largest] = agreement(out, c, w, h);
         const double e_dev = ref::total_energy(g, dev);
         INFO(w << "x" << h << " periodic x " << periodic.x << " y " << periodic.y
@@ -66,12 +83,9 @@ TEST_CASE("correct: a level's second global step is quasi-Newton, as the golden 
     // memoryless BFGS update of the multilevel sum by the pair (s, y) from
     // the first step's offsets and gradient (the golden model's
     // GlobalStepMemory). Without the pair the second step differs.
-    using P = host::Periodic;
-    for (auto [w, h, periodic] : {std::tuple{32, 32, P(true)}, std::tuple{33, 25, P(false)},
-                                  std::tuple{32, 21, P(true, false)}, std::tuple{40, 32, P(false, true)}}) {
-        const auto hts = waves(w, h, 1.0, 24);
-        const double scale = 0.5;
-        ref::CorrectionGrid g = centre_grid(hts, w, h, scale, periodic);
+    for (const auto& [w, h, periodic] : kStepGrids) {
+        const auto hts = StepGrid{w, h, periodic}.heights();
+        ref::CorrectionGrid g = centre_grid(hts, w, h, kStepScale, periodic);
         std::vector<double> c(2 * std::size_t(w) * h, 0.0);
         ref::GlobalStepMemory memory;
         ref::iterate(g, c);
@@ -81,12 +95,8 @@ TEST_CASE("correct: a level's second global step is quasi-Newton, as the golden 
         ref::global_step(g, plain);
         const bool second = ref::global_step(g, c, &memory);
         const double e_gold = ref::total_energy(g, c), e_plain = ref::total_energy(g, plain);
-        auto p = one_iteration(params(scale, periodic));
-        p.iterations = 2;
-        p.hats = host::CorrectParams::Hats::Off;
-        p.global = host::CorrectParams::Global::Always;
         host::CorrectReport rep;
-        const auto out = run(hts, w, h, p, &rep);
+        const auto out = run(hts, w, h, global_always(periodic, 2), &rep);
         const auto [dev, worst, largest] = agreement(out, c, w, h);
         const auto plain_gap = agreement(out, plain, w, h).worst;
         const double e_dev = ref::total_energy(g, dev);
@@ -113,15 +123,11 @@ TEST_CASE("correct: global steps never raise the energy, and auto ends lower tha
     const int w = 48, h = 40;
     const auto hts = waves(w, h, 1.0, 26);
     for (bool corner : {false, true})
-        for (const host::Periodic periodic :
-             {host::Periodic(true), host::Periodic(false), host::Periodic(false, true)}) {
+        for (const host::Periodic periodic : kBoundaries) {
             INFO("corner " << corner << " periodic x " << periodic.x << " y " << periodic.y);
             double previous = INFINITY;
             for (int it = 1; it <= 4; ++it) {
-                auto p = params(0.5, periodic, corner);
-                p.levels = 1;
-                p.iterations = it;
-                p.threshold = 0.0;
+                auto p = single_level(0.5, periodic, corner, it);
                 p.hats = host::CorrectParams::Hats::Off;
                 p.global = host::CorrectParams::Global::Always;
                 host::CorrectReport rep;

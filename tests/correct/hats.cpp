@@ -21,8 +21,6 @@
 
 using namespace relief;
 using namespace relief::test::correction;
-namespace ref = relief::reference;
-using relief::test::waves;
 
 TEST_CASE("correct: one device iteration with a hat sweep equals the golden model's", "[correct]")
 {
@@ -35,10 +33,7 @@ TEST_CASE("correct: one device iteration with a hat sweep equals the golden mode
                                   std::tuple{32, 21, P(true, false)}, std::tuple{19, 32, P(false, true)}}) {
         const auto hts = waves(w, h, 1.0, 21);
         const double scale = 1.0;
-        ref::CorrectionGrid g = centre_grid(hts, w, h, scale, periodic);
-        std::vector<double> c(2 * std::size_t(w) * h, 0.0);
-        ref::iterate(g, c);
-        const double e_nodes = ref::total_energy(g, c);
+        auto [g, c, e_nodes] = after_node_iteration(hts, w, h, scale, periodic);
         const int scales = ref::hat_sweep(g, c);
         const double e_gold = ref::total_energy(g, c);
         auto p = one_iteration(params(scale, periodic));
@@ -129,15 +124,11 @@ TEST_CASE("correct: hat moves never raise the energy, and auto sweeps only slowl
     const int w = 48, h = 40;
     const auto hts = waves(w, h, 1.0, 22);
     for (bool corner : {false, true})
-        for (const host::Periodic periodic :
-             {host::Periodic(true), host::Periodic(false), host::Periodic(false, true)}) {
+        for (const host::Periodic periodic : kBoundaries) {
             INFO("corner " << corner << " periodic x " << periodic.x << " y " << periodic.y);
             double previous = INFINITY, first = 0.0;
             for (int it = 0; it <= 4; ++it) {
-                auto p = params(2.0, periodic, corner);
-                p.levels = 1;
-                p.iterations = std::max(it, 1);
-                p.threshold = 0.0;
+                auto p = single_level(2.0, periodic, corner, std::max(it, 1));
                 p.hats = host::CorrectParams::Hats::Always;
                 host::CorrectReport rep;
                 const auto out = run(hts, w, h, p, &rep);

@@ -21,8 +21,6 @@
 
 using namespace relief;
 using namespace relief::test::correction;
-namespace ref = relief::reference;
-using relief::test::waves;
 
 namespace {
 
@@ -62,6 +60,23 @@ std::vector<float> coarsest_alone(const std::vector<float>& hts, int w, int h, i
     return run(host::area_downsample(hts, w, h, cw, ch), cw, ch, p);
 }
 
+// A periodic correction of `levels` levels at `scale`, and its coarsest
+// level (cw x ch) run alone.
+struct PyramidRun {
+    host::CorrectReport report;
+    std::vector<float> coarsest;
+};
+PyramidRun pyramid_run(const std::vector<float>& hts, int w, int h, double scale, int levels, int cw, int ch)
+{
+    auto p = params(scale, true);
+    p.levels = levels;
+    PyramidRun r;
+    run(hts, w, h, p, &r.report);
+    REQUIRE(r.report.levels.size() == std::size_t(levels));
+    r.coarsest = coarsest_alone(hts, w, h, cw, ch, p);
+    return r;
+}
+
 }  // namespace
 
 TEST_CASE("correct: a level starts from the scaled coarse offsets of lowest energy", "[correct]")
@@ -74,12 +89,7 @@ TEST_CASE("correct: a level starts from the scaled coarse offsets of lowest ener
     const auto hts = waves(w, h, 1.0, 15);
     const double scale = GENERATE(0.3, 1.0, 3.0, 10.0);
     INFO("scale " << scale);
-    auto p = params(scale, true);
-    p.levels = 2;
-    host::CorrectReport rep;
-    run(hts, w, h, p, &rep);
-    REQUIRE(rep.levels.size() == 2);
-    const auto coarse = coarsest_alone(hts, w, h, cw, ch, p);
+    const auto [rep, coarse] = pyramid_run(hts, w, h, scale, 2, cw, ch);
     const auto [best, factor] = golden_start(hts, w, h, scale, coarse, cw, ch);
     const auto& fine = rep.levels.back();
     CHECK(fine.start_factor == factor);
@@ -100,12 +110,7 @@ TEST_CASE("correct: a level above the finest measures its own start", "[correct]
     const auto hts = waves(w, h, 1.0, 15);
     const double scale = GENERATE(1.0, 10.0);
     INFO("scale " << scale);
-    auto p = params(scale, true);
-    p.levels = 3;
-    host::CorrectReport rep;
-    run(hts, w, h, p, &rep);
-    REQUIRE(rep.levels.size() == 3);
-    const auto coarse = coarsest_alone(hts, w, h, cw, ch, p);
+    const auto [rep, coarse] = pyramid_run(hts, w, h, scale, 3, cw, ch);
     const auto [best, factor] =
         golden_start(host::area_downsample(hts, w, h, mw, mh), mw, mh, scale, coarse, cw, ch);
     const auto& mid = rep.levels[1];

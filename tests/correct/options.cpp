@@ -24,11 +24,6 @@
 #include "support/option_cases.h"
 
 using namespace relief;
-using OIIO::ImageBuf;
-using OIIO::TypeDesc;
-using test::max_abs_diff;
-using test::pixels;
-using test::waves;
 using namespace relief::test::options;
 
 namespace {
@@ -40,6 +35,30 @@ struct CorrectCase {
     std::function<void(CorrectOptions&)> api;
     std::function<void(host::CorrectParams&)> host;
 };
+
+// A choice the options and the host's parameters hold alike (the public
+// enums of relief/correct_types.h), set to `value` on both.
+template <class T>
+CorrectCase choice_case(const char* name, T CorrectOptions::*api_field, T host::CorrectParams::*host_field,
+                        T value)
+{
+    return {name, [api_field, value](CorrectOptions& o) { o.*api_field = value; },
+            [host_field, value](host::CorrectParams& p) { p.*host_field = value; }};
+}
+
+// Corner nodes with `n` polish iterations.
+CorrectCase corner_polish(const char* name, int n)
+{
+    return {name,
+            [n](CorrectOptions& o) {
+                o.nodes = CorrectNodes::Corner;
+                o.polish = n;
+            },
+            [n](host::CorrectParams& p) {
+                p.corner_nodes = true;
+                p.polish = n;
+            }};
+}
 
 // Each case's API result equals the host call with its parameters, bit for
 // bit, and the report and the metadata say what the solver did; every case
@@ -216,24 +235,8 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
              p.corner_nodes = true;
              p.periodic = host::Periodic(false, true);
          }},
-        {"corner nodes, polish 0",
-         [](CorrectOptions& o) {
-             o.nodes = CorrectNodes::Corner;
-             o.polish = 0;
-         },
-         [](host::CorrectParams& p) {
-             p.corner_nodes = true;
-             p.polish = 0;
-         }},
-        {"corner nodes, polish 3",
-         [](CorrectOptions& o) {
-             o.nodes = CorrectNodes::Corner;
-             o.polish = 3;
-         },
-         [](host::CorrectParams& p) {
-             p.corner_nodes = true;
-             p.polish = 3;
-         }},
+        corner_polish("corner nodes, polish 0", 0),
+        corner_polish("corner nodes, polish 3", 3),
         {"scale 0.5", [](CorrectOptions& o) { o.scale = 0.5f; },
          [](host::CorrectParams& p) { p.scale = 0.5f; }},
         {"3 iterations", [](CorrectOptions& o) { o.iterations = 3; },
@@ -253,14 +256,11 @@ TEST_CASE("options: every correction option reaches the solver, the report is th
          [&](host::CorrectParams& p) { p.fix_weights = tent.data(); }},
         {"relax 1.2", [](CorrectOptions& o) { o.relax = 1.2f; },
          [](host::CorrectParams& p) { p.relax = 1.2f; }},
-        {"hats auto", [](CorrectOptions& o) { o.hats = CorrectHats::Auto; },
-         [](host::CorrectParams& p) { p.hats = host::CorrectParams::Hats::Auto; }},
-        {"hats always", [](CorrectOptions& o) { o.hats = CorrectHats::Always; },
-         [](host::CorrectParams& p) { p.hats = host::CorrectParams::Hats::Always; }},
-        {"global off", [](CorrectOptions& o) { o.global = CorrectGlobal::Off; },
-         [](host::CorrectParams& p) { p.global = host::CorrectParams::Global::Off; }},
-        {"global always", [](CorrectOptions& o) { o.global = CorrectGlobal::Always; },
-         [](host::CorrectParams& p) { p.global = host::CorrectParams::Global::Always; }},
+        choice_case("hats auto", &CorrectOptions::hats, &host::CorrectParams::hats, CorrectHats::Auto),
+        choice_case("hats always", &CorrectOptions::hats, &host::CorrectParams::hats, CorrectHats::Always),
+        choice_case("global off", &CorrectOptions::global, &host::CorrectParams::global, CorrectGlobal::Off),
+        choice_case("global always", &CorrectOptions::global, &host::CorrectParams::global,
+                    CorrectGlobal::Always),
         {"skip off", [](CorrectOptions& o) { o.skip_tiles = false; },
          [](host::CorrectParams& p) { p.skip_tiles = false; }},
     };
@@ -277,10 +277,10 @@ TEST_CASE("options: the correction's area exponent and line search reach the sol
         {"theta 2", [](CorrectOptions& o) { o.theta = 2; }, [](host::CorrectParams& p) { p.theta = 2; }},
         {"theta 7.5", [](CorrectOptions& o) { o.theta = 7.5f; },
          [](host::CorrectParams& p) { p.theta = 7.5; }},
-        {"ternary search", [](CorrectOptions& o) { o.search = CorrectSearch::Ternary; },
-         [](host::CorrectParams& p) { p.search = host::CorrectParams::Search::Ternary; }},
-        {"golden search", [](CorrectOptions& o) { o.search = CorrectSearch::Golden; },
-         [](host::CorrectParams& p) { p.search = host::CorrectParams::Search::Golden; }},
+        choice_case("ternary search", &CorrectOptions::search, &host::CorrectParams::search,
+                    CorrectSearch::Ternary),
+        choice_case("golden search", &CorrectOptions::search, &host::CorrectParams::search,
+                    CorrectSearch::Golden),
     };
     check_correct_cases(f.hts, f.height, f.w, f.h, cases);
 }

@@ -22,8 +22,6 @@
 
 using namespace relief;
 using namespace relief::test::correction;
-namespace ref = relief::reference;
-using relief::test::waves;
 
 TEST_CASE("correct: the polish is centre-node iterations on the delivered mesh from the corner means",
           "[correct]")

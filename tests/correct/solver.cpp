@@ -23,8 +23,6 @@
 
 using namespace relief;
 using namespace relief::test::correction;
-namespace ref = relief::reference;
-using relief::test::waves;
 
 namespace {
 
@@ -189,10 +187,7 @@ void check_energy_never_rises(const Search& search)
              {host::Periodic(true), host::Periodic(false), host::Periodic(true, false)}) {
             double previous = INFINITY, first = 0.0;
             for (int it = 0; it <= 6; ++it) {
-                auto p = with_search(params(0.4, periodic, corner), search);
-                p.levels = 1;
-                p.iterations = std::max(it, 1);
-                p.threshold = 0.0;
+                const auto p = with_search(single_level(0.4, periodic, corner, std::max(it, 1)), search);
                 host::CorrectReport rep;
                 run(hts, w, h, p, &rep);
                 const double e = it == 0 ? rep.energy_before : rep.energy_after;

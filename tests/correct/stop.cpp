@@ -22,8 +22,6 @@
 
 using namespace relief;
 using namespace relief::test::correction;
-namespace ref = relief::reference;
-using relief::test::waves;
 
 namespace {
 
@@ -38,6 +36,21 @@ host::CorrectParams stop_rule_params(double tolerance)
     p.global = host::CorrectParams::Global::Always;
     p.tolerance = tolerance;
     return p;
+}
+
+// e[k], the energy after exactly k iterations of `p`, for k from `first`
+// to `last` (the others 0).
+std::vector<double> energies_after(const std::vector<float>& hts, int w, int h, host::CorrectParams p,
+                                   int first, int last)
+{
+    std::vector<double> e(last + 1, 0.0);
+    for (int k = first; k <= last; ++k) {
+        host::CorrectReport r;
+        p.iterations = k;
+        run(hts, w, h, p, &r);
+        e[k] = r.energy_after;
+    }
+    return e;
 }
 
 }  // namespace
@@ -60,14 +73,7 @@ TEST_CASE("correct: the tolerance bounds the fall per pass over the nodes", "[co
     const int n = rep.levels[0].iterations;
     REQUIRE(rep.levels[0].converged);
     REQUIRE(n >= 3);
-    std::vector<double> e(n + 1, 0.0);  // e[k]: after k iterations
-    for (int k = n - 2; k <= n; ++k) {
-        host::CorrectReport r;
-        auto q = p;
-        q.iterations = k;
-        run(hts, w, h, q, &r);
-        e[k] = r.energy_after;
-    }
+    const std::vector<double> e = energies_after(hts, w, h, p, n - 2, n);
     const auto fall = [&](int k) { return (e[k - 1] - e[k]) / e[k - 1]; };
     INFO("stopped after " << n << " iterations; falls " << fall(n - 1) << " then " << fall(n));
     CHECK(std::abs(e[n] - rep.energy_after) <= 1e-9 * e[n]);
@@ -98,15 +104,8 @@ TEST_CASE("correct: the finest level stops once the next fall is predicted below
     const int n = rep.levels[0].iterations, m = plain.levels[0].iterations;
     REQUIRE(rep.levels[0].converged);
     REQUIRE(n >= 4);
-    std::vector<double> e(n + 1, 0.0);  // e[k]: after k iterations
+    std::vector<double> e = energies_after(hts, w, h, p, std::max(1, n - 4), n);
     e[0] = rep.levels[0].energy_start;
-    for (int k = std::max(1, n - 4); k <= n; ++k) {
-        host::CorrectReport r;
-        auto qk = p;
-        qk.iterations = k;
-        run(hts, w, h, qk, &r);
-        e[k] = r.energy_after;
-    }
     const auto f = [&](int k) { return (e[k - 1] - e[k]) / e[k - 1]; };
     const auto stops = [&](int k) {
         if (f(k) < tol)

@@ -26,10 +26,6 @@
 #include "support/run_cli.h"
 #include "farm/farm_test.h"
 
-namespace fs = std::filesystem;
-using relief::cli::Job;
-using relief::cli::UsageError;
-using relief::test::run_cli;
 using namespace relief::test::farm;
 
 TEST_CASE("batch: manifest lines split like a shell, without expansion", "[batch][parse]")

@@ -40,10 +40,7 @@ const std::string kDem = kData + "/dem_jacksboro/normal.png";
 
 inline fs::path scratch(const std::string& name)
 {
-    fs::path d = fs::path(RELIEF_TEST_TMP) / "batch" / name;
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
+    return relief::test::scratch("batch/" + name);
 }
 
 inline std::vector<std::string> lines_of(const fs::path& p)

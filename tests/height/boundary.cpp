@@ -22,11 +22,6 @@
 #include "support/option_cases.h"
 
 using namespace relief;
-using OIIO::ImageBuf;
-using OIIO::TypeDesc;
-using test::max_abs_diff;
-using test::pixels;
-using test::waves;
 using namespace relief::test::options;
 
 TEST_CASE("options: boundary=auto integrates a tiling map periodically, a crop freely, a strip per axis",
@@ -36,17 +31,9 @@ TEST_CASE("options: boundary=auto integrates a tiling map periodically, a crop f
     // wrap seams join unrelated texels).
     const int big_w = 96, big_h = 80, w = 60, h = 50;
     const auto tiling = tiling_slopes(big_w, big_h, 7);
-    std::vector<double> crop(2 * std::size_t(w) * h);
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x)
-            for (int c = 0; c < 2; ++c)
-                crop[2 * (std::size_t(y) * w + x) + c] = tiling[2 * (std::size_t(y) * big_w + x) + c];
+    const std::vector<double> crop = top_left(tiling, big_w, w, h);
     // And the left 60 columns at full height: only one seam joins unrelated texels.
-    std::vector<double> strip(2 * std::size_t(w) * big_h);
-    for (int y = 0; y < big_h; ++y)
-        for (int x = 0; x < w; ++x)
-            for (int c = 0; c < 2; ++c)
-                strip[2 * (std::size_t(y) * w + x) + c] = tiling[2 * (std::size_t(y) * big_w + x) + c];
+    const std::vector<double> strip = top_left(tiling, big_w, w, big_h);
     const ImageBuf tile = test::normal_image(tiling, big_w, big_h, test::Green::OpenGL, TypeDesc::FLOAT);
     const ImageBuf part = test::normal_image(crop, w, h, test::Green::OpenGL, TypeDesc::FLOAT);
     const ImageBuf column = test::normal_image(strip, w, big_h, test::Green::OpenGL, TypeDesc::FLOAT);
@@ -107,11 +94,7 @@ TEST_CASE("options: a boundary per axis is kept, an axis left to auto takes its 
     // tests plan FFTs for.)
     const int big_w = 96, h = 48, w = 64;
     const auto tiling = tiling_slopes(big_w, h, 7);
-    std::vector<double> strip(2 * std::size_t(w) * h);
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x)
-            for (int c = 0; c < 2; ++c)
-                strip[2 * (std::size_t(y) * w + x) + c] = tiling[2 * (std::size_t(y) * big_w + x) + c];
+    const std::vector<double> strip = top_left(tiling, big_w, w, h);
     const ImageBuf column = test::normal_image(strip, w, h, test::Green::OpenGL, TypeDesc::FLOAT);
     const Boundaries fp{Boundary::Free, Boundary::Periodic};
     HeightOptions o;

@@ -23,11 +23,6 @@
 #include "support/option_cases.h"
 
 using namespace relief;
-using OIIO::ImageBuf;
-using OIIO::TypeDesc;
-using test::max_abs_diff;
-using test::pixels;
-using test::waves;
 using namespace relief::test::options;
 
 TEST_CASE("options: mask=alpha and mask images weight the solve with their channel", "[options][mask]")

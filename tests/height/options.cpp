@@ -25,12 +25,32 @@
 #include "support/option_cases.h"
 
 using namespace relief;
-using OIIO::ImageBuf;
-using OIIO::TypeDesc;
-using test::max_abs_diff;
-using test::pixels;
-using test::waves;
 using namespace relief::test::options;
+
+namespace {
+
+// Reference rays, periodic: 6 of radius 9 at phase 0.125.
+void reference_rays_periodic(HeightOptions& o)
+{
+    o.method = HeightMethod::Rays;
+    o.boundary = Boundary::Periodic;
+    o.impl = RayImpl::Reference;
+    o.rays = 6;
+    o.radius = 9;
+    o.phase = 0.125f;
+}
+
+// Fast rays, clipped: 12 of radius 7 at phase 0.25.
+void clip_rays(HeightOptions& o)
+{
+    o.method = HeightMethod::Rays;
+    o.boundary = Boundary::Free;
+    o.rays = 12;
+    o.radius = 7;
+    o.phase = 0.25f;
+}
+
+}  // namespace
 
 TEST_CASE("options: every height option reaches its integrator", "[options][height]")
 {
@@ -92,22 +112,11 @@ TEST_CASE("options: every height option reaches its integrator", "[options][heig
              o.radius = 10;
          },
          [&](const auto& s) { return host_rays(s, w, h, rays(8, 10, 0.5, true), true); }},
-        {"rays fast clip rays 12 radius 7 phase 0.25",
-         [](HeightOptions& o) {
-             o.method = HeightMethod::Rays;
-             o.boundary = Boundary::Free;
-             o.rays = 12;
-             o.radius = 7;
-             o.phase = 0.25f;
-         },
+        {"rays fast clip rays 12 radius 7 phase 0.25", clip_rays,
          [&](const auto& s) { return host_rays(s, w, h, rays(12, 7, 0.25, false), true); }},
         {"rays fast clip skip off",
          [](HeightOptions& o) {
-             o.method = HeightMethod::Rays;
-             o.boundary = Boundary::Free;
-             o.rays = 12;
-             o.radius = 7;
-             o.phase = 0.25f;
+             clip_rays(o);
              o.skip_flat = false;
          },
          [&](const auto& s) {
@@ -117,24 +126,11 @@ TEST_CASE("options: every height option reaches its integrator", "[options][heig
          }},
         {"rays reference periodic exact directions phase 0.125",
          [](HeightOptions& o) {
-             o.method = HeightMethod::Rays;
-             o.boundary = Boundary::Periodic;
-             o.impl = RayImpl::Reference;
+             reference_rays_periodic(o);
              o.directions = RayDirections::Exact;
-             o.rays = 6;
-             o.radius = 9;
-             o.phase = 0.125f;
          },
          [&](const auto& s) { return host_rays(s, w, h, rays(6, 9, 0.125, true, DS::Exact), false); }},
-        {"rays reference periodic rational phase 0.125",
-         [](HeightOptions& o) {
-             o.method = HeightMethod::Rays;
-             o.boundary = Boundary::Periodic;
-             o.impl = RayImpl::Reference;
-             o.rays = 6;
-             o.radius = 9;
-             o.phase = 0.125f;
-         },
+        {"rays reference periodic rational phase 0.125", reference_rays_periodic,
          [&](const auto& s) { return host_rays(s, w, h, rays(6, 9, 0.125, true, DS::Rational), false); }},
         {"rays reference clip rational",
          [](HeightOptions& o) {

@@ -42,12 +42,6 @@ std::vector<float> solve(const std::vector<double>& g, int w, int h, Axes period
     return out;
 }
 
-std::vector<double> noisy_slopes(int w, int h, unsigned seed)
-{
-    test::PeriodicField f{w, h, {{1, 1, 2.0, 0.4}, {2, -1, 1.0, 1.3}}};
-    return test::plus_noise(f.slopes(), 0.3, seed);
-}
-
 template <class A>
 double spread(const A& a)
 {
@@ -81,7 +75,7 @@ void check_poisson_golden(int w, int h)
         for (double highpass : {0.0, 8.0}) {
             INFO(w << "x" << h << " x " << (periodic.x ? "periodic" : "free") << ", y "
                    << (periodic.y ? "periodic" : "free") << ", highpass " << highpass);
-            auto g = noisy_slopes(w, h, 3u + w);
+            auto g = test::rough_slopes(w, h, 3u + w);
             reference::PoissonSettings s;
             s.periodic_x = periodic.x;
             s.periodic_y = periodic.y;
@@ -392,7 +386,7 @@ void check_weighted_golden(int w, int h)
     for (Axes periodic : {Axes{true, true}, Axes{false, false}, Axes{true, false}, Axes{false, true}}) {
         INFO(w << "x" << h << " x " << (periodic.x ? "periodic" : "free") << ", y "
                << (periodic.y ? "periodic" : "free"));
-        auto g = noisy_slopes(w, h, 17u + w);
+        auto g = test::rough_slopes(w, h, 17u + w);
         std::mt19937 rng(5);
         std::uniform_real_distribution<double> u(0.0, 1.0);
         std::vector<double> wd(std::size_t(w) * h);

@@ -34,13 +34,7 @@ std::vector<float> kernel_rays(const std::vector<double>& g, int w, int h, int r
     return out;
 }
 
-// Smooth slopes plus noise that no height field has (non-integrable), so the
-// comparison exercises every texel's own value.
-std::vector<double> rough_slopes(int w, int h, unsigned seed)
-{
-    test::PeriodicField f{w, h, {{1, 1, 2.0, 0.4}, {2, -1, 1.0, 1.3}}};
-    return test::plus_noise(f.slopes(), 0.3, seed);
-}
+using test::rough_slopes;
 
 double max_abs(const std::vector<double>& v)
 {

@@ -74,17 +74,11 @@ std::vector<float> run_rays(const std::vector<float>& g, int w, int h, const Run
     return out;
 }
 
-// Smooth slopes plus non-integrable noise.
+// Smooth slopes plus non-integrable noise, in float.
 std::vector<float> rough_slopes(int w, int h, unsigned seed, double noise_std = 0.3)
 {
-    test::PeriodicField f{w, h, {{1, 1, 2.0, 0.4}, {2, -1, 1.0, 1.3}}};
-    auto g = f.slopes();
-    std::mt19937 rng(seed);
-    std::normal_distribution<double> noise(0.0, noise_std);
-    std::vector<float> out(g.size());
-    for (std::size_t i = 0; i < g.size(); ++i)
-        out[i] = float(g[i] + noise(rng));
-    return out;
+    const std::vector<double> g = test::rough_slopes(w, h, seed, noise_std);
+    return std::vector<float>(g.begin(), g.end());
 }
 
 template <class A>

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "relief/relief.h"
+#include "support/fields.h"
 #include "support/images.h"
 #include "support/large_maps.h"
 #include "support/run_cli.h"
@@ -264,15 +265,7 @@ TEST_CASE(
         rows = std::vector<float>();
         const std::vector<float> want = test::file_pixels(out_small);
         REQUIRE(want.size() == got.size());
-        double mean = 0, var = 0, worst = 0;
-        for (float v : want)
-            mean += v;
-        mean /= want.size();
-        for (std::size_t i = 0; i < want.size(); ++i) {
-            var += (want[i] - mean) * (want[i] - mean);
-            worst = std::max(worst, double(std::abs(want[i] - got[i])));
-        }
-        const double sd = std::sqrt(var / want.size());
+        const double sd = test::rms(want), worst = test::max_abs_diff(want, got);
         std::printf("%s: tile of the %d^2 result against the %d^2 result: max |diff| %.3g = %.3g of std\n",
                     command.c_str(), n, tile, worst, worst / sd);
         CHECK(sd > 1.0);

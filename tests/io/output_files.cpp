@@ -33,6 +33,8 @@ using relief::test::slurp;
 
 namespace {
 
+const std::string kSampleNormal = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
+
 // relief's temporary files in `dir`, or any name with "relief-tmp".
 std::vector<std::string> temporaries(const fs::path& dir)
 {
@@ -303,7 +305,7 @@ TEST_CASE("output files: batches sharing one --log append whole lines, none lost
 TEST_CASE("output files: a name the file system cannot take is refused before the work", "[io][files][cli]")
 {
     const fs::path d = relief::test::scratch("output_files/names");
-    const std::string in = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
+    const std::string& in = kSampleNormal;
     // 255 bytes is the longest name: it is written (its temporary name is
     // shorter); 256 is refused at once, with the numbers.
     const std::string longest = std::string(251, 'h') + ".exr", too_long = std::string(252, 'h') + ".exr";
@@ -326,7 +328,7 @@ TEST_CASE(
 {
     const fs::path d = relief::test::scratch("output_files/clobber");
     const std::string in = (d / "in.png").string();
-    fs::copy_file(std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png", in);
+    fs::copy_file(kSampleNormal, in);
     const std::string original = slurp(in);
     fs::create_directories(d / "sub");
     {
@@ -391,7 +393,7 @@ TEST_CASE("output files: --update recomputes an output cut short, whatever keeps
           "[batch][files][cli][slow]")
 {
     const fs::path d = relief::test::scratch("output_files/truncated");
-    const std::string in = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
+    const std::string& in = kSampleNormal;
     for (const char* name : {"s.exr", "s.tif", "s.png"}) {
         INFO(name);
         const std::string cmd = "--update --log log.jsonl '" + in + "' --slopes -d uint16 -o " + name;
@@ -418,7 +420,7 @@ TEST_CASE(
     "[batch][files][cli][slow]")
 {
     const fs::path d = relief::test::scratch("output_files/kills");
-    const std::string in = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
+    const std::string& in = kSampleNormal;
     fs::create_directories(d / "out");
     {
         std::ofstream m(d / "jobs.txt");
@@ -515,14 +517,13 @@ TEST_CASE(
     "refused",
     "[batch][files][cli][slow]")
 {
-    const fs::path d = relief::test::scratch("output_files/chains");
-    const std::string in = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
+    const auto d = relief::test::scratch("output_files/chains");
     {
         std::ofstream m(d / "jobs.txt");
-        m << "'" << in << "' --height -o h.exr\n";         // job 0
-        m << "'" << in << "' --slopes -o s.exr\n";         // job 1
-        m << "'" << in << "' h.exr --preview -o p.png\n";  // job 2 reads job 0's output
-        m << "'" << in << "' --slopes -o s3.exr\n";        // job 3
+        m << "'" << kSampleNormal << "' --height -o h.exr\n";         // job 0
+        m << "'" << kSampleNormal << "' --slopes -o s.exr\n";         // job 1
+        m << "'" << kSampleNormal << "' h.exr --preview -o p.png\n";  // job 2 reads job 0's output
+        m << "'" << kSampleNormal << "' --slopes -o s3.exr\n";        // job 3
     }
     const auto jobs_of = [&](const std::string& shard) {
         auto r = run_cli("--batch jobs.txt --dry-run --shard " + shard, "cd '" + d.string() + "' &&");
@@ -545,8 +546,8 @@ TEST_CASE(
     // The reader before its writer would read a stale file: refused.
     {
         std::ofstream m(d / "reversed.txt");
-        m << "'" << in << "' h.exr --preview -o p.png\n";
-        m << "'" << in << "' --height -o h.exr\n";
+        m << "'" << kSampleNormal << "' h.exr --preview -o p.png\n";
+        m << "'" << kSampleNormal << "' --height -o h.exr\n";
     }
     auto r = run_cli("--batch reversed.txt", "cd '" + d.string() + "' &&");
     CHECK(r.rc == 2);

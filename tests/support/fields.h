@@ -143,6 +143,14 @@ inline std::vector<double> plus_noise(std::vector<double> g, double sigma, unsig
     return g;
 }
 
+// Smooth tiling slopes plus noise of standard deviation `sigma` that no
+// height field has (non-integrable): the golden comparisons' input.
+inline std::vector<double> rough_slopes(int w, int h, unsigned seed, double sigma = 0.3)
+{
+    PeriodicField f{w, h, {{1, 1, 2.0, 0.4}, {2, -1, 1.0, 1.3}}};
+    return plus_noise(f.slopes(), sigma, seed);
+}
+
 // The root mean square about the mean (the standard deviation), in double.
 template <class A>
 double rms(const A& a)

@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iterator>
@@ -24,6 +25,10 @@
 
 namespace relief::test::options {
 
+using test::max_abs_diff;
+using test::pixels;
+using test::waves;
+
 using OIIO::ImageBuf;
 using OIIO::TypeDesc;
 
@@ -35,6 +40,16 @@ inline std::vector<double> tiling_slopes(int w, int h, unsigned seed)
 {
     test::PeriodicField f{w, h, {{1, 1, 3.0, 0.4}, {2, -1, 1.5, 1.3}, {5, 3, 0.4, 2.0}}};
     return test::plus_noise(f.slopes(), 0.1, seed);
+}
+
+// The top-left w x h of slopes `g` (two per texel) of a map `gw` wide.
+inline std::vector<double> top_left(const std::vector<double>& g, int gw, int w, int h)
+{
+    std::vector<double> out(2 * std::size_t(w) * h);
+    for (int y = 0; y < h; ++y)
+        std::copy_n(g.begin() + 2 * std::size_t(y) * gw, 2 * std::size_t(w),
+                    out.begin() + 2 * std::size_t(y) * w);
+    return out;
 }
 
 // The slopes exactly as the API derives them from `normals`.

@@ -352,11 +352,15 @@ TEST_CASE("operations: run_operation reads mask and fix files and equals the dir
     ImageBuf got;
     REQUIRE(run_operation(got, call, {&n}));
     CHECK(test::pixels(got) == test::pixels(expected));
-    OperationCall unmasked;
-    REQUIRE(parse_modifiers(unmasked, "height", "normal=opengl"));
-    ImageBuf plain;
-    REQUIRE(run_operation(plain, unmasked, {&n}));
-    CHECK(test::pixels(plain) != test::pixels(expected));  // the mask mattered
+    // `op` with `modifiers` on `in` through the table: its pixels.
+    const auto table_run = [](const char* op, const std::string& modifiers, const ImageBuf& in) {
+        OperationCall c;
+        REQUIRE(parse_modifiers(c, op, modifiers));
+        ImageBuf out;
+        REQUIRE(run_operation(out, c, {&in}));
+        return test::pixels(out);
+    };
+    CHECK(table_run("height", "normal=opengl", n) != test::pixels(expected));  // the mask mattered
 
     // fix=FILE the same way, on relief's own height (scale implied)
     const ImageBuf& height = expected;
@@ -366,16 +370,8 @@ TEST_CASE("operations: run_operation reads mask and fix files and equals the dir
     co.fix_mask = &mask;
     const ImageBuf fixed = relief::correct(height, co);
     REQUIRE_FALSE(fixed.has_error());
-    OperationCall fc;
-    REQUIRE(parse_modifiers(fc, "correct", "levels=1:iterations=3:fix=" + mask_file));
-    ImageBuf got_fixed;
-    REQUIRE(run_operation(got_fixed, fc, {&height}));
-    CHECK(test::pixels(got_fixed) == test::pixels(fixed));
-    OperationCall loose;
-    REQUIRE(parse_modifiers(loose, "correct", "levels=1:iterations=3"));
-    ImageBuf got_loose;
-    REQUIRE(run_operation(got_loose, loose, {&height}));
-    CHECK(test::pixels(got_loose) != test::pixels(fixed));
+    CHECK(table_run("correct", "levels=1:iterations=3:fix=" + mask_file, height) == test::pixels(fixed));
+    CHECK(table_run("correct", "levels=1:iterations=3", height) != test::pixels(fixed));
 
     // a mask file that is not there by the time it runs
     OperationCall gone = call;

@@ -102,6 +102,10 @@ struct OperationCall {
 // modifiers: mesh's out=FILE), as its modifiers name them.
 RELIEF_API std::vector<std::string> files_read(const OperationCall& call);
 RELIEF_API std::vector<std::string> files_written(const OperationCall& call);
+// `call` with each modifier that names a file it reads set back to its
+// default: what the call does apart from those files' contents (a job's
+// digest hashes their bytes instead of their names).
+RELIEF_API OperationCall without_files_read(const OperationCall& call);
 // Whether prepare() for the map's size (devices.h) shortens the call: what
 // the command line starts on a second thread while it reads the map.
 RELIEF_API bool sets_up_ahead(const OperationCall& call);

@@ -120,22 +120,49 @@ void to_c_image(const ImageBuf& img, relief_image* out)
 }
 
 // The modifiers parsed for `operation`, the device checked.
-relief::OperationCall parse_call(const char* device, const char* operation, const char* modifiers)
+// A C entry point's call: the operation (its name and table entry) and its
+// modifiers parsed, or Refused saying why not.
+struct ParsedCall {
+    relief::OperationCall call;
+    std::string name;
+    const relief::OperationInfo* info = nullptr;
+};
+
+ParsedCall parse_call(const char* device, const char* operation, const char* modifiers)
 {
     if (!device || !*device)
         throw Refused("relief_run_on: device is NULL or empty (\"auto\" picks one)");
     if (!operation)
         throw Refused("relief_run: operation is NULL");
-    const std::string op = operation;
-    relief::OperationCall call;
-    if (!relief::parse_modifiers(call, op, modifiers ? modifiers : ""))
-        throw Refused(relief::find_operation(op) ? op + ": " + relief::geterror() : relief::geterror());
-    return call;
+    ParsedCall p;
+    p.name = operation;
+    if (!relief::parse_modifiers(p.call, p.name, modifiers ? modifiers : ""))
+        throw Refused(relief::find_operation(p.name) ? p.name + ": " + relief::geterror()
+                                                     : relief::geterror());
+    p.info = relief::find_operation(p.name);
+    return p;
 }
 
 // A run its caller's progress callback stopped.
 struct CancelledRun : std::runtime_error {
     using std::runtime_error::runtime_error;
+};
+
+// The caller's images converted for the table's input slots (all of them
+// for the first slot when they are the tiles of a UDIM set), and pointers
+// to them for run_operation.
+struct InputImages {
+    std::vector<ImageBuf> images;
+    std::vector<const ImageBuf*> pointers;
+    InputImages(const relief_image* inputs, int n, const relief::OperationInfo& info, const std::string& op,
+                bool tiles)
+    {
+        images.reserve(std::size_t(n));
+        for (int i = 0; i < n; ++i)
+            images.push_back(to_imagebuf(inputs[i], info.inputs[tiles ? 0 : std::size_t(i)], op));
+        for (const ImageBuf& b : images)
+            pointers.push_back(&b);
+    }
 };
 
 // The host's callbacks as an operation's Execution: messages at their
@@ -272,24 +299,16 @@ int relief_run_with(const char* device, const char* operation, const char* modif
         [&] {
             if (!output)
                 throw Refused("relief_run: output is NULL");
-            const relief::OperationCall call = parse_call(device, operation, modifiers);
-            const std::string op = operation;
-            const relief::OperationInfo& info = *relief::find_operation(op);
+            const auto [call, op, info] = parse_call(device, operation, modifiers);
             if (const std::string why =
                     relief::call_problem(op, std::size_t(inputs ? std::max(n_inputs, 0) : 0));
                 !why.empty())
                 throw Refused(why);
-            std::vector<ImageBuf> bufs;
-            bufs.reserve(n_inputs);
-            for (int i = 0; i < n_inputs; ++i)
-                bufs.push_back(to_imagebuf(inputs[i], info.inputs[i], op));
-            std::vector<const ImageBuf*> ptrs;
-            for (const ImageBuf& b : bufs)
-                ptrs.push_back(&b);
+            const InputImages in(inputs, n_inputs, *info, op, false);
             // Only now: `output` may be one of the inputs.
             *output = relief_image{};
             ImageBuf result;
-            if (!relief::run_operation(result, call, ptrs, host.execution(device)))
+            if (!relief::run_operation(result, call, in.pointers, host.execution(device)))
                 operation_failed(host, op);
             to_c_image(result, output);
         },
@@ -308,20 +327,12 @@ int relief_run_tiles(const char* device, const char* operation, const char* modi
         [&] {
             if (!outputs)
                 throw Refused("relief_run_tiles: outputs is NULL");
-            const relief::OperationCall call = parse_call(device, operation, modifiers);
-            const std::string op = operation;
-            const relief::OperationInfo& info = *relief::find_operation(op);
+            const auto [call, op, info] = parse_call(device, operation, modifiers);
             const std::size_t given = n_tiles > 0 ? std::size_t(n_tiles) : 0;
             if (const std::string why = relief::tiles_call_problem(op, tiles ? given : 0, inputs ? given : 0);
                 !why.empty())
                 throw Refused(why);
-            std::vector<ImageBuf> bufs;
-            bufs.reserve(n_tiles);
-            for (int i = 0; i < n_tiles; ++i)
-                bufs.push_back(to_imagebuf(inputs[i], info.inputs[0], op));
-            std::vector<const ImageBuf*> ptrs;
-            for (const ImageBuf& b : bufs)
-                ptrs.push_back(&b);
+            const InputImages in(inputs, n_tiles, *info, op, true);
             const std::vector<int> numbers(tiles, tiles + n_tiles);
             // Only now: `outputs` may be the inputs' own array.
             for (int i = 0; i < n_tiles; ++i)
@@ -330,7 +341,7 @@ int relief_run_tiles(const char* device, const char* operation, const char* modi
             std::vector<ImageBuf> results;
             relief::Execution exec;
             exec.device = device;
-            if (!relief::run_operation_on_tiles(results, call, numbers, ptrs, exec))
+            if (!relief::run_operation_on_tiles(results, call, numbers, in.pointers, exec))
                 throw std::runtime_error(relief::geterror());
             for (int i = 0; i < n_tiles; ++i)
                 to_c_image(results[i], &outputs[i]);

@@ -29,10 +29,8 @@ bool normals(ImageBuf& dst, const ImageBuf& height, const NormalsOptions& option
     try {
         const detail::OperationScope scope(options.exec);
         detail::require_valid(options);
-        roi = detail::resolve_roi(height, roi);
-        const int w = roi.width(), ht = roi.height();
-        const std::vector<float> h =
-            detail::height_channel(height, roi, options.exec, "normals", options.scale);
+        const auto& [at, w, ht, h] =
+            detail::height_region(height, roi, options.exec, "normals", options.scale);
         const detail::Wrap wrap =
             detail::height_wrap(height, h, w, ht, options.boundary, options.exec, "normals");
         auto ctx = host::ComputeContext::acquire(options.exec.device);
@@ -41,8 +39,8 @@ bool normals(ImageBuf& dst, const ImageBuf& height, const NormalsOptions& option
         host::height_normals(*ctx, h.data(), w, ht, wrap.x, wrap.y, options.scale, directx, n.data());
 
         OIIO::ImageSpec spec(w, ht, 3, TypeDesc::FLOAT);
-        spec.x = roi.xbegin;
-        spec.y = roi.ybegin;
+        spec.x = at.xbegin;
+        spec.y = at.ybegin;
         spec.channelnames = {"R", "G", "B"};
         spec.attribute("relief:method", "normals");
         spec.attribute("relief:normal_convention", directx ? "directx" : "opengl");
@@ -66,10 +64,8 @@ bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptio
     try {
         const detail::OperationScope scope(options.exec);
         detail::require_valid(options);
-        roi = detail::resolve_roi(height, roi);
-        const int w = roi.width(), ht = roi.height();
-        const std::vector<float> h =
-            detail::height_channel(height, roi, options.exec, "tessellation", options.scale);
+        const auto& [at, w, ht, h] =
+            detail::height_region(height, roi, options.exec, "tessellation", options.scale);
         auto ctx = host::ComputeContext::acquire(options.exec.device);
         std::vector<std::uint8_t> levels =
             host::tessellation_levels(*ctx, h.data(), w, ht, options.patch, options.error, options.scale);

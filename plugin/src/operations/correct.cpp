@@ -13,6 +13,7 @@
 
 #include "device/compute_context.h"
 #include "correct/correct_stage.h"
+#include "correct_params.h"
 #include "results.h"
 #include "seams.h"
 
@@ -24,29 +25,6 @@ using OIIO::TypeDesc;
 
 namespace {
 
-DistortionSummary summary(const host::DistortionStats& s)
-{
-    return {s.mean, s.p95, s.max};
-}
-
-// "periodic", "fixed", or x's and y's ("periodic,fixed"): the word of the
-// boundary modifier that reproduces the choice.
-std::string boundary_name(host::Periodic p)
-{
-    const auto word = [](bool periodic) { return periodic ? "periodic" : "fixed"; };
-    return p.x == p.y ? word(p.x) : std::string(word(p.x)) + "," + word(p.y);
-}
-
-const char* search_name(CorrectSearch s)
-{
-    return s == CorrectSearch::Ternary ? "ternary" : s == CorrectSearch::Golden ? "golden" : "brent";
-}
-
-const char* hats_name(CorrectHats h)
-{
-    return h == CorrectHats::Off ? "off" : h == CorrectHats::Always ? "always" : "auto";
-}
-
 // What the iteration limit counted besides the nodes' iterations.
 std::string counted_as_iterations(const CorrectLevelReport& l)
 {
@@ -55,11 +33,6 @@ std::string counted_as_iterations(const CorrectLevelReport& l)
                              : l.global_steps               ? "each global step"
                                                             : "";
     return what.empty() ? what : " (" + what + " counted as the iterations it costs)";
-}
-
-const char* global_name(CorrectGlobal g)
-{
-    return g == CorrectGlobal::Off ? "off" : g == CorrectGlobal::Always ? "always" : "auto";
 }
 
 }  // namespace
@@ -114,70 +87,13 @@ ImageBuf correct(const ImageBuf& height, const CorrectOptions& options, ROI roi,
 bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& options, ROI roi, int /*nthreads*/)
 {
     try {
-        const detail::OperationScope scope(options.exec);
         const auto t0 = std::chrono::steady_clock::now();
+        const detail::OperationScope scope(options.exec);
         detail::require_valid(options);
-        roi = detail::resolve_roi(height, roi);
-        const int w = roi.width(), h = roi.height();
-        const std::vector<float> heights = detail::height_channel(height, roi, options.exec, "correct");
+        const auto& [at, w, h, heights] = detail::height_region(height, roi, options.exec, "correct");
 
-        host::CorrectParams p;
-        p.scale = options.scale;
-        if (p.scale == 0.0) {
-            if (height.spec().get_string_attribute("relief:height_unit") != "texel")
-                throw std::runtime_error(
-                    "give the displacement scale (scale=S: world height = S x stored value, the "
-                    "texture's width = 1); only relief's own height maps (in texels) imply it");
-            p.scale = 1.0 / w;
-        }
-        p.theta = options.theta;
-        p.corner_nodes = options.nodes == CorrectNodes::Corner;
-        const bool any_auto =
-            options.boundary.x == CorrectBoundary::Auto || options.boundary.y == CorrectBoundary::Auto;
-        const detail::SeamTest seams = any_auto ? detail::seam_test(heights, w, h) : detail::SeamTest{};
-        const auto axis = [](CorrectBoundary b, bool seam_periodic) {
-            return b == CorrectBoundary::Auto ? seam_periodic : b == CorrectBoundary::Periodic;
-        };
-        p.periodic = host::Periodic(axis(options.boundary.x, seams.periodic.x),
-                                    axis(options.boundary.y, seams.periodic.y));
-        const std::string chosen = boundary_name(p.periodic);
-        if (any_auto)
-            detail::say(options.exec, Severity::Notice,
-                        "correct: boundary " + chosen + " (" + seams.numbers() + ")");
-        std::vector<float> fix;
-        if (options.fix_mask) {
-            const ImageBuf& m = *options.fix_mask;
-            if (m.spec().width != w || m.spec().height != h)
-                throw std::runtime_error("the fixation mask is " + std::to_string(m.spec().width) + "x" +
-                                         std::to_string(m.spec().height) + ", the height map " +
-                                         std::to_string(w) + "x" + std::to_string(h));
-            fix = detail::channel0(m, m.roi(), "fixation mask");
-            for (float v : fix)
-                if (!(v >= 0.0f) || !std::isfinite(v))
-                    throw std::runtime_error("fixation weights must be finite and >= 0");
-        } else if (options.fix_width > 0.0f) {
-            fix.resize(heights.size());
-            for (std::size_t i = 0; i < fix.size(); ++i)
-                fix[i] = std::max(0.0f, 1.0f - std::abs(heights[i] - options.fix_height) / options.fix_width);
-        }
-        p.fix_weights = fix.empty() ? nullptr : fix.data();
-        p.iterations = options.iterations;
-        p.tolerance = options.tolerance;
-        p.max_iterations = options.max_iterations;
-        p.levels = options.levels;
-        p.threshold = options.threshold;
-        p.skip_tiles = options.skip_tiles;
-        p.search = options.search == CorrectSearch::Ternary  ? host::CorrectParams::Search::Ternary
-                   : options.search == CorrectSearch::Golden ? host::CorrectParams::Search::Golden
-                                                             : host::CorrectParams::Search::Brent;
-        p.relax = options.relax;
-        p.polish = options.polish;
-        p.hats = options.hats == CorrectHats::Off      ? host::CorrectParams::Hats::Off
-                 : options.hats == CorrectHats::Always ? host::CorrectParams::Hats::Always
-                                                       : host::CorrectParams::Hats::Auto;
-        p.global = options.global == CorrectGlobal::Off      ? host::CorrectParams::Global::Off
-                   : options.global == CorrectGlobal::Always ? host::CorrectParams::Global::Always
-                                                             : host::CorrectParams::Global::Auto;
+        const detail::CorrectCall call = detail::correct_call(height, heights, w, h, options);
+        const host::CorrectParams p = call.params();
 
         auto ctx = host::ComputeContext::acquire(options.exec.device);
         detail::say(options.exec, Severity::Info, "device: " + ctx->device().describe());
@@ -186,26 +102,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         host::correct_distortion(*ctx, heights.data(), w, h, p, offsets.data(), &hr,
                                  options.exec.on_progress);
 
-        CorrectReport rep;
-        rep.width = w;
-        rep.height = h;
-        rep.skipped = hr.skipped;
-        rep.boundary = chosen;
-        rep.nodes = p.corner_nodes ? "corner" : "center";
-        rep.scale = p.scale;
-        rep.energy_before = hr.energy_before;
-        rep.energy_after = hr.energy_after;
-        rep.polish = {hr.polish.flipped,      hr.polish.flipped_left, hr.polish.repairs, hr.polish.iterations,
-                      hr.polish.energy_start, hr.polish.energy_end,   hr.polish.seconds};
-        rep.iterations = hr.total_iterations();
-        for (const auto& l : hr.levels)
-            rep.levels.push_back({l.width, l.height, l.iterations, l.energy_start, l.energy_end, l.converged,
-                                  l.tile_phases ? double(l.tile_phases_run) / l.tile_phases : 1.0, l.seconds,
-                                  l.start_factor, l.hat_sweeps, l.global_steps});
-        rep.anisotropy_before = summary(hr.anisotropy_before);
-        rep.anisotropy_after = summary(hr.anisotropy_after);
-        rep.area_before = summary(hr.area_before);
-        rep.area_after = summary(hr.area_after);
+        CorrectReport rep = detail::correct_report(hr, call, w, h);
         rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
         const auto& ex = options.exec;
@@ -270,8 +167,8 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
             *options.report = rep;
 
         OIIO::ImageSpec spec(w, h, 2, TypeDesc::FLOAT);
-        spec.x = roi.xbegin;
-        spec.y = roi.ybegin;
+        spec.x = at.xbegin;
+        spec.y = at.ybegin;
         spec.channelnames = {"du", "dv"};
         spec.attribute("relief:method", "correct");
         spec.attribute("relief:offset_unit", "texture (1 = the width, the height)");
@@ -281,15 +178,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         spec.attribute("relief:boundary", rep.boundary);
         spec.attribute("relief:nodes", rep.nodes);
         spec.attribute("relief:scale", float(p.scale));
-        std::ostringstream par;
-        par << "scale=" << p.scale << " theta=" << p.theta << " nodes=" << rep.nodes
-            << " boundary=" << rep.boundary << " tolerance=" << p.tolerance
-            << " iterations=" << (p.iterations ? std::to_string(p.iterations) : "auto")
-            << " levels=" << (p.levels ? std::to_string(p.levels) : "auto") << " threshold=" << p.threshold
-            << " search=" << search_name(options.search) << " relax=" << p.relax
-            << " hats=" << hats_name(options.hats) << " global=" << global_name(options.global)
-            << " polish=" << (p.corner_nodes ? p.polish : 0);
-        spec.attribute("relief:parameters", par.str());
+        spec.attribute("relief:parameters", detail::correct_parameters(call, options));
         detail::set_result(dst, spec, offsets.data());
         return true;
     } catch (const std::exception& e) {

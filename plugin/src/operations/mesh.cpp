@@ -71,9 +71,10 @@ bool build_mesh(Mesh& mesh, const OIIO::ImageBuf& height, const TessellationOpti
     try {
         const detail::OperationScope scope(options.exec);
         detail::require_valid(options);
-        const OIIO::ROI roi = detail::resolve_roi(height, {});
-        const int w = roi.width(), ht = roi.height();
-        const std::vector<float> h = detail::height_channel(height, roi, options.exec, "mesh", options.scale);
+        const detail::HeightRegion region =
+            detail::height_region(height, {}, options.exec, "mesh", options.scale);
+        const int w = region.w, ht = region.h;
+        const std::vector<float>& h = region.values;
         auto ctx = host::ComputeContext::acquire(options.exec.device);
         const std::vector<std::uint8_t> first =
             host::tessellation_levels(*ctx, h.data(), w, ht, options.patch, options.error, options.scale);

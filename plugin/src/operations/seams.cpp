@@ -44,6 +44,17 @@ std::vector<float> height_channel(const OIIO::ImageBuf& height, OIIO::ROI roi, c
     return h;
 }
 
+HeightRegion height_region(const OIIO::ImageBuf& height, OIIO::ROI roi, const Execution& exec,
+                           const std::string& operation, float scale)
+{
+    HeightRegion r;
+    r.roi = resolve_roi(height, roi);
+    r.w = r.roi.width();
+    r.h = r.roi.height();
+    r.values = height_channel(height, r.roi, exec, operation, scale);
+    return r;
+}
+
 SeamTest seam_test(const std::vector<float>& h, int w, int ht)
 {
     SeamTest t;

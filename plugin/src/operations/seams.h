@@ -24,6 +24,17 @@ std::vector<float> channel0(const OIIO::ImageBuf& img, OIIO::ROI roi, const char
 std::vector<float> height_channel(const OIIO::ImageBuf& height, OIIO::ROI roi, const Execution& exec,
                                   const std::string& operation, float scale = 1.0f);
 
+// The region of a height map an operation works on: `roi` resolved as
+// every operation resolves it (resolve_roi), its size, and height_channel()
+// over it.
+struct HeightRegion {
+    OIIO::ROI roi;
+    int w = 0, h = 0;
+    std::vector<float> values;
+};
+HeightRegion height_region(const OIIO::ImageBuf& height, OIIO::ROI roi, const Execution& exec,
+                           const std::string& operation, float scale = 1.0f);
+
 // Whether a height wraps along x and along y.
 struct Wrap {
     bool x = false, y = false;

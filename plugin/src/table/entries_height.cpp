@@ -15,17 +15,29 @@
 
 namespace relief::table {
 
-Operation slopes_operation()
+namespace {
+
+// An operation of one normal map, `result` its output, with the modifiers
+// that decode the map (`decoding`: where the call keeps them).
+template <class F>
+Operation normal_map_operation(const char* name, const char* summary, ImageSlot result, const char* report,
+                               F decoding)
 {
     Operation op;
-    op.info = {"slopes",
-               "normal map -> slopes (2 channels gx, gy: height change per texel step along x "
-               "and y, in texels)",
-               {kNormals},
-               {{"slopes", 2, 2, "gx, gy in texels per texel"}},
-               {},
-               ""};
-    op.modifiers = decoding_modifiers([](auto& c) -> auto& { return c.slopes.normals; });
+    op.info = {name, summary, {kNormals}, {std::move(result)}, {}, report};
+    op.modifiers = decoding_modifiers(decoding);
+    return op;
+}
+
+}  // namespace
+
+Operation slopes_operation()
+{
+    Operation op = normal_map_operation(
+        "slopes",
+        "normal map -> slopes (2 channels gx, gy: height change per texel step along x and y, in texels)",
+        {"slopes", 2, 2, "gx, gy in texels per texel"}, "",
+        [](auto& c) -> auto& { return c.slopes.normals; });
     op.validate = [](const OperationCall& c) { return relief::validate(c.slopes); };
     op.run = [](ImageBuf& dst, const OperationCall& c, const std::vector<const ImageBuf*>& in) {
         return relief::slopes(dst, *in[0], c.slopes);
@@ -35,19 +47,15 @@ Operation slopes_operation()
 
 Operation height_operation()
 {
-    Operation op;
-    op.info = {"height",
-               "normal map -> displacement (1 channel, texel units: 1.0 = one texel's width; "
-               "bumps positive, zero mean)",
-               {kNormals},
-               {{"height", 1, 1, "height in texels"}},
-               {},
-               "height"};
     auto h = [](auto& c) -> auto&
     {
         return c.height;
     };
-    op.modifiers = decoding_modifiers([h](auto& c) -> auto& { return h(c).normals; });
+    Operation op = normal_map_operation(
+        "height",
+        "normal map -> displacement (1 channel, texel units: 1.0 = one texel's "
+        "width; bumps positive, zero mean)",
+        {"height", 1, 1, "height in texels"}, "height", [h](auto& c) -> auto& { return h(c).normals; });
     const char* rays = "method=rays";
     const char* poisson = "method=poisson";
     std::vector<Modifier> more = {
@@ -184,6 +192,8 @@ Operation height_operation()
         for (std::size_t i = 0; i < in.size(); ++i)
             tiles.push_back({numbers[i], in[i]});
         HeightOptions o = c.height;
+        ImageBuf mask;
+        o.mask = file_image(o.mask, c.mask_file, "mask", mask);
         HeightReport report;
         if (c.report_json && !o.report)
             o.report = &report;

@@ -311,6 +311,16 @@ bool run_operation_on_tiles(std::vector<ImageBuf>& dst, const OperationCall& cal
     }
 }
 
+OperationCall without_files_read(const OperationCall& call)
+{
+    OperationCall c = call;
+    if (const Operation* op = find(call.operation))
+        for (const Modifier& m : op->modifiers)
+            if (m.info.type == ModifierType::File && m.path && !m.path(c).empty())
+                m.set(c, m.info.default_value, 0.0);
+    return c;
+}
+
 std::vector<std::string> files_read(const OperationCall& call)
 {
     return modifier_paths(call, ModifierType::File);
