@@ -22,6 +22,7 @@
 // (corner nodes) in the whole-process comparison.
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
+#include <OpenImageIO/strutil.h>
 
 #include <algorithm>
 #include <chrono>
@@ -32,7 +33,6 @@
 #include <iomanip>
 #include <iterator>
 #include <random>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -139,16 +139,6 @@ std::vector<float> anisotropy(const OIIO::ImageBuf& h, const OIIO::ImageBuf* off
             const double k = q / (4 * a3 * auv);
             out[p] = float(0.5 * (k + std::sqrt(std::max(0.0, k * k - 4))));
         }
-    return out;
-}
-
-std::vector<std::string> split(const std::string& list)
-{
-    std::vector<std::string> out;
-    std::stringstream ss(list);
-    for (std::string t; std::getline(ss, t, ',');)
-        if (!t.empty())
-            out.push_back(t);
     return out;
 }
 
@@ -368,7 +358,7 @@ int main(int argc, char** argv)
         const std::string a = argv[i];
         if (a == "--sizes" && i + 1 < argc) {
             sizes.clear();
-            for (const std::string& t : split(argv[++i]))
+            for (const std::string& t : OIIO::Strutil::splits(argv[++i], ","))
                 if (t != "none")
                     sizes.push_back(std::stoi(t));
         } else if (a == "--budget" && i + 1 < argc) {
@@ -376,7 +366,7 @@ int main(int argc, char** argv)
         } else if (a == "--out" && i + 1 < argc) {
             out_dir = argv[++i];
         } else if (a == "--maps" && i + 1 < argc) {
-            maps = split(argv[++i]);
+            maps = OIIO::Strutil::splits(argv[++i], ",");
         } else if (a == "--data" && i + 1 < argc) {
             data = argv[++i];
         } else if (a == "--baseline" && i + 1 < argc) {
@@ -385,7 +375,7 @@ int main(int argc, char** argv)
             runs = std::max(1, std::atoi(argv[++i]));
         } else if (a == "--tolerances" && i + 1 < argc) {
             tolerances.clear();
-            for (const std::string& t : split(argv[++i]))
+            for (const std::string& t : OIIO::Strutil::splits(argv[++i], ","))
                 if (t != "none")
                     tolerances.push_back(std::stod(t));
         } else {

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // Distortion correction on the device: the coarse-to-fine driver around
-// kernels/correct.cl (per-level iterations of four or more phases, energy
+// kernels/correct*.cl (per-level iterations of four or more phases, energy
 // reductions, tile skipping) and the before/after statistics.
 #include "correct/correct_stage.h"
 

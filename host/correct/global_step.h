@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-// Global steps (docs/design.md §4.5.3c; kernels correct_gradient to
-// correct_step): every node of a level at once along the multilevel-
-// preconditioned negative gradient, quasi-Newton from a level's second step
-// on. The coarser lattices, the buffers, when a step is due and the step.
+// Global steps (docs/design.md §4.5.3c; kernels/correct_global.cl): every
+// node of a level at once along the multilevel-preconditioned negative
+// gradient, quasi-Newton from a level's second step on. The coarser
+// lattices, the buffers, when a step is due and the step.
 #include <utility>
 #include <vector>
 

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-// Hat moves (docs/design.md §4.5.3b; kernels/correct.cl's
+// Hat moves (docs/design.md §4.5.3b; kernels/correct_hats.cl's
 // correct_hat_phase): regions of nodes moved together under bilinear hats
 // of every scale B = 2, 4, ..., where the nodes alone converge slowly.
 // One level's scales, when a sweep is due and the sweep itself.

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 // One coarse-to-fine level of distortion correction on the device
-// (docs/design.md §4.5; kernels/correct.cl): the node phases with tile
+// (docs/design.md §4.5; kernels/correct_nodes.cl): the node phases with tile
 // skipping, interleaved with hat sweeps (hat_sweep.h) and global steps
 // (global_step.h), until the tolerance. Used by correct_stage.cpp, which
 // drives the levels.

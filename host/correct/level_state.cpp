@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "device/cancel.h"
 
@@ -22,16 +23,20 @@ int search_number(CorrectParams::Search s)
     return 2;
 }
 
-// correct.cl built for a level: fp64 sums where the device has them, the
-// area exponent as a constant when it is whole (its powers unrolled), the
-// quads per work-item and the line search.
+// The stage's kernel files, joined in this order into one program.
+const std::vector<std::string> kCorrectFiles = {"correct.cl", "correct_nodes.cl", "correct_global.cl",
+                                                "correct_hats.cl"};
+
+// The correction's program built for a level: fp64 sums where the device
+// has them, the area exponent as a constant when it is whole (its powers
+// unrolled), the quads per work-item and the line search.
 cl::Program& level_program(ComputeContext::Impl& c, bool fp64, const CorrectParams& p, int nodes_per_item)
 {
     const bool whole = p.theta == std::floor(p.theta);
-    return c.program("correct.cl", std::string(fp64 ? "-DRELIEF_FP64" : "") +
-                                       (whole ? " -DCORRECT_ITHETA=" + std::to_string(int(p.theta)) : "") +
-                                       " -DCORRECT_NODES=" + std::to_string(nodes_per_item) +
-                                       " -DCORRECT_SEARCH=" + std::to_string(search_number(p.search)));
+    return c.program(kCorrectFiles, std::string(fp64 ? "-DRELIEF_FP64" : "") +
+                                        (whole ? " -DCORRECT_ITHETA=" + std::to_string(int(p.theta)) : "") +
+                                        " -DCORRECT_NODES=" + std::to_string(nodes_per_item) +
+                                        " -DCORRECT_SEARCH=" + std::to_string(search_number(p.search)));
 }
 
 }  // namespace

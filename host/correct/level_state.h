@@ -55,7 +55,7 @@ public:
     const bool fp64;
     const std::size_t nodes;
     const bool use_fix;
-    cl::Program& program;  // correct.cl, built for this level's options
+    cl::Program& program;  // correct*.cl, built for this level's options
     cl::Buffer offsets;    // float2 per node, texels
     cl::Buffer z, fix;     // per node: height in texels, fixation weight
     cl::Buffer gain;       // per node: its last fall (energy_t)

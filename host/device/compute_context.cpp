@@ -417,16 +417,22 @@ std::mutex& compiler_mutex()
     return m;
 }
 
-cl::Program& ComputeContext::Impl::program(const std::string& file, const std::string& options)
+cl::Program& ComputeContext::Impl::program(const std::vector<std::string>& files, const std::string& options)
 {
     std::lock_guard<std::mutex> lock(programs_mutex);
-    const std::string key = file + " " + options;
+    std::string key;
+    for (const std::string& file : files)
+        key += file + " ";
+    key += options;
     auto it = programs.find(key);
     if (it != programs.end())
         return it->second;
     SetupTimer timer(SetupTimer::Kind::Programs);
-    const std::string source =
-        kernel_source("common.h") + "\n#line 1 \"" + file + "\"\n" + kernel_source(file);
+    std::string source = kernel_source("common.h"), names;
+    for (const std::string& file : files) {
+        source += "\n#line 1 \"" + file + "\"\n" + kernel_source(file);
+        names += (names.empty() ? "" : ", ") + file;
+    }
     const std::string build_options = "-cl-std=CL1.2 " + options;
     const std::string cache_key = BinaryCache::key({"program", identity, source, build_options});
     if (const std::optional<std::string> binary = BinaryCache::load(cache_key)) {
@@ -452,7 +458,7 @@ cl::Program& ComputeContext::Impl::program(const std::string& file, const std::s
             log = prog.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device);
         } catch (const cl::Error&) {
         }
-        throw KernelBuildError("OpenCL kernel " + file + " failed to build:\n" + log, log);
+        throw KernelBuildError("OpenCL kernel " + names + " failed to build:\n" + log, log);
     }
     try {
         const std::vector<std::vector<unsigned char>> binaries = prog.getInfo<CL_PROGRAM_BINARIES>();

@@ -10,6 +10,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "device/compute_context.h"
 #include "errors.h"
@@ -110,7 +111,13 @@ struct ComputeContext::Impl {
 
     // The built program for kernels/<file> (common.h prepended), compiled
     // with extra `options` (e.g. "-DRELIEF_FP64"); cached per file + options.
-    cl::Program& program(const std::string& file, const std::string& options = "");
+    cl::Program& program(const std::string& file, const std::string& options = "")
+    {
+        return program(std::vector<std::string>{file}, options);
+    }
+    // The same for a stage whose kernels fill several files (the
+    // correction's), joined in this order after common.h.
+    cl::Program& program(const std::vector<std::string>& files, const std::string& options = "");
 };
 
 struct DeviceSlopes::Impl {

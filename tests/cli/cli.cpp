@@ -7,7 +7,9 @@
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
@@ -62,12 +64,27 @@ TEST_CASE("cli: the documented example writes a float EXR height map with metada
 TEST_CASE("cli: -v reports device and convention, integer outputs state their scale", "[cli]")
 {
     auto dir = relief::test::scratch("cli/verbose");
+    const auto launched = std::chrono::steady_clock::now();
     auto r = run_cli("-v '" + kNormal + "' --height:rays=8:radius=8 -o '" + (dir / "h.exr").string() +
                      "' -d uint16 -o '" + (dir / "h16.png").string() + "' -d uint8 -o '" +
                      (dir / "h8.png").string() + "' -o '" + (dir / "h8.tif").string() + "'");
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - launched).count();
     INFO(r.err);
     REQUIRE(r.rc == 0);
     CHECK(r.err.find("device:") != std::string::npos);
+    // The process's own clock: its start-up and its end, both within the
+    // time the test saw it run (the kernel's ticks: 1/100 s).
+    const std::size_t start_at = r.err.find("process start (loading libraries, before main): ");
+    const std::size_t done_at = r.err.find("relief: done ");
+    REQUIRE(start_at != std::string::npos);
+    REQUIRE(done_at != std::string::npos);
+    double start = -1.0, done = -1.0;
+    REQUIRE(std::sscanf(r.err.c_str() + start_at, "process start (loading libraries, before main): %lf",
+                        &start) == 1);
+    REQUIRE(std::sscanf(r.err.c_str() + done_at, "relief: done %lf s after", &done) == 1);
+    CHECK(start >= 0.0);
+    CHECK(start <= done);
+    CHECK(done <= wall + 0.05);
     CHECK(r.err.find("normal convention: directx") != std::string::npos);
     CHECK(r.err.find("uint16 values v hold data = (v - 0.5) *") != std::string::npos);
 

@@ -178,6 +178,78 @@ TEST_CASE("correct: unflip_mesh mends folds and leaves the rest of the mesh", "[
     }
 }
 
+TEST_CASE("correct: unflip_mesh moves a node straight back, by the first quarter step that mends",
+          "[correct]")
+{
+    // 3 x 3 nodes, fixed: only the centre moves, back toward its
+    // neighbours' mean (0, 0) by quarters. Pushed by (1.2, 1.2) texels,
+    // past its fan's edge x + y = 1, 0.9 and 0.6 of the way still fold and
+    // 0.3 does not; by (1.2, -0.5), past its own triangle's edge x = 1, a
+    // quarter of the way mends it.
+    const host::NodeGrid g(3, 3, false, host::Periodic(false));
+    for (const auto& [x0, y0, t] : {std::tuple{1.2f, 1.2f, 0.75}, std::tuple{1.2f, -0.5f, 0.25}}) {
+        INFO("pushed by " << x0 << ", " << y0);
+        std::vector<float> c(2 * 9, 0.0f);
+        c[2 * 4] = x0;
+        c[2 * 4 + 1] = y0;
+        REQUIRE(host::flipped_triangles(c, g).size() > 0);
+        CHECK(host::unflip_mesh(c, g, 20) == 1);
+        CHECK(host::flipped_triangles(c, g).empty());
+        CHECK(c[2 * 4] == float(x0 + t * (0.0 - x0)));
+        CHECK(c[2 * 4 + 1] == float(y0 + t * (0.0 - y0)));
+    }
+}
+
+TEST_CASE("correct: unflip_mesh takes a fold no quarter step mends to the point deepest in its fan",
+          "[correct]")
+{
+    // 3 x 3 nodes, fixed: only the centre moves. Its pinned neighbours'
+    // offsets leave a fan whose inside neither the way to their mean nor the
+    // way back to the centre's own place reaches, so the centre goes to the
+    // point farthest inside its fan's edges. A 0.01-texel lattice bounds how
+    // far that is.
+    const host::NodeGrid g(3, 3, false, host::Periodic(false));
+    std::vector<float> c(2 * 9, 0.0f);
+    const auto set = [&](int i, int j, float x, float y) {
+        c[2 * (3 * j + i)] = x;
+        c[2 * (3 * j + i) + 1] = y;
+    };
+    set(1, 0, 0.6f, 0.2f);
+    set(2, 0, -0.4f, -0.5f);
+    set(2, 1, 0.2f, -0.1f);
+    set(1, 2, 0.3f, -0.6f);
+    set(0, 2, 0.6f, -0.1f);
+    set(0, 1, -0.1f, 0.4f);
+    set(1, 1, 0.5f, -0.3f);
+    REQUIRE(host::flipped_triangles(c, g).size() >= 1);
+    // The least distance from (x, y) to the lines through consecutive
+    // neighbours of the centre, negative outside.
+    const auto depth = [&](double x, double y) {
+        static const int kFan[6][2] = {{1, 0}, {2, 0}, {2, 1}, {1, 2}, {0, 2}, {0, 1}};
+        double d = 1e300;
+        for (int k = 0; k < 6; ++k) {
+            const int *a = kFan[(k + 1) % 6], *b = kFan[k];
+            const double ax = a[0] + c[2 * (3 * a[1] + a[0])], ay = a[1] + c[2 * (3 * a[1] + a[0]) + 1];
+            const double bx = b[0] + c[2 * (3 * b[1] + b[0])], by = b[1] + c[2 * (3 * b[1] + b[0]) + 1];
+            d = std::min(d, ((ay - y) * (bx - x) - (ax - x) * (by - y)) / std::hypot(ax - bx, ay - by));
+        }
+        return d;
+    };
+    double lattice = -1e300;
+    for (int j = -300; j <= 300; ++j)
+        for (int i = -300; i <= 300; ++i)
+            lattice = std::max(lattice, depth(1 + 0.01 * i, 1 + 0.01 * j));
+    REQUIRE(depth(1.5, 0.7) < 0.0);
+    REQUIRE(lattice > 0.2);
+    CHECK(host::unflip_mesh(c, g, 20) == 1);
+    CHECK(host::flipped_triangles(c, g).empty());
+    const double got = depth(1 + c[8], 1 + c[9]);
+    INFO("the centre at " << c[8] << ", " << c[9] << ": " << got << " texels inside, the lattice's best "
+                          << lattice);
+    CHECK(got >= lattice - 1e-4);
+    CHECK(got <= lattice + 1e-2);
+}
+
 TEST_CASE("correct: the polish unflips the delivered mesh before its iterations", "[correct]")
 {
     // Texel offsets with folds (as a cliff's corner means can hold): the

@@ -107,9 +107,10 @@ TEST_CASE("names: <UVTILE>, <u> <v> <U> <V> and frame steps expand as OpenImageI
     using relief::cli::expand_names;
     const fs::path d = scratch("uvtile");
     // u1_v1 is tile 1001, u2_v1 1002, u1_v2 1011; near misses: a leading
-    // zero, u past 10, no v, another suffix
-    for (const char* f : {"n_u1_v1.png", "n_u2_v1.png", "n_u1_v2.png", "n_u01_v1.png", "n_u11_v1.png",
-                          "n_u3.png", "n_u4_v1.png.bak", "m_0_0.png", "m_1_0.png", "m_0_10.png", "k_1_1.png"})
+    // zero, u or v 0 (they count from 1), u past 10, no v, another suffix
+    for (const char* f :
+         {"n_u1_v1.png", "n_u2_v1.png", "n_u1_v2.png", "n_u01_v1.png", "n_u0_v1.png", "n_u1_v0.png",
+          "n_u11_v1.png", "n_u3.png", "n_u4_v1.png.bak", "m_0_0.png", "m_1_0.png", "m_0_10.png", "k_1_1.png"})
         std::ofstream(d / f) << "x";
     const auto in = [&](const char* name) { return (d / name).string(); };
     CHECK(expand_names({in("n_<UVTILE>.png"), "-o", "o.<UDIM>.exr"}) ==

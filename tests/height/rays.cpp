@@ -5,8 +5,11 @@
 
 #include <cmath>
 #include <random>
+#include <utility>
+#include <vector>
 
 #include "device/compute_context.h"
+#include "errors.h"
 #include "rays/rays_stage.h"
 #include "reference/rays_reference.h"
 #include "reference/zero_mean.h"
@@ -197,4 +200,23 @@ TEST_CASE("bad height options fail with a message", "[rays][errors]")
     o.radius = 0;
     CHECK_FALSE(relief::height(out, img, o));
     CHECK(relief::geterror().find("radius") != std::string::npos);
+}
+
+TEST_CASE("every ray integrator refuses rays < 1 and radius <= 0 as an internal error", "[rays]")
+{
+    // relief::validate() keeps these from the host; a caller that skips it
+    // gets the host's own check, never a kernel launched with them.
+    auto ctx = host::ComputeContext::acquire("auto");
+    std::vector<float> gf(2 * 8 * 8, 0.0f), out(8 * 8);
+    auto slopes = host::upload_slopes(*ctx, gf.data(), 8, 8);
+    for (const auto& [rays, radius] : {std::pair{0, 4.0}, std::pair{8, 0.0}})
+        for (const bool periodic : {false, true}) {
+            INFO("rays " << rays << ", radius " << radius << ", periodic " << periodic);
+            host::RayParams p;
+            p.rays = rays;
+            p.radius = radius;
+            p.boundary = periodic ? host::RayBoundary::Periodic : host::RayBoundary::Clip;
+            CHECK_THROWS_AS(host::integrate_rays_reference(*ctx, slopes, p, out.data()), host::InternalError);
+            CHECK_THROWS_AS(host::integrate_rays_fast(*ctx, slopes, p, out.data()), host::InternalError);
+        }
 }

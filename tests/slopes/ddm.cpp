@@ -308,6 +308,16 @@ TEST_CASE("a float map stored in [0, 1] read as signed warns to use range=unsign
     for (std::size_t i = 2; i < flat.size(); i += 3)
         flat[i] = 1.0f;
     REQUIRE_FALSE(relief::slopes(test::image(kField.width, kField.height, 3, flat), o).has_error());
+    // nor a map tilted along one axis: every value in [0, 1], but only x,
+    // or only y, centred on 0.5
+    for (int axis = 0; axis < 2; ++axis) {
+        std::vector<float> tilted(flat.size(), 0.0f);
+        for (std::size_t i = 0; i < tilted.size(); i += 3) {
+            tilted[i + axis] = 0.5f;
+            tilted[i + 2] = std::sqrt(0.75f);
+        }
+        REQUIRE_FALSE(relief::slopes(test::image(kField.width, kField.height, 3, tilted), o).has_error());
+    }
     CHECK(warned.empty());
 }
 

@@ -6,24 +6,11 @@
 // the displaced mesh in mesh.h.
 #include <OpenImageIO/imagebuf.h>
 
-#include "options.h"
+#include "check_types.h"
 #include "relief/export.h"
 #include "relief/height.h"
 
 namespace relief {
-
-struct NormalsOptions {
-    // The green convention to store: OpenGL (G = -n_y, Y+) or DirectX
-    // (G = +n_y, Y-). Auto is not accepted here: a file has one convention.
-    NormalConvention convention = NormalConvention::OpenGL;
-    float scale = 1.0f;  // the height in texels is multiplied by this first
-    // Per axis, periodic: differences wrap; free: one-sided at the edges.
-    // Auto: the boundary the height was integrated with (relief:parameters),
-    // else each axis periodic when the height is continuous across its wrap
-    // seam.
-    Boundaries boundary = Boundary::Auto;
-    Execution exec;
-};
 
 // Height (channel 0, texel units) -> 3-channel unit normal map "R", "G",
 // "B": slopes by central differences (h[x+1] - h[x-1])/2 (one-sided at the
@@ -35,13 +22,6 @@ RELIEF_API OIIO::ImageBuf normals(const OIIO::ImageBuf& height, const NormalsOpt
                                   OIIO::ROI roi = {}, int nthreads = 0);
 RELIEF_API bool normals(OIIO::ImageBuf& dst, const OIIO::ImageBuf& height, const NormalsOptions& options = {},
                         OIIO::ROI roi = {}, int nthreads = 0);
-
-struct TessellationOptions {
-    int patch = 32;      // P: patches of P x P texels (the last row/column may be narrower)
-    float error = 0.5f;  // E: the largest allowed deviation, in the units of scale * height
-    float scale = 1.0f;  // S: the surface is S * height (texels)
-    Execution exec;
-};
 
 // Height -> 1-channel level map "L" of ceil(W/P) x ceil(H/P): per patch the
 // lowest level L in 1..64 such that splitting the patch into L x L quads

@@ -1,9 +1,17 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Option structs shared by relief's operations. Defaults are the documented
-// defaults of the command line.
+// defaults of the command line. Options only point to images, so the image
+// type is declared here, not included: the option structs (*_types.h) are
+// plain data that the operation table's schema builds on.
+#include <OpenImageIO/oiioversion.h>
+
 #include <functional>
 #include <string>
+
+OIIO_NAMESPACE_BEGIN
+class ImageBuf;
+OIIO_NAMESPACE_END
 
 namespace relief {
 

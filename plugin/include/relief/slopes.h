@@ -3,16 +3,11 @@
 // DDM derivation: tangent-space normal map -> depth-difference map.
 #include <OpenImageIO/imagebuf.h>
 
-#include "options.h"
+#include "slopes_types.h"
 
 #include "relief/export.h"
 
 namespace relief {
-
-struct SlopeOptions {
-    NormalDecoding normals;
-    Execution exec;
-};
 
 // Derives the slope field (docs/design.md §4.1) of the normal map `normals`
 // (2, 3 or 4 channels; a 4th channel is ignored; 8/16-bit UNORM, half or

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "relief/relief_c.h"
+#include "relief/operations.h"
 #include "schema.h"
 
 namespace relief {

@@ -10,6 +10,7 @@
 
 #include "relief/errors.h"
 #include "relief/imageio.h"
+#include "relief/operations.h"
 
 namespace relief {
 

@@ -2,10 +2,9 @@
 #pragma once
 // The operation table's schema (internal): how an entry describes an
 // operation and its modifiers, and the helpers that build and check them.
-// It needs only the option structs: each family's entries (entries_*.cpp)
-// are written with it, table.cpp gathers them.
-#include <OpenImageIO/imagebuf.h>
-
+// It needs only the option structs (plain data: relief/operation_types.h,
+// without OpenImageIO or the operations' functions): each family's entries
+// (entries_*.cpp) are written with it, table.cpp gathers them.
 #include <functional>
 #include <map>
 #include <stdexcept>
@@ -15,7 +14,7 @@
 #include <vector>
 
 #include "options/option_limits.h"
-#include "relief/operations.h"
+#include "relief/operation_types.h"
 
 namespace relief::table {
 

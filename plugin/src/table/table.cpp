@@ -12,6 +12,7 @@
 #include "error_state.h"
 #include "io/library_output.h"
 #include "device/memory_budget.h"
+#include "relief/operations.h"
 #include "schema.h"
 
 namespace relief::table {
