@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "relief/relief.h"
+#include "support/accuracy.h"
 #include "support/fields.h"
 #include "poisson/tiling.h"
 
@@ -42,30 +43,6 @@ namespace fs = std::filesystem;
 using OIIO::ImageBuf;
 
 namespace {
-
-// NRMSE of `got` against `truth` after the best affine fit a*got + b.
-double affine_nrmse(const std::vector<float>& got, const std::vector<float>& truth)
-{
-    const double n = double(got.size());
-    double mg = 0, mt = 0;
-    for (std::size_t i = 0; i < got.size(); ++i) {
-        mg += got[i];
-        mt += truth[i];
-    }
-    mg /= n;
-    mt /= n;
-    double sgg = 0, sgt = 0, stt = 0;
-    for (std::size_t i = 0; i < got.size(); ++i) {
-        const double g = got[i] - mg, t = truth[i] - mt;
-        sgg += g * g;
-        sgt += g * t;
-        stt += t * t;
-    }
-    if (stt <= 0)
-        return 0.0;
-    const double a = sgg > 0 ? sgt / sgg : 0.0;
-    return std::sqrt(std::max(0.0, stt - a * sgt) / stt);
-}
 
 std::vector<float> channel(const ImageBuf& b, int c)
 {
@@ -124,7 +101,7 @@ Verdict judge(const Case& c)
                 std::fprintf(stderr, "bench_boundary: %s: %s\n", c.name.c_str(), h.geterror().c_str());
                 std::exit(1);
             }
-            v.err[px][py] = affine_nrmse(channel(h, 0), c.truth);
+            v.err[px][py] = relief::test::nrmse_affine_std(channel(h, 0), c.truth);
         }
     v.evidence = evidence_of(c.normals, c.decoding);
     return v;

@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "image_files.h"
+#include "support/accuracy.h"
 #include "run_process.h"
 
 namespace fs = std::filesystem;
@@ -78,32 +79,6 @@ double rel_rmse(const std::vector<float>& got, const std::vector<double>& truth)
         st += (truth[i] - mean) * (truth[i] - mean);
     }
     return std::sqrt(se / st);
-}
-
-// NRMSE after the best affine fit a*est + b, as a fraction of truth's spread.
-double nrmse_affine(const std::vector<float>& est, const std::vector<float>& truth)
-{
-    const double n = double(est.size());
-    double se = 0, st = 0, see = 0, set = 0;
-    for (std::size_t i = 0; i < est.size(); ++i) {
-        se += est[i];
-        st += truth[i];
-    }
-    se /= n;
-    st /= n;
-    for (std::size_t i = 0; i < est.size(); ++i) {
-        see += (est[i] - se) * (est[i] - se);
-        set += (est[i] - se) * (truth[i] - st);
-    }
-    const double a = see > 0 ? set / see : 0.0;
-    double err = 0, lo = 1e300, hi = -1e300;
-    for (std::size_t i = 0; i < est.size(); ++i) {
-        const double d = a * (est[i] - se) - (truth[i] - st);
-        err += d * d;
-        lo = std::min(lo, double(truth[i]));
-        hi = std::max(hi, double(truth[i]));
-    }
-    return std::sqrt(err / n) / std::max(hi - lo, 1e-30);
 }
 
 struct Case {
@@ -310,8 +285,8 @@ int main(int argc, char** argv)
                                  d.filename().c_str(), w, h, ew, eh);
                     break;
                 }
-                record(d.filename().string(), w, c, NAN, timed.warm, timed.rss_mb, nrmse_affine(est, truth),
-                       "NRMSE vs height.png (affine fit)");
+                record(d.filename().string(), w, c, NAN, timed.warm, timed.rss_mb,
+                       relief::test::nrmse_affine(est, truth), "NRMSE vs height.png (affine fit)");
             }
         }
     }

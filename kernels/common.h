@@ -31,6 +31,15 @@ inline int relief_wrap(int v, int n)
     return v < 0 ? v + n : v;
 }
 
+// A neighbour's coordinate along an axis of n texels: wrapped where the
+// axis is periodic, else itself, or -1 where it lies outside [0, n).
+inline int relief_wrap_or_out(int v, int n, int periodic)
+{
+    if (periodic)
+        return relief_wrap(v, n);
+    return v >= 0 && v < n ? v : -1;
+}
+
 // The work-item's cell (*i, *r) of a grid `columns` wide and `rows` tall,
 // one item a cell in row-major order, and its index r * columns + i; -1
 // for the items past the grid's end (the host rounds the global size up to

@@ -254,12 +254,9 @@ kernel void correct_active(global const uchar* moved, int slots, int tiles_x, in
     uchar any = 0;
     for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
-            int x = tx + dx, y = ty + dy;
-            if (periodic & 1)
-                x = relief_wrap(x, tiles_x);
-            if (periodic & 2)
-                y = relief_wrap(y, tiles_y);
-            if (x < 0 || y < 0 || x >= tiles_x || y >= tiles_y)
+            const int x = relief_wrap_or_out(tx + dx, tiles_x, periodic & 1);
+            const int y = relief_wrap_or_out(ty + dy, tiles_y, periodic & 2);
+            if (x < 0 || y < 0)
                 continue;
             for (int s = 0; s < slots; ++s)
                 any |= moved[s * count + y * tiles_x + x];

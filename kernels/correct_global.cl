@@ -62,16 +62,12 @@ kernel void correct_restrict(global const float2* fine, int fnx, int fny, int pe
     float2 sum = (float2)(0.0f);
     if (!correct_pinned(I, J, cnx, cny, periodic))
         for (int dy = -1; dy <= 1; ++dy) {
-            int y = 2 * J + dy;
-            if (periodic & 2)
-                y = relief_wrap(y, fny);
-            else if (y < 0 || y >= fny)
+            const int y = relief_wrap_or_out(2 * J + dy, fny, periodic & 2);
+            if (y < 0)
                 continue;
             for (int dx = -1; dx <= 1; ++dx) {
-                int x = 2 * I + dx;
-                if (periodic & 1)
-                    x = relief_wrap(x, fnx);
-                else if (x < 0 || x >= fnx)
+                const int x = relief_wrap_or_out(2 * I + dx, fnx, periodic & 1);
+                if (x < 0)
                     continue;
                 sum += ((dx == 0 ? 1.0f : 0.5f) * (dy == 0 ? 1.0f : 0.5f)) * fine[y * fnx + x];
             }

@@ -215,17 +215,13 @@ kernel void correct_hat_phase(global float2* c, global const float* z, int nx, i
     if (best_t == 0.0f || !(best < E0 - (energy_t)CORRECT_GAIN * E0))
         return;
     for (int oy = cj - B + 1; oy < cj + B; ++oy) {
-        int y = oy;
-        if (periodic & 2)
-            y = relief_wrap(y, ny);
-        else if (y < 0 || y >= ny)
+        const int y = relief_wrap_or_out(oy, ny, periodic & 2);
+        if (y < 0)
             continue;
         const float wy = hat_axis_weight(y, cj, B, ny, periodic & 2);
         for (int ox = ci - B + 1; ox < ci + B; ++ox) {
-            int x = ox;
-            if (periodic & 1)
-                x = relief_wrap(x, nx);
-            else if (x < 0 || x >= nx)
+            const int x = relief_wrap_or_out(ox, nx, periodic & 1);
+            if (x < 0)
                 continue;
             const float w = hat_axis_weight(x, ci, B, nx, periodic & 1) * wy;
             if (w != 0.0f)

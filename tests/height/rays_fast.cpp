@@ -21,12 +21,16 @@ using namespace relief;
 
 namespace {
 
+// A map size and the ray settings the kernels under test share.
+struct Case {
+    int w, h;
+    reference::RaySettings s;
+};
+
+// A run of the fast kernel or the reference one with `s`.
 struct Run {
-    int rays = 16;
-    double radius = 10.0;
-    double phase = 0.5;
-    bool periodic = true;
-    bool fast = true;
+    reference::RaySettings s;
+    bool fast = false;
     bool force_float = false;
     // Periodic: the FFT convolution, else chain windows. Clip: the FFT
     // where every ray stays in the image and chains in the band, else
@@ -34,35 +38,16 @@ struct Run {
     bool by_fft = true;
 };
 
-// A map size and the ray settings the kernels under test share.
-struct Case {
-    int w, h, rays;
-    double radius, phase;
-    bool periodic;
-};
-
-// Case c's settings, by the fast kernel or the reference one.
-Run run_of(const Case& c, bool fast)
-{
-    Run r;
-    r.rays = c.rays;
-    r.radius = c.radius;
-    r.phase = c.phase;
-    r.periodic = c.periodic;
-    r.fast = fast;
-    return r;
-}
-
 std::vector<float> run_rays(const std::vector<float>& g, int w, int h, const Run& r)
 {
     auto ctx = host::ComputeContext::acquire("auto");
     auto slopes = host::upload_slopes(*ctx, g.data(), w, h);
     host::RayParams p;
-    p.rays = r.rays;
-    p.radius = r.radius;
-    p.phase = r.phase;
+    p.rays = r.s.rays;
+    p.radius = r.s.radius;
+    p.phase = r.s.phase;
     p.directions = host::DirectionSet::Rational;
-    p.boundary = r.periodic ? host::RayBoundary::Periodic : host::RayBoundary::Clip;
+    p.boundary = r.s.periodic ? host::RayBoundary::Periodic : host::RayBoundary::Clip;
     p.force_float = r.force_float;
     p.periodic_by_fft = r.by_fft;
     p.clip_by_fft = r.by_fft;
@@ -165,15 +150,14 @@ TEST_CASE("reference kernel with rational directions equals the golden model", "
         {17, 1, 6, 8.0, 0.5, false},
     };
     for (const Case& c : cases) {
-        INFO(c.w << "x" << c.h << " rays=" << c.rays << " radius=" << c.radius
-                 << (c.periodic ? " periodic" : " clip"));
-        auto gf = rough_slopes(c.w, c.h, 11u + c.rays);
+        INFO(c.w << "x" << c.h << " rays=" << c.s.rays << " radius=" << c.s.radius
+                 << (c.s.periodic ? " periodic" : " clip"));
+        auto gf = rough_slopes(c.w, c.h, 11u + c.s.rays);
         std::vector<double> g(gf.begin(), gf.end());
-        reference::RaySettings s{c.rays, c.radius, c.phase, c.periodic};
+        reference::RaySettings s = c.s;
         s.rational = true;
         auto ref = reference::rays(g, c.w, c.h, s);
-        const Run r = run_of(c, false);
-        auto got = run_rays(gf, c.w, c.h, r);
+        auto got = run_rays(gf, c.w, c.h, Run{c.s});
         double scale = 0;
         for (double v : ref)
             scale = std::max(scale, std::abs(v));
@@ -192,13 +176,13 @@ void check_fast_against_reference(const Case& c)
 {
     for (int variant : {0, 1, 2, 3}) {
         const bool force_float = variant == 1 || variant == 3, by_fft = variant >= 2;
-        if (variant == 3 && c.periodic)
+        if (variant == 3 && c.s.periodic)
             continue;
-        INFO(c.w << "x" << c.h << " rays=" << c.rays << " radius=" << c.radius
-                 << (c.periodic ? " periodic" : " clip") << (by_fft ? " fft" : "")
+        INFO(c.w << "x" << c.h << " rays=" << c.s.rays << " radius=" << c.s.radius
+                 << (c.s.periodic ? " periodic" : " clip") << (by_fft ? " fft" : "")
                  << (force_float ? " float" : " fp64"));
-        auto g = rough_slopes(c.w, c.h, 5u + c.rays);
-        Run r = run_of(c, false);
+        auto g = rough_slopes(c.w, c.h, 5u + c.s.rays);
+        Run r{c.s};
         r.force_float = force_float;
         r.by_fft = by_fft;
         auto ref = run_rays(g, c.w, c.h, r);

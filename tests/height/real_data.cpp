@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "relief/relief.h"
+#include "support/accuracy.h"
 #include "support/images.h"
 #include "support/run_cli.h"
 
@@ -66,34 +67,6 @@ std::vector<double> minus_disk_mean(const std::vector<double>& h, int w, int ht,
     return out;
 }
 
-// NRMSE of `est` against `truth` after the best affine fit a*est + b, as a
-// fraction of truth's spread (max - min); also returns the fitted a.
-double nrmse_affine(const std::vector<double>& est, const std::vector<double>& truth, double& a)
-{
-    const double n = double(est.size());
-    double me = 0, mt = 0;
-    for (std::size_t i = 0; i < est.size(); ++i) {
-        me += est[i];
-        mt += truth[i];
-    }
-    me /= n;
-    mt /= n;
-    double see = 0, set = 0;
-    for (std::size_t i = 0; i < est.size(); ++i) {
-        see += (est[i] - me) * (est[i] - me);
-        set += (est[i] - me) * (truth[i] - mt);
-    }
-    a = set / see;
-    double sse = 0, lo = truth[0], hi = truth[0];
-    for (std::size_t i = 0; i < est.size(); ++i) {
-        double r = a * (est[i] - me) + mt - truth[i];
-        sse += r * r;
-        lo = std::min(lo, truth[i]);
-        hi = std::max(hi, truth[i]);
-    }
-    return std::sqrt(sse / n) / (hi - lo);
-}
-
 OIIO::ImageBuf read(const fs::path& p)
 {
     OIIO::ImageBuf img;
@@ -130,8 +103,8 @@ TEST_CASE("real sample: ray heights match the author's height map, right way up"
     auto truth_img = read(dir / "height.png");
     const int w = truth_img.spec().width, h = truth_img.spec().height;
     auto truth = minus_disk_mean(channel0(truth_img), w, h, 16);
-    double a = 0;
-    double e = nrmse_affine(channel0(est), truth, a);
+    const test::AffineFit fit = test::affine_fit(channel0(est), truth);
+    const double a = fit.a, e = fit.rmse / fit.truth_range;
     INFO("NRMSE after affine fit: " << e << ", scale " << a);
     CHECK(a > 0);     // not upside down
     CHECK(e < 0.02);  // measured 0.0063
@@ -144,8 +117,8 @@ TEST_CASE("real sample: Poisson heights match the author's height map", "[real][
     REQUIRE_FALSE(est.has_error());
     CHECK(est.spec().get_string_attribute("relief:method") == "poisson");
     auto truth = channel0(read(dir / "height.png"));
-    double a = 0;
-    double e = nrmse_affine(channel0(est), truth, a);
+    const test::AffineFit fit = test::affine_fit(channel0(est), truth);
+    const double a = fit.a, e = fit.rmse / fit.truth_range;
     INFO("NRMSE after affine fit: " << e << ", scale " << a);
     CHECK(a > 0);
     CHECK(e < 0.02);

@@ -373,6 +373,38 @@ double triangle_energy_of(const CorrectionGrid& g, const std::vector<double>& c,
     return triangle_energy(texture_edge(g, c, t.p, t.a), texture_edge(g, c, t.p, t.b), fa, fb, g.theta);
 }
 
+// The kernels' search for a step t in (0, limit) along a descent direction
+// (both the hats and the global steps): up to three tries from `probe`,
+// each 8x nearer, of the probe itself and of the minimum of the parabola
+// through E(0) = e0 with slope -descent and E(probe), kept under 0.95
+// limit; stops at the first try that lowers the energy. The step, or 0
+// where no try lowered it by 1e-6 of e0.
+template <class Energy>
+double probe_search(const Energy& energy, double e0, double descent, double probe, double limit)
+{
+    double best = e0, best_t = 0.0;
+    for (int tries = 0; tries < 3 && best_t == 0.0; ++tries, probe *= 0.125) {
+        const double ep = energy(probe);
+        if (!std::isfinite(ep))
+            continue;
+        if (ep < best) {
+            best = ep;
+            best_t = probe;
+        }
+        const double curvature = (ep - e0 + descent * probe) / (probe * probe);
+        if (!(curvature > 0.0))
+            continue;
+        const double t = std::min(descent / (2.0 * curvature), 0.95 * limit);
+        if (!(t > 0.0) || t == probe)
+            continue;
+        const double et = energy(t);
+        if (std::isfinite(et) && et < best) {
+            best = et;
+            best_t = t;
+        }
+    }
+    return best_t > 0.0 && best < e0 - 1e-6 * e0 ? best_t : 0.0;
+}
 }  // namespace
 
 int hat_sweep(const CorrectionGrid& g, std::vector<double>& c)
@@ -438,29 +470,8 @@ int hat_sweep(const CorrectionGrid& g, std::vector<double>& c)
                         }
                         if (!(tmax > 0.0))
                             continue;
-                        double best = e0, best_t = 0.0, probe = 0.5 * tmax;
-                        for (int tries = 0; tries < 3 && best_t == 0.0; ++tries, probe *= 0.125) {
-                            const double eh = energy(probe);
-                            if (!std::isfinite(eh))
-                                continue;
-                            if (eh < best) {
-                                best = eh;
-                                best_t = probe;
-                            }
-                            const double a = (eh - e0 + gn * probe) / (probe * probe);
-                            if (!(a > 0.0))
-                                continue;
-                            const double ts = std::min(gn / (2.0 * a), 0.95 * tmax);
-                            if (!(ts > 0.0) || ts == probe)
-                                continue;
-                            const double es = energy(ts);
-                            if (std::isfinite(es) && es < best) {
-                                best = es;
-                                best_t = ts;
-                            }
-                        }
-                        if (best_t > 0.0 && best < e0 - 1e-6 * e0)
-                            c = moved(best_t);
+                        if (const double t = probe_search(energy, e0, gn, 0.5 * tmax, tmax); t > 0.0)
+                            c = moved(t);
                     }
     }
     return scales;
@@ -642,29 +653,8 @@ bool global_step(const CorrectionGrid& g, std::vector<double>& c, GlobalStepMemo
             moved[k] = c[k] - t * S[k];
         return total_energy(g, moved);
     };
-    double best = E0, best_t = 0.0;
-    double probe = std::min(0.5 * flip, 1.0 / largest);
-    for (int tries = 0; tries < 3 && best_t == 0.0; ++tries, probe *= 0.125) {
-        const double ep = energy_at(probe);
-        if (!std::isfinite(ep))
-            continue;
-        if (ep < best) {
-            best = ep;
-            best_t = probe;
-        }
-        const double curvature = (ep - E0 - slope * probe) / (probe * probe);
-        if (curvature > 0.0) {
-            const double t = std::min(-slope / (2.0 * curvature), 0.95 * flip);
-            if (t > 0.0 && t != probe) {
-                const double es = energy_at(t);
-                if (std::isfinite(es) && es < best) {
-                    best = es;
-                    best_t = t;
-                }
-            }
-        }
-    }
-    if (best_t == 0.0 || !(best < E0 - 1e-6 * E0))
+    const double best_t = probe_search(energy_at, E0, -slope, std::min(0.5 * flip, 1.0 / largest), flip);
+    if (best_t == 0.0)
         return false;
     for (std::size_t k = 0; k < c.size(); ++k)
         c[k] -= best_t * S[k];

@@ -94,21 +94,8 @@ enum class CorrectNodes { Corner, Center };
 // height jumps across that axis's wrap seam no more than twice the mean jump
 // between neighbouring texels; the choice is reported.
 enum class CorrectBoundary { Auto, Periodic, Fixed };
-// A boundary for each axis, x first, as relief::Boundaries for height():
-// one value sets both axes, and compared with one value both must have it.
-struct CorrectBoundaries {
-    CorrectBoundary x = CorrectBoundary::Auto, y = CorrectBoundary::Auto;
-    constexpr CorrectBoundaries(CorrectBoundary both = CorrectBoundary::Auto) : x(both), y(both) {}
-    constexpr CorrectBoundaries(CorrectBoundary along_x, CorrectBoundary along_y) : x(along_x), y(along_y) {}
-    friend constexpr bool operator==(const CorrectBoundaries& a, const CorrectBoundaries& b)
-    {
-        return a.x == b.x && a.y == b.y;
-    }
-    friend constexpr bool operator!=(const CorrectBoundaries& a, const CorrectBoundaries& b)
-    {
-        return !(a == b);
-    }
-};
+// A boundary for each axis, as relief::Boundaries for height().
+using CorrectBoundaries = PerAxis<CorrectBoundary>;
 struct CorrectOptions {
     // World height = scale * stored height, the texture's width spanning one
     // world unit (square texels). 0 = auto: 1/width for relief's own height

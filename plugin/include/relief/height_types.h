@@ -29,16 +29,7 @@ enum class Boundary { Auto, Periodic, Free };
 // one axis only, such as trim sheets. One value sets both axes:
 // `o.boundary = Boundary::Free`, and compared with one value, both axes
 // must have it.
-struct Boundaries {
-    Boundary x = Boundary::Auto, y = Boundary::Auto;
-    constexpr Boundaries(Boundary both = Boundary::Auto) : x(both), y(both) {}
-    constexpr Boundaries(Boundary along_x, Boundary along_y) : x(along_x), y(along_y) {}
-    friend constexpr bool operator==(const Boundaries& a, const Boundaries& b)
-    {
-        return a.x == b.x && a.y == b.y;
-    }
-    friend constexpr bool operator!=(const Boundaries& a, const Boundaries& b) { return !(a == b); }
-};
+using Boundaries = PerAxis<Boundary>;
 
 // How height_udim() (relief/udim.h) integrates a UDIM set. Joint: the set is
 // one surface, laid out by its tile numbers on one canvas (missing tiles

@@ -34,6 +34,18 @@ struct NormalDecoding {
     FloatEncoding float_encoding = FloatEncoding::Signed;
 };
 
+// A value for each axis of a texture, x (columns) first: one value sets
+// both axes, and compared with one value both axes must have it
+// (`o.boundary = Boundary::Free`). E's first value is the default.
+template <class E>
+struct PerAxis {
+    E x = E{}, y = E{};
+    constexpr PerAxis(E both = E{}) : x(both), y(both) {}
+    constexpr PerAxis(E along_x, E along_y) : x(along_x), y(along_y) {}
+    friend constexpr bool operator==(const PerAxis& a, const PerAxis& b) { return a.x == b.x && a.y == b.y; }
+    friend constexpr bool operator!=(const PerAxis& a, const PerAxis& b) { return !(a == b); }
+};
+
 // Debug: what the libraries relief uses said (the image library's own
 // diagnostics); Info: details (device, counts); Notice: a choice made for
 // the user that they should see (the auto-detected convention); Warning:

@@ -107,9 +107,7 @@ ImageBuf bake(const ImageBuf& texture, const ImageBuf& offsets, const BakeOption
 bool bake(ImageBuf& dst, const ImageBuf& texture, const ImageBuf& offsets, const BakeOptions& options,
           ROI roi, int /*nthreads*/)
 {
-    try {
-        const detail::OperationScope scope(options.exec);
-        detail::require_valid(options);
+    return detail::guarded(dst, "bake", options.exec, options, [&] {
         roi = detail::resolve_roi(texture, roi);
         const int w = roi.width(), h = roi.height(), nch = texture.nchannels();
         // Exactly 2 channels, or more only when relief's metadata says they
@@ -210,9 +208,7 @@ bool bake(ImageBuf& dst, const ImageBuf& texture, const ImageBuf& offsets, const
         spec.attribute("relief:baked", std::string(kind_name) + (space.empty() ? "" : ", " + space));
         detail::set_result(dst, spec, out.data());
         return true;
-    } catch (const std::exception& e) {
-        return detail::fail(dst, "bake", e);
-    }
+    });
 }
 
 }  // namespace relief

@@ -26,9 +26,7 @@ ImageBuf normals(const ImageBuf& height, const NormalsOptions& options, ROI roi,
 
 bool normals(ImageBuf& dst, const ImageBuf& height, const NormalsOptions& options, ROI roi, int)
 {
-    try {
-        const detail::OperationScope scope(options.exec);
-        detail::require_valid(options);
+    return detail::guarded(dst, "normals", options.exec, options, [&] {
         const auto& [at, w, ht, h] =
             detail::height_region(height, roi, options.exec, "normals", options.scale);
         const detail::Wrap wrap =
@@ -49,9 +47,7 @@ bool normals(ImageBuf& dst, const ImageBuf& height, const NormalsOptions& option
                                                 " boundary=" + detail::wrap_name(wrap));
         detail::set_result(dst, spec, n.data());
         return true;
-    } catch (const std::exception& e) {
-        return detail::fail(dst, "normals", e);
-    }
+    });
 }
 
 ImageBuf tessellation(const ImageBuf& height, const TessellationOptions& options, ROI roi, int nthreads)
@@ -61,9 +57,7 @@ ImageBuf tessellation(const ImageBuf& height, const TessellationOptions& options
 
 bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptions& options, ROI roi, int)
 {
-    try {
-        const detail::OperationScope scope(options.exec);
-        detail::require_valid(options);
+    return detail::guarded(dst, "tessellation", options.exec, options, [&] {
         const auto& [at, w, ht, h] =
             detail::height_region(height, roi, options.exec, "tessellation", options.scale);
         auto ctx = host::ComputeContext::acquire(options.exec.device);
@@ -107,9 +101,7 @@ bool tessellation(ImageBuf& dst, const ImageBuf& height, const TessellationOptio
                                                 " scale=" + detail::number_text(options.scale));
         detail::set_result(dst, spec, pixels.data());
         return true;
-    } catch (const std::exception& e) {
-        return detail::fail(dst, "tessellation", e);
-    }
+    });
 }
 
 }  // namespace relief

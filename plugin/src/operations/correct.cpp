@@ -86,10 +86,8 @@ ImageBuf correct(const ImageBuf& height, const CorrectOptions& options, ROI roi,
 
 bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& options, ROI roi, int /*nthreads*/)
 {
-    try {
+    return detail::guarded(dst, "correct", options.exec, options, [&] {
         const auto t0 = std::chrono::steady_clock::now();
-        const detail::OperationScope scope(options.exec);
-        detail::require_valid(options);
         const auto& [at, w, h, heights] = detail::height_region(height, roi, options.exec, "correct");
 
         const detail::CorrectCall call = detail::correct_call(height, heights, w, h, options);
@@ -181,9 +179,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         spec.attribute("relief:parameters", detail::correct_parameters(call, options));
         detail::set_result(dst, spec, offsets.data());
         return true;
-    } catch (const std::exception& e) {
-        return detail::fail(dst, "correct", e);
-    }
+    });
 }
 
 }  // namespace relief

@@ -240,10 +240,8 @@ ImageBuf height(const ImageBuf& normals, const HeightOptions& options, ROI roi, 
 
 bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options, ROI roi, int /*nthreads*/)
 {
-    try {
-        const detail::OperationScope scope(options.exec);
+    return detail::guarded(dst, "height", options.exec, options, [&] {
         const auto t0 = std::chrono::steady_clock::now();
-        detail::require_valid(options);
         roi = detail::resolve_roi(normals, roi);
         HeightOptions chosen = options;
         if (chosen.method == HeightMethod::Auto)
@@ -340,9 +338,7 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
             options.report->seconds =
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         return true;
-    } catch (const std::exception& e) {
-        return detail::fail(dst, "height", e);
-    }
+    });
 }
 
 }  // namespace relief

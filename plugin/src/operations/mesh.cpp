@@ -158,9 +158,7 @@ bool displaced_mesh(Mesh& mesh, const OIIO::ImageBuf& height, const Tessellation
 
 bool mesh(OIIO::ImageBuf& dst, const OIIO::ImageBuf& height, const MeshOptions& options)
 {
-    try {
-        const detail::OperationScope scope(options.tessellation.exec);
-        detail::require_valid(options);
+    return detail::guarded(dst, "mesh", options.tessellation.exec, options, [&] {
         Mesh m;
         const std::string ext = std::filesystem::path(options.out).extension().string();
         const bool gltf = ext == ".gltf" || ext == ".glb" || ext == ".GLTF" || ext == ".GLB";
@@ -173,9 +171,7 @@ bool mesh(OIIO::ImageBuf& dst, const OIIO::ImageBuf& height, const MeshOptions& 
         if (!dst.copy(height))
             throw std::runtime_error(dst.geterror());
         return true;
-    } catch (const std::exception& e) {
-        return detail::fail(dst, "mesh", e);
-    }
+    });
 }
 
 }  // namespace relief

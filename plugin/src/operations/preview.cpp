@@ -255,9 +255,7 @@ ImageBuf preview(const ImageBuf& normals, const ImageBuf& height, const PreviewO
 
 bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, const PreviewOptions& o)
 {
-    try {
-        const detail::OperationScope scope(o.exec);
-        detail::require_valid(o);
+    return detail::guarded(dst, "preview", o.exec, o, [&] {
         const ROI roi = detail::resolve_roi(normals, {});
         const ROI hroi = detail::resolve_roi(height, {});
         const int w = roi.width(), ht = roi.height();
@@ -399,9 +397,7 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
                     "preview: " + std::to_string(spec.width) + "x" + std::to_string(spec.height) +
                         " sheet, panels " + std::to_string(pw) + "x" + std::to_string(ph));
         return true;
-    } catch (const std::exception& e) {
-        return detail::fail(dst, "preview", e);
-    }
+    });
 }
 
 }  // namespace relief

@@ -76,4 +76,20 @@ void require_valid(const Options& options)
 // Records a failed operation in dst and geterror(); returns false.
 bool fail(OIIO::ImageBuf& dst, const char* operation, const std::exception& e);
 
+// The frame of every operation's second form: `body` (which fills dst and
+// returns whether it did) runs in an OperationScope of `exec` once
+// `options` are valid; an exception becomes fail(dst, operation, e).
+template <class Options, class Body>
+bool guarded(OIIO::ImageBuf& dst, const char* operation, const Execution& exec, const Options& options,
+             Body&& body)
+{
+    try {
+        const OperationScope scope(exec);
+        require_valid(options);
+        return body();
+    } catch (const std::exception& e) {
+        return fail(dst, operation, e);
+    }
+}
+
 }  // namespace relief::detail

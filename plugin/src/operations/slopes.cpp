@@ -22,9 +22,7 @@ ImageBuf slopes(const ImageBuf& normals, const SlopeOptions& options, ROI roi, i
 
 bool slopes(ImageBuf& dst, const ImageBuf& normals, const SlopeOptions& options, ROI roi, int /*nthreads*/)
 {
-    try {
-        const detail::OperationScope scope(options.exec);
-        detail::require_valid(options);
+    return detail::guarded(dst, "slopes", options.exec, options, [&] {
         roi = detail::resolve_roi(normals, roi);
         auto derived = detail::derive_slopes(normals, roi, options.normals, options.exec);
         std::vector<float> g(std::size_t(roi.width()) * roi.height() * 2);
@@ -33,9 +31,7 @@ bool slopes(ImageBuf& dst, const ImageBuf& normals, const SlopeOptions& options,
         // The unit of a slope is texel per texel step: heights in texels.
         detail::publish_result(dst, roi, {"gx", "gy"}, "slopes", derived.stats, g.data());
         return true;
-    } catch (const std::exception& e) {
-        return detail::fail(dst, "slopes", e);
-    }
+    });
 }
 
 }  // namespace relief
