@@ -96,6 +96,9 @@ void check_poisson_golden(int w, int h)
 TEST_CASE("Poisson solver equals the double-precision golden model", "[poisson]")
 {
     check_poisson_golden(35, 27);
+    // One row and one column (a layout of its own), at the lengths above.
+    check_poisson_golden(35, 1);
+    check_poisson_golden(1, 27);
 }
 
 TEST_CASE("Poisson solver equals the double-precision golden model at prime, even, thin and tiny sizes",
