@@ -95,29 +95,44 @@ TEST_CASE("maps past the kernels' 32-bit indices are refused before any work", "
 
 namespace {
 
-// RELIEF_CACHE_DIR for one test case, put back as it was at its end (also
-// when a REQUIRE ends it early).
-class CacheDirForTest {
+// Environment variables for one test case, each put back as it was at its
+// end (also when a REQUIRE ends it early).
+class EnvForTest {
 public:
-    explicit CacheDirForTest(const std::string& value)
+    EnvForTest() = default;
+    EnvForTest(const char* name, const std::string& value) { set(name, value); }
+    ~EnvForTest()
     {
-        if (const char* v = std::getenv("RELIEF_CACHE_DIR"))
-            saved_ = v;
-        had_ = std::getenv("RELIEF_CACHE_DIR") != nullptr;
-        set(value);
+        for (auto it = saved_.rbegin(); it != saved_.rend(); ++it)
+            if (it->had)
+                ::setenv(it->name.c_str(), it->value.c_str(), 1);
+            else
+                ::unsetenv(it->name.c_str());
     }
-    ~CacheDirForTest()
+    EnvForTest(const EnvForTest&) = delete;
+    EnvForTest& operator=(const EnvForTest&) = delete;
+    void set(const char* name, const std::string& value)
     {
-        if (had_)
-            ::setenv("RELIEF_CACHE_DIR", saved_.c_str(), 1);
-        else
-            ::unsetenv("RELIEF_CACHE_DIR");
+        save(name);
+        ::setenv(name, value.c_str(), 1);
     }
-    void set(const std::string& value) { ::setenv("RELIEF_CACHE_DIR", value.c_str(), 1); }
+    void unset(const char* name)
+    {
+        save(name);
+        ::unsetenv(name);
+    }
 
 private:
-    std::string saved_;
-    bool had_ = false;
+    struct Saved {
+        std::string name, value;
+        bool had;
+    };
+    void save(const char* name)
+    {
+        const char* v = std::getenv(name);
+        saved_.push_back({name, v ? v : "", v != nullptr});
+    }
+    std::vector<Saved> saved_;
 };
 
 // The files of `dir`, sorted; none when it does not exist.
@@ -140,12 +155,34 @@ bool refuses_foreign_binaries_by_aborting()
 
 }  // namespace
 
+TEST_CASE("the program cache's folder: RELIEF_CACHE_DIR (off: none), else XDG's, else the home's",
+          "[host][cache]")
+{
+    EnvForTest env;
+    env.set("RELIEF_CACHE_DIR", "/tmp/own");
+    env.set("XDG_CACHE_HOME", "/tmp/xdg");
+    env.set("HOME", "/tmp/home");
+    CHECK(BinaryCache::folder() == "/tmp/own");
+    env.set("RELIEF_CACHE_DIR", "off");
+    CHECK(BinaryCache::folder().empty());
+    env.set("RELIEF_CACHE_DIR", "");  // empty: as unset
+    CHECK(BinaryCache::folder() == "/tmp/xdg/relief");
+    env.unset("RELIEF_CACHE_DIR");
+    CHECK(BinaryCache::folder() == "/tmp/xdg/relief");
+    env.set("XDG_CACHE_HOME", "");
+    CHECK(BinaryCache::folder() == "/tmp/home/.cache/relief");
+    env.unset("XDG_CACHE_HOME");
+    CHECK(BinaryCache::folder() == "/tmp/home/.cache/relief");
+    env.unset("HOME");
+    CHECK(BinaryCache::folder().empty());  // nowhere to keep it: not kept
+}
+
 TEST_CASE("compiled programs are kept on disk and a damaged entry is rebuilt", "[host][cache]")
 {
     namespace fs = std::filesystem;
     const fs::path dir = fs::path(RELIEF_TEST_TMP) / "binary_cache";
     fs::remove_all(dir);
-    CacheDirForTest cache(dir.string());
+    EnvForTest cache("RELIEF_CACHE_DIR", dir.string());
     const auto entries = [&] { return files_in(dir); };
     const auto kernels = [](ComputeContext& ctx, const char* file) {
         return ctx.impl().program(file).getInfo<CL_PROGRAM_KERNEL_NAMES>();
@@ -198,7 +235,7 @@ TEST_CASE("compiled programs are kept on disk and a damaged entry is rebuilt", "
 
     // off: nothing stored
     fs::remove_all(dir);
-    cache.set("off");
+    cache.set("RELIEF_CACHE_DIR", "off");
     {
         ComputeContext ctx(choose_device("auto"));
         ctx.build_program("ddm.cl");
@@ -213,7 +250,7 @@ TEST_CASE("VkFFT's programs are kept on disk too, and an unusable entry falls ba
     namespace fs = std::filesystem;
     const fs::path dir = fs::path(RELIEF_TEST_TMP) / "vkfft_cache";
     fs::remove_all(dir);
-    CacheDirForTest cache(dir.string());
+    EnvForTest cache("RELIEF_CACHE_DIR", dir.string());
     const auto entries = [&] { return files_in(dir); };
     // A round trip of a ramp through a fresh context's 64 x 48 plan (VkFFT's
     // 2-D path: its programs only); the transformed values, to compare bits.
