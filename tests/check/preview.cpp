@@ -397,6 +397,11 @@ TEST_CASE("preview: each panel is the map's size at the sheet's scale, in its ow
                     CHECK(coloured == cw);
                     CHECK(at(x0 + cw, bar + 2) == background);
                     CHECK(at(x0, bar + 2) != at(x0 + cw - 1, bar + 2));  // a ramp, not one colour
+                    if (col == 1) {  // e: a flat height is its ramp's middle colour
+                        const auto middle = at(x0 + cw / 2, bar + 2);
+                        for (int k = 0; k < 3; ++k)
+                            CHECK(std::abs(colour[std::size_t(k)] - middle[std::size_t(k)]) <= 3.0f / 255);
+                    }
                 }
             }
         // Two rows of cells with equal margins: H = 2 (row pitch) + margin.

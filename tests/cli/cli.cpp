@@ -86,6 +86,9 @@ TEST_CASE("cli: -v reports device and convention, integer outputs state their sc
     CHECK(start <= done);
     CHECK(done <= wall + 0.05);
     CHECK(r.err.find("normal convention: directx") != std::string::npos);
+    // What each operation was asked, in full, defaults included.
+    CHECK(r.err.find("height: method=rays impl=fast rays=8 radius=8 phase=0.5 directions=rational "
+                     "boundary=auto") != std::string::npos);
     CHECK(r.err.find("uint16 values v hold data = (v - 0.5) *") != std::string::npos);
 
     OIIO::ImageBuf f((dir / "h.exr").string()), q((dir / "h8.png").string()), tif((dir / "h8.tif").string());

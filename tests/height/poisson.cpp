@@ -272,6 +272,28 @@ void paint_over_seam(std::vector<float>& g, int w, int h, bool columns, unsigned
 
 }  // namespace
 
+TEST_CASE("tiling evidence: slope correlations lie between 0 and 1 and do not depend on the slopes' scale",
+          "[poisson][tiling]")
+{
+    const test::PeriodicField f{96, 80, {{3, 1, 4.0, 0.2}, {5, -4, 1.0, 1.0}}};
+    const std::vector<double> g = f.slopes();
+    for (const auto& [w, h] : {std::pair{96, 80}, std::pair{60, 50}}) {  // the whole map, a crop
+        INFO(w << "x" << h);
+        const std::vector<float> a = window(g, 96, 0, 0, w, h);
+        std::vector<float> small = a;
+        for (float& v : small)
+            v *= 1e-3f;
+        const auto e = host::tiling_evidence(a.data(), w, h), s = host::tiling_evidence(small.data(), w, h);
+        for (const auto& [big, tiny] : {std::pair{e.x, s.x}, std::pair{e.y, s.y}}) {
+            CHECK(big.seam >= 0.0);
+            CHECK(big.seam <= 1.0 + 1e-9);
+            CHECK(big.adjacent <= 1.0 + 1e-9);
+            CHECK(tiny.seam == Approx(big.seam).margin(1e-4));
+            CHECK(tiny.adjacent == Approx(big.adjacent).margin(1e-4));
+        }
+    }
+}
+
 TEST_CASE("tiling evidence per axis: block heights see a rough seam through, and a crop or one-axis tiling "
           "for what it is",
           "[poisson][tiling]")

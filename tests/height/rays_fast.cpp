@@ -90,26 +90,34 @@ bool all_finite(const std::vector<float>& v)
 
 TEST_CASE("rational directions are primitive steps near the uniform angles", "[rays][fast]")
 {
-    for (int rays : {1, 4, 8, 32, 64}) {
-        auto dirs = host::rational_directions(rays, 0.5);
-        REQUIRE(int(dirs.size()) == rays);
-        const int limit = host::rational_step_limit(rays);
-        for (int j = 0; j < rays; ++j) {
-            const auto& d = dirs[j];
-            CHECK(std::gcd(d.a, d.b) == 1);
-            CHECK(std::max(std::abs(d.a), std::abs(d.b)) <= limit);
-            int a = 0, b = 0;
-            reference::RaySettings s;
-            s.rays = rays;
-            s.phase = 0.5;
-            reference::rational_step(j, s, a, b);
-            CHECK(a == d.a);
-            CHECK(b == d.b);
-            // Within the angular gap of the step limit (Farey spacing).
-            const double err = std::abs(std::remainder(d.angle() - 2 * M_PI * (j + 0.5) / rays, 2 * M_PI));
-            CHECK(err <= 1.0 / limit + 1e-9);
+    // Steps of at most max(2, ceil(rays / 4)) texels along either axis.
+    CHECK(host::rational_step_limit(1) == 2);
+    CHECK(host::rational_step_limit(8) == 2);
+    CHECK(host::rational_step_limit(9) == 3);
+    CHECK(host::rational_step_limit(64) == 16);
+    for (int rays : {1, 3, 4, 6, 8, 32, 64})
+        for (double phase : {0.0, 0.25, 0.5, 0.75}) {
+            INFO("rays " << rays << " phase " << phase);
+            auto dirs = host::rational_directions(rays, phase);
+            REQUIRE(int(dirs.size()) == rays);
+            const int limit = host::rational_step_limit(rays);
+            for (int j = 0; j < rays; ++j) {
+                const auto& d = dirs[j];
+                CHECK(std::gcd(d.a, d.b) == 1);
+                CHECK(std::max(std::abs(d.a), std::abs(d.b)) <= limit);
+                int a = 0, b = 0;
+                reference::RaySettings s;
+                s.rays = rays;
+                s.phase = phase;
+                reference::rational_step(j, s, a, b);
+                CHECK(a == d.a);
+                CHECK(b == d.b);
+                // Within the angular gap of the step limit (Farey spacing).
+                const double err =
+                    std::abs(std::remainder(d.angle() - 2 * M_PI * (j + phase) / rays, 2 * M_PI));
+                CHECK(err <= 1.0 / limit + 1e-9);
+            }
         }
-    }
 }
 
 TEST_CASE("rational directions by continued fractions equal the exhaustive search", "[rays][fast]")

@@ -23,6 +23,7 @@
 #include <unistd.h>
 
 #include "relief/relief.h"
+#include "support/fields.h"
 #include "support/images.h"
 #include "support/taken_names.h"
 #include "support/run_cli.h"
@@ -387,6 +388,27 @@ TEST_CASE(
     INFO(r.err);
     CHECK(r.rc == 0);
     CHECK(slurp(d / "copy.png") != original);
+}
+
+TEST_CASE("output files: a one-texel-wide or one-row image cut short loses its digest", "[io][files]")
+{
+    // The thinnest maps too: the check reads their last scanline or strip.
+    const fs::path d = relief::test::scratch("output_files/thin_truncated");
+    const std::string digest = "0123456789abcdef0123456789abcdef";
+    for (const char* name : {"tall.exr", "tall.tif", "wide.exr", "wide.tif"}) {
+        INFO(name);
+        const bool tall = name[0] == 't';
+        const int w = tall ? 1 : 256, h = tall ? 256 : 1;
+        OIIO::ImageBuf img = relief::test::image(w, h, 1, relief::test::random_field(256, 3u, 0.0f, 1.0f));
+        img.specmod().attribute("compression", "none");
+        img.specmod().attribute("relief:digest", digest);
+        img.specmod().attribute("ImageDescription", "relief:digest=" + digest);
+        const fs::path f = d / name;
+        REQUIRE(img.write(f.string()));
+        REQUIRE(relief::recorded_digest(f.string()) == digest);
+        fs::resize_file(f, fs::file_size(f) - 4);  // the last pixel's bytes
+        CHECK(relief::recorded_digest(f.string()).empty());
+    }
 }
 
 TEST_CASE("output files: --update recomputes an output cut short, whatever keeps its header",
