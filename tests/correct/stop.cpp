@@ -81,6 +81,27 @@ TEST_CASE("correct: the tolerance bounds the fall per pass over the nodes", "[co
     CHECK(fall(n - 1) >= 2 * tol);
 }
 
+TEST_CASE("correct: a tolerance below 1e-6 takes the energy itself every iteration", "[correct]")
+{
+    // The energy tracked by the nodes' falls is exact to about 1e-7 of it:
+    // below 1e-6 a level must compute it each iteration, and then runs as
+    // energy_each_iteration does, bit for bit (the global steps start their
+    // search from it).
+    const int w = 48, h = 40;
+    const auto hts = waves(w, h, 1.0, 24);
+    auto p = stop_rule_params(1e-7);
+    p.max_iterations = 8;
+    host::CorrectReport tracked, each;
+    const auto a = run(hts, w, h, p, &tracked);
+    p.energy_each_iteration = true;
+    const auto b = run(hts, w, h, p, &each);
+    REQUIRE(tracked.levels.size() == 1);
+    CHECK(tracked.levels[0].global_steps > 0);
+    CHECK(tracked.levels[0].iterations == each.levels[0].iterations);
+    CHECK(tracked.levels[0].energy_end == each.levels[0].energy_end);
+    CHECK(a == b);
+}
+
 TEST_CASE("correct: the finest level stops once the next fall is predicted below the tolerance", "[correct]")
 {
     // As the test before, with the prediction but without global steps

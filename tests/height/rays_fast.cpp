@@ -214,6 +214,21 @@ TEST_CASE("fast kernel equals the reference kernel for the same directions", "[r
     check_fast_against_reference({35, 27, 12, 9.5, 0.25, false});  // clip: exits inside a period
 }
 
+TEST_CASE("the reference kernel accumulates in float when asked, as on a device without fp64", "[rays]")
+{
+    // force_float (and RELIEF_FP64=off) must reach the kernel: its sums in
+    // float differ from fp64's in the last bits, within float's precision.
+    const auto g = rough_slopes(35, 27, 9u);
+    Run r{{8, 9.5, 0.5, true}};
+    const auto fp64 = run_rays(g, 35, 27, r);
+    r.force_float = true;
+    const auto in_float = run_rays(g, 35, 27, r);
+    INFO("max diff " << test::max_abs_diff(fp64, in_float) << ", std " << stddev(fp64));
+    CHECK(test::max_abs_diff(fp64, in_float) <= 1e-4 * stddev(fp64));
+    if (host::ComputeContext::acquire("auto")->fp64())
+        CHECK(fp64 != in_float);
+}
+
 TEST_CASE("fast kernel equals the reference kernel at long radii, thin and tiny maps and FFT interiors",
           "[rays][fast][stress]")
 {

@@ -14,6 +14,7 @@
 #include "relief/relief_c.h"
 #include "support/fields.h"
 #include "support/images.h"
+#include "support/option_cases.h"
 
 using namespace relief;
 using relief::test::pixels;
@@ -350,4 +351,29 @@ TEST_CASE(
     REQUIRE(height_udim(dst, pair.tiles(), with_boundary(Boundary::Auto, UdimMode::Auto), &report));
     REQUIRE(report.edges.size() == 1);
     CHECK((report.edges[0].a == 1009 && report.edges[0].b == 1010));
+}
+
+TEST_CASE("udim joint: the canvas of normals counts in the memory a set is refused for", "[udim][memory]")
+{
+    // Joined, the set is one map assembled on a canvas: its normals (float
+    // RGB, 12 bytes a texel) and the tiles cut out of the result (4) are
+    // held beside what the map's own height needs.
+    if (!host::device_memory(*host::ComputeContext::acquire("auto")).host_unified) {
+        WARN("the device's buffers are not host memory: RELIEF_MEMORY_LIMIT does not hold them");
+        return;
+    }
+    const OIIO::ImageBuf whole = whole_map();
+    const Set s = set_of(whole);
+    const HeightOptions o = with_boundary(Boundary::Free);
+    const double plain = test::options::smallest_memory_limit([&] {
+        OIIO::ImageBuf out;
+        return relief::height(out, whole, o);
+    });
+    const double set = test::options::smallest_memory_limit([&] {
+        std::vector<OIIO::ImageBuf> out;
+        return height_udim(out, s.tiles(), o);
+    });
+    const double texels = double(2 * kW) * (2 * kH);
+    INFO("the map " << plain / texels << " bytes a texel, the set " << set / texels);
+    CHECK(set - plain >= 8.0 * texels);
 }

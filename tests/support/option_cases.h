@@ -138,27 +138,34 @@ inline std::vector<float> random_weights(std::size_t n, unsigned seed)
         v = u(rng) < 0.2f ? 0.0f : u(rng);
     return w;
 }
-// The smallest RELIEF_MEMORY_LIMIT a height runs under, bisected to 1 KiB:
-// its estimated need.
-inline double smallest_memory_limit(const ImageBuf& normals, const HeightOptions& o)
+// The smallest RELIEF_MEMORY_LIMIT under which `runs` (a height: whether
+// it succeeded) succeeds, bisected to 1 KiB: its estimated need.
+template <class Runs>
+double smallest_memory_limit(const Runs& runs)
 {
-    const auto runs = [&](std::uint64_t limit) {
+    const auto under = [&](std::uint64_t limit) {
         ::setenv("RELIEF_MEMORY_LIMIT", std::to_string(limit).c_str(), 1);
-        ImageBuf out;
-        const bool ok = relief::height(out, normals, o);
+        const bool ok = runs();
         if (!ok)
             CHECK(geterror().find("RELIEF_MEMORY_LIMIT") != std::string::npos);
         return ok;
     };
     std::uint64_t lo = 1024, hi = std::uint64_t(1) << 30;
-    REQUIRE_FALSE(runs(lo));
-    REQUIRE(runs(hi));
+    REQUIRE_FALSE(under(lo));
+    REQUIRE(under(hi));
     while (hi - lo > 1024) {
         const std::uint64_t mid = lo + (hi - lo) / 2;
-        (runs(mid) ? hi : lo) = mid;
+        (under(mid) ? hi : lo) = mid;
     }
     ::unsetenv("RELIEF_MEMORY_LIMIT");
     return double(hi);
+}
+inline double smallest_memory_limit(const ImageBuf& normals, const HeightOptions& o)
+{
+    return smallest_memory_limit([&] {
+        ImageBuf out;
+        return relief::height(out, normals, o);
+    });
 }
 
 inline ImageBuf memory_test_normals(int n)
