@@ -20,6 +20,7 @@
 #include "support/fields.h"
 #include "support/images.h"
 #include "support/run_cli.h"
+#include "support/scoped_env.h"
 
 namespace fs = std::filesystem;
 using namespace relief::host;
@@ -43,29 +44,7 @@ DeviceInfo device(const char* platform, const char* name, bool gpu, bool cpu, bo
     return d;
 }
 
-// Sets an environment variable for the scope.
-struct ScopedEnv {
-    std::string name;
-    std::string old;
-    bool had;
-    ScopedEnv(const char* n, const char* value) : name(n)
-    {
-        const char* o = std::getenv(n);
-        had = o != nullptr;
-        old = o ? o : "";
-        if (value)
-            ::setenv(n, value, 1);
-        else
-            ::unsetenv(n);
-    }
-    ~ScopedEnv()
-    {
-        if (had)
-            ::setenv(name.c_str(), old.c_str(), 1);
-        else
-            ::unsetenv(name.c_str());
-    }
-};
+using relief::test::ScopedEnv;
 
 // Runs relief's `args` with OUT replaced by `out` (and `env` in front);
 // the result's pixels.

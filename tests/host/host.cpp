@@ -22,6 +22,7 @@
 #include "device/setup_times.h"
 #include "slopes/slope_stage.h"
 #include "support/run_cli.h"
+#include "support/scoped_env.h"
 
 using namespace relief::host;
 
@@ -95,46 +96,6 @@ TEST_CASE("maps past the kernels' 32-bit indices are refused before any work", "
 
 namespace {
 
-// Environment variables for one test case, each put back as it was at its
-// end (also when a REQUIRE ends it early).
-class EnvForTest {
-public:
-    EnvForTest() = default;
-    EnvForTest(const char* name, const std::string& value) { set(name, value); }
-    ~EnvForTest()
-    {
-        for (auto it = saved_.rbegin(); it != saved_.rend(); ++it)
-            if (it->had)
-                ::setenv(it->name.c_str(), it->value.c_str(), 1);
-            else
-                ::unsetenv(it->name.c_str());
-    }
-    EnvForTest(const EnvForTest&) = delete;
-    EnvForTest& operator=(const EnvForTest&) = delete;
-    void set(const char* name, const std::string& value)
-    {
-        save(name);
-        ::setenv(name, value.c_str(), 1);
-    }
-    void unset(const char* name)
-    {
-        save(name);
-        ::unsetenv(name);
-    }
-
-private:
-    struct Saved {
-        std::string name, value;
-        bool had;
-    };
-    void save(const char* name)
-    {
-        const char* v = std::getenv(name);
-        saved_.push_back({name, v ? v : "", v != nullptr});
-    }
-    std::vector<Saved> saved_;
-};
-
 // The files of `dir`, sorted; none when it does not exist.
 std::vector<std::filesystem::path> files_in(const std::filesystem::path& dir)
 {
@@ -158,7 +119,7 @@ bool refuses_foreign_binaries_by_aborting()
 TEST_CASE("the program cache's folder: RELIEF_CACHE_DIR (off: none), else XDG's, else the home's",
           "[host][cache]")
 {
-    EnvForTest env;
+    relief::test::ScopedEnv env;
     env.set("RELIEF_CACHE_DIR", "/tmp/own");
     env.set("XDG_CACHE_HOME", "/tmp/xdg");
     env.set("HOME", "/tmp/home");
@@ -167,13 +128,13 @@ TEST_CASE("the program cache's folder: RELIEF_CACHE_DIR (off: none), else XDG's,
     CHECK(BinaryCache::folder().empty());
     env.set("RELIEF_CACHE_DIR", "");  // empty: as unset
     CHECK(BinaryCache::folder() == "/tmp/xdg/relief");
-    env.unset("RELIEF_CACHE_DIR");
+    env.set("RELIEF_CACHE_DIR", nullptr);
     CHECK(BinaryCache::folder() == "/tmp/xdg/relief");
     env.set("XDG_CACHE_HOME", "");
     CHECK(BinaryCache::folder() == "/tmp/home/.cache/relief");
-    env.unset("XDG_CACHE_HOME");
+    env.set("XDG_CACHE_HOME", nullptr);
     CHECK(BinaryCache::folder() == "/tmp/home/.cache/relief");
-    env.unset("HOME");
+    env.set("HOME", nullptr);
     CHECK(BinaryCache::folder().empty());  // nowhere to keep it: not kept
 }
 
@@ -182,7 +143,7 @@ TEST_CASE("compiled programs are kept on disk and a damaged entry is rebuilt", "
     namespace fs = std::filesystem;
     const fs::path dir = fs::path(RELIEF_TEST_TMP) / "binary_cache";
     fs::remove_all(dir);
-    EnvForTest cache("RELIEF_CACHE_DIR", dir.string());
+    relief::test::ScopedEnv cache("RELIEF_CACHE_DIR", dir.string().c_str());
     const auto entries = [&] { return files_in(dir); };
     const auto kernels = [](ComputeContext& ctx, const char* file) {
         return ctx.impl().program(file).getInfo<CL_PROGRAM_KERNEL_NAMES>();
@@ -250,7 +211,7 @@ TEST_CASE("VkFFT's programs are kept on disk too, and an unusable entry falls ba
     namespace fs = std::filesystem;
     const fs::path dir = fs::path(RELIEF_TEST_TMP) / "vkfft_cache";
     fs::remove_all(dir);
-    EnvForTest cache("RELIEF_CACHE_DIR", dir.string());
+    relief::test::ScopedEnv cache("RELIEF_CACHE_DIR", dir.string().c_str());
     const auto entries = [&] { return files_in(dir); };
     // A round trip of a ramp through a fresh context's 64 x 48 plan (VkFFT's
     // 2-D path: its programs only); the transformed values, to compare bits.
