@@ -37,6 +37,7 @@
 #include <vector>
 
 #include "poisson/tiling.h"
+#include "image_files.h"
 #include "relief/relief.h"
 #include "support/accuracy.h"
 
@@ -45,15 +46,7 @@ using OIIO::ImageBuf;
 
 namespace {
 
-std::vector<float> channel(const ImageBuf& b, int c)
-{
-    OIIO::ROI r = b.roi();
-    r.chbegin = c;
-    r.chend = c + 1;
-    std::vector<float> v(std::size_t(r.width()) * r.height());
-    b.get_pixels(r, OIIO::TypeDesc::FLOAT, v.data());
-    return v;
-}
+using bench::channel;
 
 [[noreturn]] void die(const std::string& what)
 {
@@ -74,12 +67,7 @@ std::vector<Map> read_maps(const std::vector<fs::path>& folders, const std::stri
     for (const fs::path& root : folders) {
         if (!fs::is_directory(root))
             die("no data folder " + root.string());
-        std::vector<fs::path> sets;
-        for (const auto& e : fs::directory_iterator(root))
-            if (fs::exists(e.path() / "normal.png") && fs::exists(e.path() / "height.png"))
-                sets.push_back(e.path());
-        std::sort(sets.begin(), sets.end());
-        for (const fs::path& s : sets) {
+        for (const fs::path& s : bench::map_folders(root)) {
             Map m;
             m.name = s.filename().string();
             if (!only.empty() && m.name.find(only) == std::string::npos)

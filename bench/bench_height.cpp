@@ -263,11 +263,7 @@ int main(int argc, char** argv)
     const fs::path shared = fs::path(RELIEF_SHARED_DATA);
     if (real && fs::is_directory(shared)) {
         const std::string cache = (work / "caches-real").string();
-        std::vector<fs::path> dirs;
-        for (const auto& e : fs::directory_iterator(shared))
-            if (fs::exists(e.path() / "normal.png") && fs::exists(e.path() / "height.png"))
-                dirs.push_back(e.path());
-        std::sort(dirs.begin(), dirs.end());
+        const std::vector<fs::path> dirs = bench::map_folders(shared);
         const std::vector<Case> cases{{"poisson auto", "method=poisson"},
                                       {"rays fast J=32", "method=rays:rays=32:radius=64"}};
         for (const auto& d : dirs) {

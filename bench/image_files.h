@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,30 @@ inline std::vector<float> read_channels(const std::string& path)
 {
     int w = 0, h = 0;
     return read_channels(path, w, h);
+}
+
+// The folders of a data set (the maintainers' maps, scripts/corpus's):
+// those under `root` that hold normal.png and height.png, sorted.
+inline std::vector<std::filesystem::path> map_folders(const std::filesystem::path& root)
+{
+    std::vector<std::filesystem::path> out;
+    for (const auto& e : std::filesystem::directory_iterator(root))
+        if (std::filesystem::exists(e.path() / "normal.png") &&
+            std::filesystem::exists(e.path() / "height.png"))
+            out.push_back(e.path());
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+// Channel c of an image in memory, row by row.
+inline std::vector<float> channel(const OIIO::ImageBuf& b, int c)
+{
+    OIIO::ROI r = b.roi();
+    r.chbegin = c;
+    r.chend = c + 1;
+    std::vector<float> v(std::size_t(r.width()) * r.height());
+    b.get_pixels(r, OIIO::TypeDesc::FLOAT, v.data());
+    return v;
 }
 
 // Writes n x n RGB pixels of `type` (row by row) to `path`, or exits naming it.

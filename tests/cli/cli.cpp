@@ -90,6 +90,32 @@ TEST_CASE("cli: -v reports device and convention, integer outputs state their sc
     CHECK(r.err.find("height: method=rays impl=fast rays=8 radius=8 phase=0.5 directions=rational "
                      "boundary=auto") != std::string::npos);
     CHECK(r.err.find("uint16 values v hold data = (v - 0.5) *") != std::string::npos);
+    // What was read and written, each once.
+    CHECK(r.err.find("relief: read " + kNormal + ": ") != std::string::npos);
+    for (const char* name : {"h.exr", "h16.png", "h8.png", "h8.tif"})
+        CHECK(r.err.find("relief: wrote " + (dir / name).string() + "\n") != std::string::npos);
+    // Without -v none of that: no read, write or progress lines.
+    const auto quiet = run_cli("'" + kNormal + "' --height --correct:scale=0.05:levels=1:iterations=3 -o '" +
+                               (dir / "q.exr").string() + "'");
+    INFO(quiet.err);
+    REQUIRE(quiet.rc == 0);
+    for (const char* chatter : {"relief: read ", "relief: wrote ", "%\n", "device:"})
+        CHECK(quiet.err.find(chatter) == std::string::npos);
+    // With it, an operation that reports its progress says each tenth once,
+    // in order, up to 100%.
+    const auto steps =
+        run_cli("-v '" + kNormal + "' --height --correct:scale=0.05:levels=1:iterations=3 -o '" +
+                (dir / "v.exr").string() + "'");
+    REQUIRE(steps.rc == 0);
+    std::size_t at = 0;
+    for (int pct = 10; pct <= 100; pct += 10) {
+        const std::size_t next = steps.err.find("relief: --correct: " + std::to_string(pct) + "%\n", at);
+        INFO(pct << "% in\n" << steps.err);
+        REQUIRE(next != std::string::npos);
+        at = next + 1;
+    }
+    CHECK(steps.err.find("relief: --correct: 110%") == std::string::npos);
+    CHECK(steps.err.find("relief: --correct: 0%") == std::string::npos);
 
     OIIO::ImageBuf f((dir / "h.exr").string()), q((dir / "h8.png").string()), tif((dir / "h8.tif").string());
     REQUIRE(tif.read());

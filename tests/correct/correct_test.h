@@ -3,6 +3,8 @@
 // What the distortion correction's tests share: the golden model's grid,
 // the host parameters of one iteration, a run, and how closely the device
 // follows the golden model.
+#include <catch2/catch.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -94,6 +96,18 @@ inline host::CorrectParams single_level(double scale, host::Periodic periodic, b
 // The boundaries those tests run every node kind on: periodic, fixed, mixed.
 inline const host::Periodic kBoundaries[] = {host::Periodic(true), host::Periodic(false),
                                              host::Periodic(false, true)};
+
+// Calls f(corner, periodic) for both node kinds and every boundary of
+// kBoundaries, each named in a failure's message.
+template <class F>
+void each_layout(F&& f)
+{
+    for (bool corner : {false, true})
+        for (const host::Periodic periodic : kBoundaries) {
+            INFO("corner " << corner << " periodic x " << periodic.x << " y " << periodic.y);
+            f(corner, periodic);
+        }
+}
 
 // The golden model's centre-node grid for `hts`, its offsets after one
 // iteration of the nodes from zero, and the energy then: where the

@@ -448,3 +448,45 @@ TEST_CASE("batch: a job's seconds in --log and -v are its own steps', written on
     REQUIRE(t1.steps.count(0));
     CHECK(logged >= t1.steps.at(0) - 0.004);
 }
+
+TEST_CASE("batch: a manifest line that is not a job fails alone, saying what a job is", "[batch][cli]")
+{
+    const fs::path d = scratch("not_jobs");
+    const fs::path m = d / "jobs.txt";
+    std::ofstream(m) << "--version\n--help\n--list-devices\n-v\n--log '" << (d / "l.jsonl").string() << "' "
+                     << kDem << " --slopes -o '" << (d / "s.exr").string() << "'\n--batch '" << m.string()
+                     << "'\n";
+    const auto r = run_cli("--batch '" + m.string() + "'");
+    INFO(r.err);
+    CHECK(r.rc == 1);
+    for (int job = 0; job < 6; ++job)
+        CHECK(r.err.find("job " + std::to_string(job) + " (" + m.string() + ":" + std::to_string(job + 1) +
+                         "): error: a job is images, operations and outputs") != std::string::npos);
+    CHECK(r.err.find("0 ok, 0 skipped, 6 failed of 6 job(s)") != std::string::npos);
+    CHECK_FALSE(fs::exists(d / "s.exr"));
+    CHECK_FALSE(fs::exists(d / "l.jsonl"));
+}
+
+TEST_CASE("batch: a job's record lists its mask among the inputs and its report among the outputs",
+          "[batch][cli]")
+{
+    const fs::path d = scratch("record_files");
+    const OIIO::ImageSpec spec = OIIO::ImageInput::open(kDem)->spec();
+    const fs::path mask = d / "mask.exr";
+    REQUIRE(relief::write_image(
+        relief::test::image(spec.width, spec.height, 1,
+                            std::vector<float>(std::size_t(spec.width) * spec.height, 1.0f)),
+        mask.string()));
+    const fs::path h = d / "h.exr", report = d / "r.json", log = d / "l.jsonl";
+    const auto r = run_cli(kDem + " --height:mask='" + mask.string() + "' -o '" + h.string() +
+                           "' --report '" + report.string() + "' --log '" + log.string() + "'");
+    INFO(r.err);
+    REQUIRE(r.rc == 0);
+    const std::vector<std::string> lines = lines_of(log);
+    REQUIRE(lines.size() == 1);
+    const nlohmann::json j = nlohmann::json::parse(lines[0]);
+    CHECK(j["args"] == nlohmann::json::array({kDem, "--height:mask=" + mask.string(), "-o", h.string(),
+                                              "--report", report.string(), "--log", log.string()}));
+    CHECK(j["inputs"] == nlohmann::json::array({kDem, mask.string()}));
+    CHECK(j["outputs"] == nlohmann::json::array({h.string(), report.string()}));
+}

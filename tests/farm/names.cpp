@@ -135,8 +135,20 @@ TEST_CASE("names: <UVTILE>, <u> <v> <U> <V> and frame steps expand as OpenImageI
     CHECK(frames("1-10y3") == V{"o.2.exr", "o.3.exr", "o.5.exr", "o.6.exr", "o.8.exr", "o.9.exr"});
     CHECK(frames("-4--1x2,7") == V{"o.-4.exr", "o.-2.exr", "o.7.exr"});
     CHECK(frames("5x2") == V{"o.5.exr"});
-    for (const char* bad : {"1-10x0", "1-10x", "1-10z2", "1-10x-2", "1-10xx2", "x2", "1-3y1"})
+    CHECK(frames("1-3x1") == V{"o.1.exr", "o.2.exr", "o.3.exr"});  // a step of one is every frame
+    // frame numbers up to 10^9 either way, and no further
+    CHECK(frames("1000000000") == V{"o.1000000000.exr"});
+    CHECK(frames("-1000000000") == V{"o.-1000000000.exr"});
+    for (const char* bad : {"1-10x0", "1-10x", "1-10z2", "1-10x-2", "1-10xx2", "x2", "1-3y1", "1,",
+                            "1000000001", "-1000000001"})
         CHECK_THROWS_AS(expand_names({"f.#.png", "--frames", bad}), UsageError);
+    // %0Nd up to 32 digits; # in a folder's name is kept, in the file's replaced
+    CHECK(expand_names({"a%032d.png", "--frames", "7"}) ==
+          std::vector<V>{{"a" + std::string(31, '0') + "7.png"}});
+    CHECK(expand_names({"o.%012d.exr", "--frames", "5"}) == std::vector<V>{{"o.000000000005.exr"}});
+    CHECK_THROWS_WITH(expand_names({"a%033d.png", "--frames", "7"}),
+                      Catch::Contains("a frame token of 33 digits (32 at most)"));
+    CHECK(expand_names({"in#/#.png", "--frames", "5"}) == std::vector<V>{{"in#/0005.png"}});
 }
 
 TEST_CASE("names: an output that every tile or frame would write is refused before any job", "[names][parse]")
@@ -177,7 +189,7 @@ TEST_CASE("names: the tiles of <UDIM> are the files that exist, the token in a f
     const fs::path d = scratch("tiles");
     // near misses: five digits, out of range, not digits, another prefix
     for (const char* f : {"n.1001.png", "n.1999.png", "n.10010.png", "n.0999.png", "n.2000.png", "n.1a01.png",
-                          "m.1002.png", "n.1003.png.bak"})
+                          "m.1002.png", "n.1003.png.bak", "n.1010.png"})
         std::ofstream(d / f) << "x";
     fs::create_directory(d / "n.1004.png");                // a folder is a name that exists, as before
     fs::create_symlink(d / "gone.png", d / "n.1005.png");  // a dangling link is not
@@ -187,7 +199,9 @@ TEST_CASE("names: the tiles of <UDIM> are the files that exist, the token in a f
             firsts.push_back(job.back());
         return firsts;
     };
-    CHECK(tiles_of((d / "n.<UDIM>.png").string()) == V{"o.1001.exr", "o.1004.exr", "o.1999.exr"});
+    // (1010: u = 10, the last column of the grid)
+    CHECK(tiles_of((d / "n.<UDIM>.png").string()) ==
+          V{"o.1001.exr", "o.1004.exr", "o.1010.exr", "o.1999.exr"});
     // the token twice: both the same tile
     std::ofstream(d / "a1002_b1002.png") << "x";
     std::ofstream(d / "a1002_b1003.png") << "x";
@@ -205,12 +219,12 @@ TEST_CASE("names: the tiles of <UDIM> are the files that exist, the token in a f
     // a name without a folder is in the working folder
     const fs::path was = fs::current_path();
     fs::current_path(d);
-    CHECK(tiles_of("n.<UDIM>.png") == V{"o.1001.exr", "o.1004.exr", "o.1999.exr"});
+    CHECK(tiles_of("n.<UDIM>.png") == V{"o.1001.exr", "o.1004.exr", "o.1010.exr", "o.1999.exr"});
     fs::current_path(was);
     // many frames and tiles: each folder is listed once, so this is quick
     V line = {"--frames", "1-20000", (d / "n.<UDIM>.png").string(), "-o", "o.<UDIM>.#.exr"};
     const auto jobs = expand_names(line);
-    REQUIRE(jobs.size() == 60000);
+    REQUIRE(jobs.size() == 80000);
     CHECK(jobs.back() == V{(d / "n.1999.png").string(), "-o", "o.1999.20000.exr"});
     // a line held once per frame may not grow past 64 MiB
     line.push_back(std::string(3000, 'x'));
@@ -317,6 +331,23 @@ TEST_CASE("names: a <UDIM> set whose --height joins its tiles is one job, its di
     REQUIRE(jobs[0].tiles == std::vector<int>{1001, 1002, 1011, 1012});
     CHECK(jobs[0].tile_args[3].back() == (d / "b.1012.exr").string());
     CHECK(jobs[1].index == 1);
+    // two tiles are a set too; one tile is a plain job, named
+    for (const auto& [folder, tiles] :
+         {std::pair{"two", std::vector<int>{1001, 1002}}, std::pair{"one", std::vector<int>{1001}}}) {
+        fs::create_directories(d / folder);
+        for (const int t : tiles)
+            fs::copy_file(d / ("n." + std::to_string(t) + ".png"),
+                          d / folder / ("n." + std::to_string(t) + ".png"),
+                          fs::copy_options::overwrite_existing);
+        std::ofstream(d / folder / "jobs.txt")
+            << q << folder << "/n.<UDIM>.png' --height:udim=joint -o " << q << folder << "/b.<UDIM>.exr'\n";
+        const std::vector<Job> set = relief::cli::read_jobs((d / folder / "jobs.txt").string());
+        INFO(folder);
+        REQUIRE(set.size() == 1);
+        CHECK(set[0].tiles == (tiles.size() > 1 ? tiles : std::vector<int>{}));
+        if (tiles.size() == 1)
+            CHECK(set[0].args.front() == (d / folder / "n.1001.png").string());
+    }
     auto shard = run("--batch jobs.txt --shard 0/2");
     INFO(shard.err);
     CHECK(shard.rc == 0);

@@ -294,6 +294,44 @@ TEST_CASE("tiling evidence: slope correlations lie between 0 and 1 and do not de
     }
 }
 
+TEST_CASE("tiling evidence: which lines the seam and the neighbours compare, exactly", "[poisson][tiling]")
+{
+    // Columns of two kinds, 40 texels a column: A = (cos, sin) of one
+    // period down the column, B = A's components swapped, which correlates
+    // with A not at all. |r| is 1 between two A's or two B's, 0 between an
+    // A and a B; rows of equal columns are constant (no correlation: 0).
+    const int h = 40;
+    const auto columns = [&](const std::string& kinds) {
+        const int w = int(kinds.size());
+        std::vector<float> g(2 * std::size_t(w) * h);
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) {
+                const float c = float(std::cos(2 * M_PI * y / h)), s = float(std::sin(2 * M_PI * y / h));
+                const bool a = kinds[std::size_t(x)] == 'A';
+                g[2 * (std::size_t(y) * w + x)] = a ? c : s;
+                g[2 * (std::size_t(y) * w + x) + 1] = a ? s : c;
+            }
+        return host::tiling_evidence(g.data(), w, h);
+    };
+    // The seam joins the last column to the first, not their neighbours.
+    const auto seam = columns("ABAAAAAABA");
+    CHECK(seam.x.seam == Approx(1.0).epsilon(1e-6));
+    // Neighbours: 64 pairs spread over the lines, from the first to the
+    // last pair, here 0-1 ... 62-63 and 64-65 (all alike) but never 63-64.
+    const auto spread = columns(std::string(64, 'A') + "BB");
+    CHECK(spread.x.adjacent == Approx(1.0).epsilon(1e-6));
+    CHECK(spread.x.seam == Approx(0.0).margin(1e-6));
+    // Constant lines correlate with nothing: 0, not NaN.
+    const auto same = columns(std::string(12, 'A'));
+    CHECK(same.y.seam == 0.0);
+    CHECK(same.y.adjacent == 0.0);
+    CHECK(same.x.seam == Approx(1.0).epsilon(1e-6));
+    // Three lines are enough to judge; two are not (and count as tiling).
+    CHECK(columns("ABA").x.seam == Approx(1.0).epsilon(1e-6));
+    CHECK(columns("AB").x.seam == 0.0);
+    CHECK(columns("AB").x.tiles);
+}
+
 TEST_CASE("tiling evidence per axis: block heights see a rough seam through, and a crop or one-axis tiling "
           "for what it is",
           "[poisson][tiling]")

@@ -270,6 +270,33 @@ TEST_CASE("udim through the C ABI: relief_run_tiles equals height_udim, refusals
     refused("height", "udim=sometimes", 4, "udim");
     refused("height", "", 0, "at least one tile");
     CHECK(relief_run_tiles("auto", "height", "", numbers.data(), in.data(), 4, nullptr) == RELIEF_INVALID);
+    // No numbers, or no images, for the tiles: refused, saying so.
+    for (const bool numbers_missing : {true, false}) {
+        std::vector<relief_image> o(in.size());
+        CHECK(relief_run_tiles("auto", "height", "", numbers_missing ? nullptr : numbers.data(),
+                               numbers_missing ? in.data() : nullptr, 4, o.data()) == RELIEF_INVALID);
+        CHECK(std::string(relief_last_error()).find("at least one tile") != std::string::npos);
+    }
+    // One tile is a set of one: its own height, as height() gives it.
+    {
+        std::vector<relief_image> one(1);
+        REQUIRE(relief_run_tiles("auto", "height", "boundary=free", numbers.data(), in.data(), 1,
+                                 one.data()) == RELIEF_OK);
+        REQUIRE((one[0].width == kW && one[0].height == kH && one[0].channels == 1));
+        const float* h = static_cast<const float*>(one[0].pixels);
+        CHECK(std::vector<float>(h, h + kW * kH) ==
+              pixels(height(s.images.begin()->second, with_boundary(Boundary::Free))));
+        relief_image_free(&one[0]);
+    }
+    // The device asked for is the one used: one that is not there fails.
+    {
+        std::vector<relief_image> o(in.size());
+        CHECK(relief_run_tiles("9:9", "height", "udim=joint", numbers.data(), in.data(), 4, o.data()) ==
+              RELIEF_FAILED);
+        CHECK(std::string(relief_last_error()).find("9:9") != std::string::npos);
+        for (const relief_image& r : o)
+            CHECK(r.pixels == nullptr);
+    }
     // A tile of another size fails the joint solve: RELIEF_FAILED, nothing left.
     in[1].width = kW / 2;
     std::vector<relief_image> o(in.size());

@@ -187,6 +187,13 @@ class Refusals(unittest.TestCase):
         self.refused(relief.height, np.zeros((8, 8, 3), np.int32), contains="uint8, uint16, float16 or float32")
         self.refused(relief.height, np.zeros((8,), np.uint8), contains="H x W or H x W x C")
         self.refused(relief.bake, self.n, contains="bake takes 2 image(s)")
+        # write takes any image of 1 to 4096 channels
+        path = os.path.join(tempfile.mkdtemp(), "w.exr")
+        self.refused(relief.write, path, np.zeros((1, 1, 4097), np.float32),
+                     contains="write: input 'image' has 4097 channel(s); write takes 1 to 4096")
+        self.assertFalse(os.path.exists(path))
+        relief.write(path, np.zeros((1, 1, 4096), np.float32))
+        self.assertEqual(relief.read(path).shape, (1, 1, 4096))
 
     def test_sizes_are_refused_before_any_copy(self):
         # 3 floats that claim 30 GB: refused from the shape, never copied

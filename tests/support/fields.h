@@ -132,6 +132,57 @@ inline std::vector<float> waves(int w, int h, double amp = 1.0, unsigned seed = 
     return v;
 }
 
+// A brick wall as texture artists make them (the held-back map that
+// bench_boundary's synthetic brick case stands for): flat brick faces, each
+// tilted a little at random, between mortar joints `mortar` texels wide and
+// `depth` lower, with sharp one-texel steps; rows `brick_h` high, every
+// other row shifted by half a brick. It tiles along x (w a multiple of
+// brick_w) and not along y: the rows y0 .. y0 + h - 1 of a wall twice as
+// tall, whose rows repeat nowhere (each brick's tilt is its own).
+// Heights, and slopes by central differences over the taller wall (x
+// wrapping), as a baker makes a normal map from a height.
+struct BrickWall {
+    std::vector<float> h;
+    std::vector<double> g;  // gx, gy per texel
+};
+
+inline BrickWall brick_wall(int w, int h, int brick_w, int brick_h, int y0, unsigned seed, int mortar = 2,
+                            double depth = 4.0, double tilt = 0.08)
+{
+    const int tall = 2 * h + y0 + 2;
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> t(-tilt, tilt);
+    const int per_row = w / brick_w;
+    std::vector<double> tx(std::size_t(per_row) * (tall / brick_h + 1)), ty(tx.size()), base(tx.size());
+    for (std::size_t i = 0; i < tx.size(); ++i)
+        tx[i] = t(rng), ty[i] = t(rng), base[i] = 4 * t(rng);
+    std::vector<double> z(std::size_t(w) * tall);
+    for (int y = 0; y < tall; ++y) {
+        const int row = y / brick_h, yin = y % brick_h;
+        const int shift = row % 2 ? brick_w / 2 : 0;
+        for (int x = 0; x < w; ++x) {
+            const int xs = (x + shift) % w, col = xs / brick_w, xin = xs % brick_w;
+            const bool joint = yin < mortar || xin < mortar;
+            const std::size_t b = std::size_t(row) * per_row + col;
+            z[std::size_t(y) * w + x] =
+                joint ? -depth : base[b] + tx[b] * (xin - brick_w / 2.0) + ty[b] * (yin - brick_h / 2.0);
+        }
+    }
+    BrickWall out;
+    out.h.resize(std::size_t(w) * h);
+    out.g.resize(2 * out.h.size());
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const int yy = y + y0 + 1;
+            auto at = [&](int xx, int yr) { return z[std::size_t(yr) * w + std::size_t((xx + w) % w)]; };
+            const std::size_t i = std::size_t(y) * w + x;
+            out.h[i] = float(at(x, yy));
+            out.g[2 * i] = (at(x + 1, yy) - at(x - 1, yy)) / 2;
+            out.g[2 * i + 1] = (at(x, yy + 1) - at(x, yy - 1)) / 2;
+        }
+    return out;
+}
+
 // g plus Gaussian noise of standard deviation sigma (seeded): slopes that no
 // height field has, so a comparison exercises every texel's own value.
 inline std::vector<double> plus_noise(std::vector<double> g, double sigma, unsigned seed)

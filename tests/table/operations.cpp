@@ -18,6 +18,7 @@
 #include "command_line.h"
 #include "relief/relief.h"
 #include "relief/relief_c.h"
+#include "support/fields.h"
 #include "support/images.h"
 
 using namespace relief;
@@ -528,6 +529,43 @@ int heard_progress(double fraction, void* user)
 }
 
 }  // namespace
+
+TEST_CASE("C ABI: a call without its images is refused, saying how many the operation takes",
+          "[operations][abi]")
+{
+    std::vector<float> normals = wavy_normals(8, 8);
+    const relief_image in = {8, 8, 3, RELIEF_FLOAT, normals.data(), nullptr};
+    for (const bool null_array : {false, true}) {
+        INFO((null_array ? "inputs NULL, n_inputs 1" : "n_inputs 0"));
+        relief_image out = {1, 1, 1, RELIEF_FLOAT, nullptr, nullptr};
+        CHECK(relief_run("height", "", null_array ? nullptr : &in, null_array ? 1 : 0, &out) ==
+              RELIEF_INVALID);
+        CHECK(std::string(relief_last_error()).find("height takes 1 image(s), got 0") != std::string::npos);
+        CHECK((out.width == 0 && out.pixels == nullptr));
+    }
+}
+
+TEST_CASE("C ABI: metadata is lines of name=value, the last one read without its newline",
+          "[operations][abi]")
+{
+    // A height in texels (relief:height_unit=texel) needs no scale for the
+    // correction; without the unit it does.
+    const int n = 16;
+    std::vector<float> hts = test::waves(n, n, 2.0, 5);
+    relief_image h = {n, n, 1, RELIEF_FLOAT, hts.data(), nullptr};
+    relief_image out{};
+    CHECK(relief_run("correct", "levels=1:iterations=1", &h, 1, &out) == RELIEF_FAILED);
+    CHECK(std::string(relief_last_error()).find("scale") != std::string::npos);
+    for (const char* metadata : {"relief:height_unit=texel", "=x\nrelief:height_unit=texel",
+                                 "relief:x\nrelief:height_unit=texel\n"}) {
+        INFO(metadata);
+        std::string text = metadata;
+        h.metadata = text.data();
+        REQUIRE(relief_run("correct", "levels=1:iterations=1", &h, 1, &out) == RELIEF_OK);
+        CHECK((out.width == n && out.height == n));
+        relief_image_free(&out);
+    }
+}
 
 TEST_CASE("C ABI: relief_run_with tells the API's messages at their severity, its progress, and stops at a "
           "cancel",
