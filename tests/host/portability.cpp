@@ -184,8 +184,11 @@ void check_stage(const std::string& name, const std::string& args, const Simulat
     CHECK(diff <= bound);
 }
 
-// The stages whose names start with one of these: the height's.
+// The stages whose names start with one of these: the height's, the
+// correction's line searches, its other moves and the bake.
 const std::vector<std::string> kHeightStages = {"slopes", "poisson", "rays"};
+const std::vector<std::string> kSearchStages = {"correct brent", "correct golden", "correct ternary"};
+const std::vector<std::string> kMoveStages = {"correct hats", "correct global", "bake"};
 
 // Every stage of the races and the uninitialised-value runs; `sims` picks.
 // With `prefixes`, only the stages whose names start with one of them, or
@@ -273,15 +276,31 @@ TEST_CASE("portability: every stage on Oclgrind with 64-item groups and 16 KiB o
     every_stage({kSmallDevice});
 }
 
-// In two halves, which ctest runs side by side: unoptimised on the
+// In four parts, which ctest runs side by side: unoptimised on the
 // simulator, the stages together took five minutes, the longest entry of
-// the label by far.
+// the label by far (the correction's six, 3.8 of those minutes).
 TEST_CASE("portability: the height stages on Oclgrind, uninitialised values, unoptimised", "[portability]")
 {
     every_stage({kUninitialized}, kHeightStages);
 }
 
+TEST_CASE("portability: the correction's line searches on Oclgrind, uninitialised values, unoptimised",
+          "[portability]")
+{
+    every_stage({kUninitialized}, kSearchStages);
+}
+
+TEST_CASE("portability: the correction's hats and global steps and the bake on Oclgrind, uninitialised "
+          "values, unoptimised",
+          "[portability]")
+{
+    every_stage({kUninitialized}, kMoveStages);
+}
+
 TEST_CASE("portability: the other stages on Oclgrind, uninitialised values, unoptimised", "[portability]")
 {
-    every_stage({kUninitialized}, kHeightStages, true);
+    std::vector<std::string> listed = kHeightStages;
+    listed.insert(listed.end(), kSearchStages.begin(), kSearchStages.end());
+    listed.insert(listed.end(), kMoveStages.begin(), kMoveStages.end());
+    every_stage({kUninitialized}, listed, true);
 }
