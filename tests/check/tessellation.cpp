@@ -159,3 +159,61 @@ TEST_CASE("tessellation: per-patch and per-level launches give the same levels a
         CHECK(*std::max_element(a.begin(), a.end()) > 2);
     }
 }
+
+TEST_CASE("tessellation: the levels' shares and the patches no level brings within E, as said", "[check]")
+{
+    // A row of 4 patches of 128 texels: flat (level 1), a gentle bump (a
+    // middle level), and two near the Nyquist rate, which even level 64 (a
+    // vertex every 2 texels) leaves far from the height. A patch's edge
+    // vertices sample its neighbours' texels: the bump is 2 at both ends,
+    // and the fast waves start 8 texels into their patches.
+    const int w = 512, ht = 128, patch = 128;
+    const float pi = 3.14159265f;
+    std::vector<float> h(std::size_t(w) * ht, 2.0f);
+    for (int y = 0; y < ht; ++y)
+        for (int x = patch; x < w; ++x) {
+            float& v = h[std::size_t(y) * w + x];
+            if (x < 2 * patch)
+                v = 2.0f + 4.0f * std::sin(pi * float(x - patch) / float(patch)) * std::cos(float(y) * 0.03f);
+            else if (x >= 2 * patch + 8)
+                v = 2.0f + 3.0f * std::sin(float(x) * 2.5f) * std::cos(float(y) * 2.1f);
+        }
+    const float e = 0.5f;
+    const auto err = reference::tessellation_errors(as_double(h), w, ht, patch, 1.0);
+    std::vector<int> levels;
+    for (std::size_t p = 0; p < 4; ++p) {
+        int level = 0;
+        for (int L = 64; L >= 1; --L) {
+            REQUIRE(std::abs(err[p * 64 + L - 1] - e) >= 1e-4);  // (no level on the edge of E)
+            if (err[p * 64 + L - 1] <= e)
+                level = L;
+        }
+        levels.push_back(level);
+    }
+    REQUIRE(levels[0] == 1);
+    REQUIRE(levels[1] > 1);
+    REQUIRE(levels[1] < 64);
+    REQUIRE(levels[2] == 0);
+    REQUIRE(levels[3] == 0);
+
+    std::vector<std::pair<Severity, std::string>> said;
+    TessellationOptions o;
+    o.patch = patch;
+    o.error = e;
+    o.exec.on_message = [&said](Severity s, const std::string& m) { said.emplace_back(s, m); };
+    const auto lv = test::pixels(relief::tessellation(test::image(w, ht, 1, h), o));
+    CHECK(lv == std::vector<float>{1.0f, float(levels[1]), 64.0f, 64.0f});
+    const std::vector<std::pair<Severity, std::string>> want = {
+        {Severity::Warning,
+         "tessellation: 2 of 4 patch(es) exceed error=0.5 even at level 64; they get 64 (use a smaller patch)"},
+        {Severity::Info, "tessellation: 4x1 patches of 128 texels: level 1 25.0%, level " +
+                             std::to_string(levels[1]) + " 25.0%, none within E (set to 64) 50.0%"},
+    };
+    CHECK(said == want);
+    // Every patch within E at some level: no warning.
+    said.clear();
+    o.error = 10.0f;
+    CHECK(test::pixels(relief::tessellation(test::image(w, ht, 1, h), o)) == std::vector<float>(4, 1.0f));
+    CHECK(said == std::vector<std::pair<Severity, std::string>>{
+                      {Severity::Info, "tessellation: 4x1 patches of 128 texels: level 1 100.0%"}});
+}

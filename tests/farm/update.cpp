@@ -135,3 +135,33 @@ TEST_CASE("update: a job is skipped exactly when its outputs record the digest i
     write_crop(kDem, d / "moved1.png", 24);  // the mask's bytes do count
     CHECK(statuses((run(), log)) == S{"ok"});
 }
+
+TEST_CASE("update: a single run up to date says so under -v only, and writes nothing", "[update][cli]")
+{
+    const fs::path d = scratch("update_single");
+    write_crop(kNormal, d / "n.png", 0);
+    const std::string args = "n.png --height -o h.exr --update";
+    const std::string in_d = "cd '" + d.string() + "' &&";
+    auto r = relief::test::run_cli(args + " -v", in_d);
+    INFO(r.err);
+    REQUIRE(r.rc == 0);
+    CHECK(r.err.find("up to date") == std::string::npos);
+    const auto written = fs::last_write_time(d / "h.exr");
+    r = relief::test::run_cli(args + " -v --log log.jsonl", in_d);
+    INFO(r.err);
+    CHECK(r.rc == 0);
+    CHECK(r.err.find("relief: up to date (every output records this run's relief:digest)\n") !=
+          std::string::npos);
+    CHECK(r.err.find("--height:") == std::string::npos);  // no step ran
+    CHECK(statuses(d / "log.jsonl") == std::vector<std::string>{"skipped"});
+    r = relief::test::run_cli(args, in_d);
+    CHECK(r.rc == 0);
+    CHECK(r.err.empty());
+    CHECK(fs::last_write_time(d / "h.exr") == written);
+    // Another compression is another output: it runs, then is up to date.
+    const std::string zip = "n.png --height --compression zip -o h.exr --update -v";
+    r = relief::test::run_cli(zip, in_d);
+    CHECK(r.rc == 0);
+    CHECK(r.err.find("up to date") == std::string::npos);
+    CHECK(relief::test::run_cli(zip, in_d).err.find("relief: up to date") != std::string::npos);
+}
