@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <random>
 #include <csignal>
 #include <filesystem>
@@ -18,7 +19,10 @@
 #include <vector>
 
 #include <fcntl.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/sysmacros.h>
+#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -320,6 +324,72 @@ TEST_CASE("output files: a name the file system cannot take is refused before th
           std::string::npos);
     CHECK(r.err.find("slopes:") == std::string::npos);  // no step ran
     CHECK(temporaries(d).empty());
+}
+
+TEST_CASE("output files: a device node, FIFO or socket as any output is refused before the work, left as it was",
+          "[io][files][cli]")
+{
+    const fs::path d = relief::test::scratch("output_files/nodes");
+    // Private nodes in the scratch folder, never the machine's own /dev.
+    struct Node {
+        fs::path path;
+        const char* said;
+        fs::file_type type;
+    };
+    std::vector<Node> nodes;
+    const fs::path fifo = d / "fifo.exr";
+    REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+    nodes.push_back({fifo, "it is a FIFO", fs::file_type::fifo});
+    const fs::path sock = d / "sock.exr";
+    const int s = ::socket(AF_UNIX, SOCK_STREAM, 0);
+    REQUIRE(s >= 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    REQUIRE(sock.string().size() < sizeof addr.sun_path);
+    std::strcpy(addr.sun_path, sock.c_str());
+    REQUIRE(::bind(s, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0);
+    nodes.push_back({sock, "it is a socket", fs::file_type::socket});
+    // A character device (the numbers of /dev/null), where mknod is allowed
+    // (root; CI runs as root).
+    const fs::path dev = d / "null.exr";
+    if (::mknod(dev.c_str(), S_IFCHR | 0666, makedev(1, 3)) == 0)
+        nodes.push_back({dev, "it is a character device", fs::file_type::character});
+    else
+        WARN("mknod is not allowed here: the device node is left out");
+    // A link to the FIFO: stat follows it.
+    const fs::path link = d / "link.exr";
+    fs::create_symlink(fifo, link);
+    nodes.push_back({link, "it is a FIFO", fs::file_type::fifo});
+
+    const std::string in = "'" + kSampleNormal + "'";
+    for (const Node& n : nodes) {
+        const std::string at = "'" + n.path.string() + "'";
+        for (const std::string& args :
+             {in + " --slopes -o " + at, in + " --height --report " + at + " -o '" + (d / "h.exr").string() + "'",
+              in + " --slopes --log " + at + " -o '" + (d / "s.exr").string() + "'",
+              in + " --height --mesh:out=" + at}) {
+            INFO(args);
+            const auto r = run_cli("-v " + args);
+            INFO(r.err);
+            CHECK(r.rc == 2);
+            CHECK(r.err.find(n.said) != std::string::npos);
+            CHECK(r.err.find("relief writes only regular files or new names") != std::string::npos);
+            CHECK(r.err.find("slopes:") == std::string::npos);  // no step ran
+            CHECK(fs::status(n.path).type() == n.type);
+        }
+    }
+    CHECK(fs::is_symlink(link));
+    CHECK(temporaries(d).empty());
+    CHECK(!fs::exists(d / "h.exr"));
+    CHECK(!fs::exists(d / "s.exr"));
+    // The library refuses it too.
+    const OIIO::ImageBuf img = relief::test::image(4, 4, 1, std::vector<float>(16, 0.5f));
+    CHECK(!relief::write_image(img, fifo.string()));
+    CHECK(relief::geterror().find("it is a FIFO") != std::string::npos);
+    CHECK(!relief::write_text_file(fifo.string(), "{}"));
+    CHECK(relief::geterror().find("it is a FIFO") != std::string::npos);
+    CHECK(fs::is_fifo(fifo));
+    ::close(s);
 }
 
 TEST_CASE(

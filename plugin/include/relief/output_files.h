@@ -41,7 +41,9 @@ RELIEF_API int remove_stale_temporary_files(const std::string& folder);
 // Why `path` cannot be an output name, checked before any work: "" when it
 // can. A file name longer than the folder's file system allows, or a path
 // with a byte no file system takes (NUL), is refused here rather than
-// after minutes of work.
+// after minutes of work; so is an existing file that is not a regular file
+// or a folder (a device node, FIFO or socket, or a link to one), which the
+// output would replace or block on.
 RELIEF_API std::string output_name_problem(const std::string& path);
 
 }  // namespace relief

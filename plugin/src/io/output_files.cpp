@@ -208,6 +208,22 @@ std::string output_name_problem(const std::string& path)
     if (path.size() >= PATH_MAX)
         return "'" + path.substr(0, 60) + "...': the path is " + std::to_string(path.size()) +
                " bytes, longer than the system allows (" + std::to_string(PATH_MAX - 1) + ")";
+    // An output replaces its file (a temporary file renamed over it): over a
+    // device node, a FIFO or a socket that would take the node away (run as
+    // root, --report /dev/null would remove /dev/null from the machine), and
+    // appending to one (--log) can block forever. Folders are their callers'
+    // to refuse, with their own words. stat() follows links: a link to a
+    // device is refused too.
+    struct stat st {};
+    if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode)) {
+        const char* kind = S_ISCHR(st.st_mode)    ? "a character device"
+                           : S_ISBLK(st.st_mode)  ? "a block device"
+                           : S_ISFIFO(st.st_mode) ? "a FIFO"
+                           : S_ISSOCK(st.st_mode) ? "a socket"
+                                                  : "not a regular file";
+        return "'" + path + "': it is " + std::string(kind) +
+               "; relief writes only regular files or new names (it would replace the node)";
+    }
     return "";
 }
 
