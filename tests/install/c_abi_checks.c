@@ -240,7 +240,20 @@ int main(int argc, char** argv)
           "no device 9:9");
     CHECK(strstr(relief_last_error(), "9:9") != NULL, "the message names the device");
     CHECK(on.pixels == NULL, "a failed run leaves no image");
-    CHECK(relief_run_on(NULL, "height", "", &normals, 1, &on) == RELIEF_INVALID, "a NULL device is refused");
+    /* NULL or "" is "auto", as relief_run: the same bits */
+    relief_image automatic, null_device, empty_device;
+    CHECK(relief_run("height", "normal=opengl", &normals, 1, &automatic) == RELIEF_OK, "auto runs");
+    CHECK(relief_run_on(NULL, "height", "normal=opengl", &normals, 1, &null_device) == RELIEF_OK,
+          "a NULL device is auto");
+    CHECK(relief_run_with("", "height", "normal=opengl", &normals, 1, &empty_device, NULL) == RELIEF_OK,
+          "an empty device is auto");
+    CHECK(null_device.pixels && empty_device.pixels && automatic.pixels &&
+              memcmp(null_device.pixels, automatic.pixels, sizeof(float) * W * H) == 0 &&
+              memcmp(empty_device.pixels, automatic.pixels, sizeof(float) * W * H) == 0,
+          "the same height as auto's");
+    relief_image_free(&automatic);
+    relief_image_free(&null_device);
+    relief_image_free(&empty_device);
     CHECK(relief_run_on("cpu", "height", "normal=opengl", &normals, 1, &on) == RELIEF_OK, "the CPU runs");
     relief_image_free(&on);
 #endif

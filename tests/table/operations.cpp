@@ -545,6 +545,31 @@ TEST_CASE("C ABI: a call without its images is refused, saying how many the oper
     }
 }
 
+TEST_CASE("C ABI: a NULL or empty device is auto, as relief_run", "[operations][abi]")
+{
+    std::vector<float> normals = wavy_normals(16, 16);
+    const relief_image in = {16, 16, 3, RELIEF_FLOAT, normals.data(), nullptr};
+    relief_image automatic{}, null_device{}, empty_device{}, with_null{};
+    REQUIRE(relief_run("height", "normal=opengl", &in, 1, &automatic) == RELIEF_OK);
+    CHECK(relief_run_on(nullptr, "height", "normal=opengl", &in, 1, &null_device) == RELIEF_OK);
+    CHECK(relief_run_on("", "height", "normal=opengl", &in, 1, &empty_device) == RELIEF_OK);
+    CHECK(relief_run_with(nullptr, "height", "normal=opengl", &in, 1, &with_null, nullptr) == RELIEF_OK);
+    const auto pixels = [](const relief_image& i) {
+        return i.pixels ? std::vector<float>(static_cast<const float*>(i.pixels),
+                                             static_cast<const float*>(i.pixels) + 16 * 16)
+                        : std::vector<float>();
+    };
+    CHECK(pixels(null_device) == pixels(automatic));
+    CHECK(pixels(empty_device) == pixels(automatic));
+    CHECK(pixels(with_null) == pixels(automatic));
+    relief_image tiles_out[1] = {};
+    const int tile = 1001;
+    CHECK(relief_run_tiles(nullptr, "height", "normal=opengl", &tile, &in, 1, tiles_out) == RELIEF_OK);
+    CHECK(pixels(tiles_out[0]) == pixels(automatic));
+    for (relief_image* i : {&automatic, &null_device, &empty_device, &with_null, &tiles_out[0]})
+        relief_image_free(i);
+}
+
 TEST_CASE("C ABI: metadata is lines of name=value, the last one read without its newline",
           "[operations][abi]")
 {

@@ -112,9 +112,10 @@ RELIEF_API int relief_run(const char* operation, const char* modifiers, const re
                           int n_inputs, relief_image* output);
 
 /* relief_run on a chosen OpenCL device: "auto" (what relief_run uses: a GPU
- * if there is one, else the CPU), "gpu", "cpu", or "<platform>:<device>" as
- * `relief --list-devices` numbers them. A device that does not exist fails
- * the run (RELIEF_FAILED) with a message naming it. */
+ * if there is one, else the CPU; NULL or "" mean "auto" too), "gpu", "cpu",
+ * or "<platform>:<device>" as `relief --list-devices` numbers them. A device
+ * that does not exist fails the run (RELIEF_FAILED) with a message naming
+ * it. */
 RELIEF_API int relief_run_on(const char* device, const char* operation, const char* modifiers,
                              const relief_image* inputs, int n_inputs, relief_image* output);
 

@@ -128,10 +128,8 @@ struct ParsedCall {
     const relief::OperationInfo* info = nullptr;
 };
 
-ParsedCall parse_call(const char* device, const char* operation, const char* modifiers)
+ParsedCall parse_call(const char* operation, const char* modifiers)
 {
-    if (!device || !*device)
-        throw Refused("relief_run_on: device is NULL or empty (\"auto\" picks one)");
     if (!operation)
         throw Refused("relief_run: operation is NULL");
     ParsedCall p;
@@ -141,6 +139,12 @@ ParsedCall parse_call(const char* device, const char* operation, const char* mod
                                                      : relief::geterror());
     p.info = relief::find_operation(p.name);
     return p;
+}
+
+// The device a C caller named: NULL or "" is "auto", as relief_run uses.
+std::string device_or_auto(const char* device)
+{
+    return device && *device ? device : "auto";
 }
 
 // A run its caller's progress callback stopped.
@@ -179,7 +183,7 @@ public:
     relief::Execution execution(const char* device)
     {
         relief::Execution exec;
-        exec.device = device;
+        exec.device = device_or_auto(device);
         if (cb_.message)
             exec.on_message = [this](relief::Severity s, const std::string& text) { say(severity(s), text); };
         if (cb_.progress) {
@@ -299,7 +303,7 @@ int relief_run_with(const char* device, const char* operation, const char* modif
         [&] {
             if (!output)
                 throw Refused("relief_run: output is NULL");
-            const auto [call, op, info] = parse_call(device, operation, modifiers);
+            const auto [call, op, info] = parse_call(operation, modifiers);
             if (const std::string why =
                     relief::call_problem(op, std::size_t(inputs ? std::max(n_inputs, 0) : 0));
                 !why.empty())
@@ -327,7 +331,7 @@ int relief_run_tiles(const char* device, const char* operation, const char* modi
         [&] {
             if (!outputs)
                 throw Refused("relief_run_tiles: outputs is NULL");
-            const auto [call, op, info] = parse_call(device, operation, modifiers);
+            const auto [call, op, info] = parse_call(operation, modifiers);
             const std::size_t given = n_tiles > 0 ? std::size_t(n_tiles) : 0;
             if (const std::string why = relief::tiles_call_problem(op, tiles ? given : 0, inputs ? given : 0);
                 !why.empty())
@@ -340,7 +344,7 @@ int relief_run_tiles(const char* device, const char* operation, const char* modi
             zeroed = true;
             std::vector<ImageBuf> results;
             relief::Execution exec;
-            exec.device = device;
+            exec.device = device_or_auto(device);
             if (!relief::run_operation_on_tiles(results, call, numbers, in.pointers, exec))
                 throw std::runtime_error(relief::geterror());
             for (int i = 0; i < n_tiles; ++i)
