@@ -433,16 +433,44 @@ void run_command_line(const Program& prog, const std::vector<std::string>& args)
 {
     Job whole;
     whole.args = args;
-    check_files(prog, {whole}, "");
     JobLog log(prog.log);
     JobRecord rec;
     rec.args = args;
+    try {
+        check_files(prog, {whole}, "");
+    } catch (const UsageError& e) {
+        rec.message = e.what();
+        log.add(rec);
+        throw;
+    }
     run_job({prog}, {}, rec);
     log.add(rec);
     if (rec.status == "failed")
         throw RunError(rec.message);
     if (rec.status == "skipped" && prog.verbose)
         say("relief: up to date (every output records this run's relief:digest)\n");
+}
+
+void log_refused_command_line(const std::vector<std::string>& args, const std::string& why)
+{
+    std::string path;
+    for (std::size_t i = 0; i + 1 < args.size(); ++i)
+        if (args[i] == "--log")
+            path = args[i + 1];
+    if (std::find(args.begin(), args.end(), "--dry-run") != args.end())
+        return;  // (a dry run writes no log)
+    try {
+        // Only where --log itself would have been taken (text_output's rule).
+        if (path.empty() || !relief::output_name_problem(path).empty() || std::filesystem::is_directory(path))
+            return;
+        JobLog log(path);
+        JobRecord rec;
+        rec.args = args;
+        rec.message = why;
+        log.add(rec);
+    } catch (const std::exception& e) {
+        say("relief: warning: %s\n", e.what());
+    }
 }
 
 }  // namespace relief::cli

@@ -46,6 +46,7 @@ int run(int argc, char** argv)
         prog = relief::cli::parse_command_line(expanded.front().args, expanded.size() == 1);
     } catch (const relief::cli::UsageError& e) {
         say("relief: error: %s\n", e.what());
+        relief::cli::log_refused_command_line(args, e.what());
         return 2;
     }
     if (prog.help) {
@@ -87,8 +88,10 @@ int run(int argc, char** argv)
         if (prog.verbose)
             say("relief: done %.2f s after the process started (then its exit)\n",
                 relief::cli::process_age());
-    } catch (const relief::cli::UsageError& e) {  // the --batch file's own syntax
+    } catch (const relief::cli::UsageError& e) {  // the --batch file's own syntax, a clobbered file
         say("relief: error: %s\n", e.what());
+        if (!prog.batch.empty() || expanded.size() > 1)
+            relief::cli::log_refused_command_line(args, e.what());
         return 2;
     } catch (const std::exception& e) {
         say("relief: error: %s\n", e.what());

@@ -490,3 +490,42 @@ TEST_CASE("batch: a job's record lists its mask among the inputs and its report 
     CHECK(j["inputs"] == nlohmann::json::array({kDem, mask.string()}));
     CHECK(j["outputs"] == nlohmann::json::array({h.string(), report.string()}));
 }
+
+TEST_CASE("batch: a single run refused before it starts still leaves its failed --log record",
+          "[batch][cli][errors]")
+{
+    const fs::path d = scratch("refused_logged");
+    const fs::path log = d / "l.jsonl", h = d / "h.exr", n = d / "n.png";
+    fs::copy_file(kNormal, n, fs::copy_options::overwrite_existing);
+    fs::remove(log);
+    const std::string at = " -o '" + h.string() + "' --log '" + log.string() + "'";
+    struct Case {
+        std::string args, said;
+    };
+    const std::vector<Case> cases = {
+        {"'" + (d / "missing.png").string() + "' --height" + at, "cannot read '"},
+        {"'" + n.string() + "' --height:bogus=1" + at, "unknown modifier 'bogus'"},
+        {"'" + n.string() + "' --height:mask='" + (d / "nomask.png").string() + "'" + at, "no such file"},
+        {"'" + n.string() + "' --height -o '" + n.string() + "' --update --log '" + log.string() + "'",
+         "an -o output is also its input"},
+    };
+    for (const Case& c : cases) {
+        const auto r = run_cli(c.args);
+        INFO(c.args << "\n" << r.err);
+        CHECK(r.rc == 2);
+        CHECK(r.err.find(c.said) != std::string::npos);
+    }
+    const std::vector<std::string> lines = lines_of(log);
+    REQUIRE(lines.size() == cases.size());
+    for (std::size_t i = 0; i < lines.size(); ++i) {
+        INFO(lines[i]);
+        const nlohmann::json j = nlohmann::json::parse(lines[i]);
+        CHECK(j["status"] == "failed");
+        CHECK(j["message"].get<std::string>().find(cases[i].said) != std::string::npos);
+        CHECK(j["args"].size() >= 5);
+    }
+    // A dry run writes no log, refused or not.
+    CHECK(run_cli("'" + n.string() + "' --height:bogus=1 --dry-run" + at).rc == 2);
+    CHECK(lines_of(log).size() == cases.size());
+    CHECK(!fs::exists(h));
+}
