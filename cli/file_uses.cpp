@@ -57,6 +57,7 @@ std::string describe(const FileUse& u)
     case Role::Manifest: return "the --batch file";
     case Role::Log: return "the --log file";
     case Role::Input: what = "an input"; break;
+    case Role::Read: what = "a file an operation reads (mask=, fix=, env=)"; break;
     case Role::Image: what = "an -o output"; break;
     case Role::Written: what = "an operation's output file (out=)"; break;
     case Role::Report: what = "the --report file"; break;
@@ -86,6 +87,9 @@ std::string conflict(const FileUse& a, const FileUse& b)
         return r.job < w.job ? describe(r) + " is the output of a later job, " + describe(w) +
                                    ": the reader would read a stale file; put the writer first"
                              : "";
+    // A mask or map is no image being edited: writing over it is a slip.
+    if (r.role == Role::Read)
+        return describe(w) + " would replace " + describe(r) + " of the same command line";
     if (w.update)
         return describe(w) + " is also its input: under --update the job would never be up to date";
     return "";
@@ -104,7 +108,7 @@ void add_file_uses(const Program& prog, int job, int line, std::vector<FileUse>&
             add(s.path, Role::Input);
         if (s.kind == Step::Kind::Operation) {
             for (const std::string& f : relief::files_read(s))
-                add(f, Role::Input);
+                add(f, Role::Read);
             for (const std::string& f : relief::files_written(s))
                 add(f, Role::Written);
         }

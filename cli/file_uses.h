@@ -14,7 +14,9 @@
 namespace relief::cli {
 
 struct FileUse {
-    enum class Role { Manifest, Input, Image, Written, Report, Log };
+    // Input: an image the command line reads; Read: a file an operation reads
+    // (mask=, fix=, env=).
+    enum class Role { Manifest, Input, Read, Image, Written, Report, Log };
     std::string path;
     Role role;
     int job = -1;         // -1: the run's own (its manifest, its --log)
@@ -35,7 +37,8 @@ struct Dependency {
 // Throws UsageError, naming both uses, when
 //  - a --log, --report or mesh file would replace any file the run reads
 //    (an input, the manifest) or writes;
-//  - an image would replace the manifest, or any other output;
+//  - an image would replace the manifest, any other output, or a file an
+//    operation of its own job reads (mask=, fix=, env=);
 //  - an image would replace its own job's input under --update (the job
 //    would never be up to date).
 //  - a job reads the -o output of a later job (it would read a stale file).

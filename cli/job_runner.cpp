@@ -433,16 +433,15 @@ void run_command_line(const Program& prog, const std::vector<std::string>& args)
 {
     Job whole;
     whole.args = args;
-    JobLog log(prog.log);
-    JobRecord rec;
-    rec.args = args;
     try {
         check_files(prog, {whole}, "");
     } catch (const UsageError& e) {
-        rec.message = e.what();
-        log.add(rec);
+        log_refused_command_line(args, e.what());
         throw;
     }
+    JobLog log(prog.log);
+    JobRecord rec;
+    rec.args = args;
     run_job({prog}, {}, rec);
     log.add(rec);
     if (rec.status == "failed")
@@ -450,6 +449,45 @@ void run_command_line(const Program& prog, const std::vector<std::string>& args)
     if (rec.status == "skipped" && prog.verbose)
         say("relief: up to date (every output records this run's relief:digest)\n");
 }
+
+namespace {
+
+// Every word of `args` that may name a file, but --log's own: each
+// argument, and each modifier's value (--op:key=value:...).
+std::vector<std::string> named_files(const std::vector<std::string>& args)
+{
+    std::vector<std::string> out;
+    for (std::size_t i = 0; i < args.size(); ++i) {
+        const std::string& a = args[i];
+        if (i > 0 && args[i - 1] == "--log")
+            continue;
+        out.push_back(a);
+        if (a.rfind("--", 0) != 0)
+            continue;
+        for (std::size_t at = a.find(':'); at != std::string::npos; at = a.find(':', at + 1)) {
+            const std::size_t eq = a.find('=', at), end = a.find(':', at + 1);
+            if (eq != std::string::npos && eq < end)
+                out.push_back(a.substr(eq + 1, end == std::string::npos ? std::string::npos : end - eq - 1));
+        }
+    }
+    return out;
+}
+
+// One file, existing (by identity) or not yet (by normalised path).
+bool same_file(const std::string& a, const std::string& b)
+{
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    if (fs::equivalent(a, b, ec) && !ec)
+        return true;
+    const fs::path pa = fs::weakly_canonical(fs::absolute(a, ec), ec);
+    if (ec)
+        return false;
+    const fs::path pb = fs::weakly_canonical(fs::absolute(b, ec), ec);
+    return !ec && pa == pb;
+}
+
+}  // namespace
 
 void log_refused_command_line(const std::vector<std::string>& args, const std::string& why)
 {
@@ -460,9 +498,14 @@ void log_refused_command_line(const std::vector<std::string>& args, const std::s
     if (std::find(args.begin(), args.end(), "--dry-run") != args.end())
         return;  // (a dry run writes no log)
     try {
-        // Only where --log itself would have been taken (text_output's rule).
+        // Only where --log itself would have been taken (text_output's rule),
+        // and never into a file the line names otherwise (the refusal may be
+        // that very clash: --log onto the --batch file or an input).
         if (path.empty() || !relief::output_name_problem(path).empty() || std::filesystem::is_directory(path))
             return;
+        for (const std::string& named : named_files(args))
+            if (same_file(named, path))
+                return;
         JobLog log(path);
         JobRecord rec;
         rec.args = args;

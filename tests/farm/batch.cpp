@@ -524,6 +524,16 @@ TEST_CASE("batch: a single run refused before it starts still leaves its failed 
         CHECK(j["message"].get<std::string>().find(cases[i].said) != std::string::npos);
         CHECK(j["args"].size() >= 5);
     }
+    // Never into a file the line names otherwise: --log onto the input, or
+    // onto an output not yet made, is no record of the refusal.
+    const std::string before = relief::test::slurp(n);
+    CHECK(run_cli("'" + n.string() + "' --height:bogus=1 -o '" + h.string() + "' --log '" + n.string() + "'")
+              .rc == 2);
+    CHECK(relief::test::slurp(n) == before);
+    CHECK(run_cli("'" + n.string() + "' --height:bogus=1 -o '" + h.string() + "' --log '" +
+                  (d / "." / "h.exr").string() + "'")
+              .rc == 2);
+    CHECK(!fs::exists(h));
     // A dry run writes no log, refused or not.
     CHECK(run_cli("'" + n.string() + "' --height:bogus=1 --dry-run" + at).rc == 2);
     CHECK(lines_of(log).size() == cases.size());

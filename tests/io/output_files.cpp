@@ -421,6 +421,11 @@ TEST_CASE(
         {"in.png --height --mesh:out=m.ply --report m.ply",
          "it is both an operation's output file (out=) and the --report file"},
         {"--update in.png --slopes -o in.png", "an -o output is also its input: under --update"},
+        // a mask or map is no image being edited in place
+        {"in.png --height:mask=in.png -o in.png",
+         "an -o output would replace a file an operation reads (mask=, fix=, env=) of the same command line"},
+        {"in.png --dup --height -o h.exr --correct:fix=in.png -o in.png",
+         "an -o output would replace a file an operation reads (mask=, fix=, env=)"},
     };
     for (const Case& c : refused) {
         INFO("relief " << c.args);
