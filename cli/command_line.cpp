@@ -207,9 +207,10 @@ Environment:
   RELIEF_DEVICE_MAX_ALLOC=BYTES  the largest device buffer to allocate (default
                         and upper bound: the device's own limit); larger
                         needs are refused with the numbers
-  RELIEF_MEMORY_LIMIT=SIZE  the most memory a map may need (bytes, or with
-                        K, M, G, T); maps and heights that need more, or more
-                        than the machine or device has, are refused first
+  RELIEF_MEMORY_LIMIT=SIZE  the most memory a map may need (bytes; K, M, G,
+                        T or KiB... TiB: powers of 1024; kB, MB, GB, TB:
+                        powers of 1000); maps and heights that need more, or
+                        more than the machine or device has, are refused first
   RELIEF_CACHE_DIR=DIR  where compiled kernels are kept between runs (default
                         $XDG_CACHE_HOME/relief or ~/.cache/relief; off: none)
   RELIEF_DEVICE=DEV     what --device auto means (gpu, cpu, PLATFORM:DEVICE)

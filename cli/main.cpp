@@ -63,6 +63,11 @@ int run(int argc, char** argv)
             std::printf("  %s\n", line.c_str());
         return 0;
     }
+    if (const std::string why = relief::environment_problem(); !why.empty()) {
+        say("relief: error: %s\n", why.c_str());
+        relief::cli::log_refused_command_line(args, why);
+        return 2;
+    }
     if (prog.verbose && age >= 0)
         say("relief: process start (loading libraries, before main): %.2f s\n", age);
     // The image libraries' own lines ("libpng error: ...") only with -v:

@@ -23,10 +23,10 @@ namespace {
 
 constexpr Bytes kUnlimited = std::numeric_limits<Bytes>::max();
 
-// RELIEF_MEMORY_LIMIT, or 0 when unset.
-Bytes limit_from_environment()
+// RELIEF_MEMORY_LIMIT, its bytes 0 when unset.
+SizeSetting limit_from_environment()
 {
-    return size_from_environment("RELIEF_MEMORY_LIMIT");
+    return size_setting_from_environment("RELIEF_MEMORY_LIMIT");
 }
 
 // MemAvailable from /proc/meminfo (kB), else the free pages.
@@ -90,21 +90,29 @@ Bytes cgroup_available(const fs::path& proc_cgroup, const fs::path& root)
 Bytes host_memory_available()
 {
     Bytes a = std::min(machine_available(), cgroup_available("/proc/self/cgroup", "/sys/fs/cgroup"));
-    if (const Bytes limit = limit_from_environment())
+    if (const Bytes limit = limit_from_environment().bytes)
         a = std::min(a, limit);
     return a;
 }
 
-std::string format_bytes(Bytes b)
+std::string format_bytes(Bytes b, bool binary)
 {
     char text[64];
     const double v = double(b);
-    if (v >= 1e9)
-        std::snprintf(text, sizeof text, "%.1f GB", v / 1e9);
-    else if (v >= 1e6)
-        std::snprintf(text, sizeof text, "%.1f MB", v / 1e6);
-    else
-        std::snprintf(text, sizeof text, "%.0f kB", std::max(v / 1e3, 1.0));
+    const double k = binary ? 1024.0 : 1000.0;
+    const char* units[] = {binary ? "KiB" : "kB", binary ? "MiB" : "MB", binary ? "GiB" : "GB",
+                           binary ? "TiB" : "TB"};
+    if (v < k * k) {
+        std::snprintf(text, sizeof text, "%.0f %s", std::max(v / k, 1.0), units[0]);
+        return text;
+    }
+    int u = 1;
+    double scaled = v / (k * k);
+    while (u < 3 && scaled >= k) {
+        scaled /= k;
+        ++u;
+    }
+    std::snprintf(text, sizeof text, "%.1f %s", scaled, units[u]);
     return text;
 }
 
@@ -113,9 +121,14 @@ std::string refuse_host(Bytes need)
     const Bytes have = host_memory_available();
     if (need <= have)
         return "";
-    const bool limited = limit_from_environment() == have;
+    // The limit in the units it was given: RELIEF_MEMORY_LIMIT=10M reads
+    // 10.0 MiB, =10MB 10.0 MB.
+    const SizeSetting limit = limit_from_environment();
+    if (limit.bytes == have)
+        return "needs " + format_bytes(need, limit.binary) + " of memory, RELIEF_MEMORY_LIMIT=" + limit.text +
+               " allows " + format_bytes(have, limit.binary);
     return "needs " + format_bytes(need) + " of memory, this machine has " + format_bytes(have) +
-           (limited ? " (RELIEF_MEMORY_LIMIT)" : " available");
+           " available";
 }
 
 DeviceMemory device_memory(ComputeContext& ctx)

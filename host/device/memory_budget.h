@@ -16,7 +16,7 @@ using Bytes = std::uint64_t;
 
 // What this process may still allocate: the smallest of the machine's
 // available memory (MemAvailable), the cgroup's limit less its use, and
-// $RELIEF_MEMORY_LIMIT (bytes, or with a K/M/G/T suffix, powers of 1024),
+// $RELIEF_MEMORY_LIMIT (size_setting_from_environment's units),
 // which a farm sets to share a node between jobs. Throws Error for a
 // malformed $RELIEF_MEMORY_LIMIT.
 Bytes host_memory_available();
@@ -28,11 +28,14 @@ Bytes host_memory_available();
 // back (memory.stat's inactive_file). Unlimited without any limit.
 Bytes cgroup_available(const std::filesystem::path& proc_cgroup, const std::filesystem::path& root);
 
-// "12.3 GB" (decimal units, as memory is sold and `free -h` is read).
-std::string format_bytes(Bytes b);
+// "12.3 GB" (decimal units, as memory is sold), or with `binary` "11.5
+// GiB" (powers of 1024, as RELIEF_MEMORY_LIMIT=10M is given).
+std::string format_bytes(Bytes b, bool binary = false);
 
 // "" when `need` bytes fit in host memory, else the refusal:
-// "needs 48.0 GB of memory, this machine has 16.0 GB available" (what = "").
+// "needs 48.0 GB of memory, this machine has 16.0 GB available", or where
+// RELIEF_MEMORY_LIMIT is the bound, in its units: "needs 13.0 MiB of
+// memory, RELIEF_MEMORY_LIMIT=10M allows 10.0 MiB".
 std::string refuse_host(Bytes need);
 
 // The device's memory: CL_DEVICE_GLOBAL_MEM_SIZE, and whether it is the

@@ -6,6 +6,7 @@
 #include <exception>
 
 #include "device/compute_context.h"
+#include "device/environment.h"
 #include "error_state.h"
 #include "io/colour.h"
 #include "poisson/poisson_stage.h"
@@ -68,6 +69,16 @@ void prepare(const std::string& device, int width, int height)
     } catch (...) {
         // the operation meets the same problem and reports it
     }
+}
+
+std::string environment_problem()
+{
+    try {
+        host::size_setting_from_environment("RELIEF_MEMORY_LIMIT");
+    } catch (const std::exception& e) {
+        return e.what();
+    }
+    return "";
 }
 
 }  // namespace relief

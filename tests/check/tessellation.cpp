@@ -204,8 +204,8 @@ TEST_CASE("tessellation: the levels' shares and the patches no level brings with
     const auto lv = test::pixels(relief::tessellation(test::image(w, ht, 1, h), o));
     CHECK(lv == std::vector<float>{1.0f, float(levels[1]), 64.0f, 64.0f});
     const std::vector<std::pair<Severity, std::string>> want = {
-        {Severity::Warning,
-         "tessellation: 2 of 4 patch(es) exceed error=0.5 even at level 64; they get 64 (use a smaller patch)"},
+        {Severity::Warning, "tessellation: 2 of 4 patch(es) exceed error=0.5 even at level 64; they get 64 "
+                            "(use a smaller patch)"},
         {Severity::Info, "tessellation: 4x1 patches of 128 texels: level 1 25.0%, level " +
                              std::to_string(levels[1]) + " 25.0%, none within E (set to 64) 50.0%"},
     };

@@ -539,3 +539,29 @@ TEST_CASE("batch: a single run refused before it starts still leaves its failed 
     CHECK(lines_of(log).size() == cases.size());
     CHECK(!fs::exists(h));
 }
+
+TEST_CASE("batch: a malformed RELIEF_MEMORY_LIMIT is a usage error, said once before any job",
+          "[batch][cli][errors]")
+{
+    const fs::path d = scratch("memory_limit_malformed");
+    for (int i = 0; i < 3; ++i)
+        write_crop(kNormal, d / ("n" + std::to_string(i) + ".png"), 8 * i, 64);
+    {
+        std::ofstream m(d / "jobs.txt");
+        for (int i = 0; i < 3; ++i)
+            m << "n" << i << ".png --height -o h" << i << ".exr\n";
+    }
+    for (const std::string& args : {std::string("--batch jobs.txt --log l.jsonl"),
+                                    std::string("n0.png --height -o h0.exr --log l.jsonl")}) {
+        INFO(args);
+        const auto r = run_cli(args, "cd '" + d.string() + "' && RELIEF_MEMORY_LIMIT=10x");
+        INFO(r.err);
+        CHECK(r.rc == 2);
+        CHECK(
+            r.err ==
+            "relief: error: RELIEF_MEMORY_LIMIT must be a size in bytes > 0: a number, or with K, M, G or T "
+            "(KiB... TiB: powers of 1024) or kB, MB, GB or TB (powers of 1000), not '10x'\n");
+        CHECK(!fs::exists(d / "h0.exr"));
+    }
+    CHECK(statuses(d / "l.jsonl") == std::vector<std::string>{"failed", "failed"});
+}

@@ -312,28 +312,59 @@ TEST_CASE("plans are kept by kind and size, the least recently used dropped firs
     CHECK(e != nullptr);
 }
 
-TEST_CASE("environment sizes: K, M, G and T in either case are powers of 1024, anything else is refused",
+TEST_CASE("environment sizes: K, M, G, T alone or with iB are powers of 1024, with B of 1000, anything else "
+          "is refused",
           "[host][errors]")
 {
     const char* name = "RELIEF_TEST_SIZE";
     const struct {
         const char* text;
         std::uint64_t bytes;
-    } sizes[] = {{"1000", 1000},     {"2k", 2048},       {"2K", 2048},
-                 {"3m", 3ull << 20}, {"3M", 3ull << 20}, {"1.5G", 3ull << 29},
-                 {"1g", 1ull << 30}, {"2T", 2ull << 40}, {"0.5t", 1ull << 39}};
+        bool binary;
+    } sizes[] = {{"1000", 1000, false},      {"2k", 2048, true},           {"2K", 2048, true},
+                 {"3m", 3ull << 20, true},   {"3M", 3ull << 20, true},     {"1.5G", 3ull << 29, true},
+                 {"1g", 1ull << 30, true},   {"2T", 2ull << 40, true},     {"0.5t", 1ull << 39, true},
+                 {"2KiB", 2048, true},       {"3MiB", 3ull << 20, true},   {"1GiB", 1ull << 30, true},
+                 {"2TiB", 2ull << 40, true}, {"1KB", 1000, false},         {"2kB", 2000, false},
+                 {"3MB", 3000000, false},    {"1.5GB", 1500000000, false}, {"2TB", 2000000000000ull, false}};
     for (const auto& s : sizes) {
         INFO(s.text);
         ::setenv(name, s.text, 1);
         CHECK(size_from_environment(name) == s.bytes);
+        const SizeSetting given = size_setting_from_environment(name);
+        CHECK(given.bytes == s.bytes);
+        CHECK(given.binary == s.binary);
+        CHECK(given.text == s.text);
     }
-    for (const char* bad : {"1P", "1KB", "K", "-1M", "0", "0.1", "1e30T", "12 M", "nan"}) {
+    for (const char* bad :
+         {"1P", "1Kb", "1KiBs", "1iB", "1B", "K", "-1M", "0", "0.1", "1e30T", "12 M", "nan"}) {
         INFO(bad);
         ::setenv(name, bad, 1);
         CHECK_THROWS_WITH(size_from_environment(name), Catch::Contains("RELIEF_TEST_SIZE must be a size"));
     }
     ::unsetenv(name);
     CHECK(size_from_environment(name) == 0);
+    CHECK(size_setting_from_environment(name).text.empty());
+}
+
+TEST_CASE("memory: sizes said in decimal units, or in the binary ones RELIEF_MEMORY_LIMIT was given in",
+          "[host]")
+{
+    CHECK(format_bytes(999) == "1 kB");
+    CHECK(format_bytes(13600000) == "13.6 MB");
+    CHECK(format_bytes(2100000000) == "2.1 GB");
+    CHECK(format_bytes(3000000000000ull) == "3.0 TB");
+    CHECK(format_bytes(10ull << 20, true) == "10.0 MiB");
+    CHECK(format_bytes(2048, true) == "2 KiB");
+    CHECK(format_bytes(3ull << 30, true) == "3.0 GiB");
+    CHECK(format_bytes(5ull << 40, true) == "5.0 TiB");
+    relief::test::ScopedEnv env("RELIEF_MEMORY_LIMIT", "10M");
+    CHECK(refuse_host(13ull << 20) == "needs 13.0 MiB of memory, RELIEF_MEMORY_LIMIT=10M allows 10.0 MiB");
+    CHECK(refuse_host(10ull << 20).empty());
+    env.set("RELIEF_MEMORY_LIMIT", "10MB");
+    CHECK(refuse_host(13600000) == "needs 13.6 MB of memory, RELIEF_MEMORY_LIMIT=10MB allows 10.0 MB");
+    env.set("RELIEF_MEMORY_LIMIT", nullptr);
+    CHECK(refuse_host(~0ull / 2).find("of memory, this machine has ") != std::string::npos);
 }
 
 TEST_CASE("memory: a cgroup's limit less its use, the tightest of the group and the groups above it",

@@ -326,8 +326,9 @@ TEST_CASE("output files: a name the file system cannot take is refused before th
     CHECK(temporaries(d).empty());
 }
 
-TEST_CASE("output files: a device node, FIFO or socket as any output is refused before the work, left as it was",
-          "[io][files][cli]")
+TEST_CASE(
+    "output files: a device node, FIFO or socket as any output is refused before the work, left as it was",
+    "[io][files][cli]")
 {
     const fs::path d = relief::test::scratch("output_files/nodes");
     // Private nodes in the scratch folder, never the machine's own /dev.
@@ -365,7 +366,8 @@ TEST_CASE("output files: a device node, FIFO or socket as any output is refused 
     for (const Node& n : nodes) {
         const std::string at = "'" + n.path.string() + "'";
         for (const std::string& args :
-             {in + " --slopes -o " + at, in + " --height --report " + at + " -o '" + (d / "h.exr").string() + "'",
+             {in + " --slopes -o " + at,
+              in + " --height --report " + at + " -o '" + (d / "h.exr").string() + "'",
               in + " --slopes --log " + at + " -o '" + (d / "s.exr").string() + "'",
               in + " --height --mesh:out=" + at}) {
             INFO(args);

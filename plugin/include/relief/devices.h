@@ -50,4 +50,10 @@ RELIEF_API SetupTimes setup_times();
 // them again and reports them. Safe to call concurrently with operations.
 RELIEF_API void prepare(const std::string& device, int width, int height);
 
+// Why relief's settings in the environment cannot be used ("" when they
+// can): a malformed RELIEF_MEMORY_LIMIT. Operations refuse such a call
+// themselves; a front end asks once at start-up, to refuse the run as a
+// usage error before any work (the command line exits 2).
+RELIEF_API std::string environment_problem();
+
 }  // namespace relief
