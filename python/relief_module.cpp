@@ -269,7 +269,7 @@ py::list run_tiles(const std::string& op, const std::vector<int>& numbers,
                    const std::string& device, py::object messages, py::object progress)
 {
     const relief::OperationCall call = parse_call(op, modifiers);
-    if (const std::string why = relief::tiles_call_problem(op, numbers.size(), arrays.size()); !why.empty())
+    if (const std::string why = relief::tiles_call_problem(op, numbers, arrays.size()); !why.empty())
         throw py::value_error(why);
     const std::vector<ImageBuf> bufs = to_imagebufs(op, arrays, metadata, true);
     PythonCallbacks callbacks(std::move(messages), std::move(progress));

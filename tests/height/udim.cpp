@@ -270,6 +270,17 @@ TEST_CASE("udim through the C ABI: relief_run_tiles equals height_udim, refusals
     refused("height", "udim=sometimes", 4, "udim");
     refused("height", "", 0, "at least one tile");
     CHECK(relief_run_tiles("auto", "height", "", numbers.data(), in.data(), 4, nullptr) == RELIEF_INVALID);
+    // Tile numbers out of range or given twice: refused as the counts are.
+    for (const auto& [bad, says] :
+         {std::pair{std::vector<int>{1001, 1002, 1002, 1012}, "tile 1002 is given twice"},
+          std::pair{std::vector<int>{1000, 1002, 1011, 1012}, "1001 to 1999, got 1000"},
+          std::pair{std::vector<int>{1001, 1002, 1011, 2000}, "1001 to 1999, got 2000"}}) {
+        std::vector<relief_image> o(in.size(), relief_image{1, 1, 1, RELIEF_FLOAT, nullptr, nullptr});
+        CHECK(relief_run_tiles("auto", "height", "", bad.data(), in.data(), 4, o.data()) == RELIEF_INVALID);
+        CHECK(std::string(relief_last_error()).find(says) != std::string::npos);
+        for (const relief_image& r : o)
+            CHECK((r.width == 0 && r.pixels == nullptr));
+    }
     // No numbers, or no images, for the tiles: refused, saying so.
     for (const bool numbers_missing : {true, false}) {
         std::vector<relief_image> o(in.size());

@@ -529,6 +529,11 @@ class Udim(unittest.TestCase):
             relief.height_udim({1001: self.tiles[1001], 1002: self.tiles[1002][:100]}, udim="joint")
         with self.assertRaisesRegex(ValueError, "udim"):
             relief.height_udim(self.tiles, udim="sometimes")
+        # tile numbers out of range or twice: ValueError, before any work
+        with self.assertRaisesRegex(ValueError, "1001 to 1999, got 2000"):
+            relief.height_udim({1001: self.tiles[1001], 2000: self.tiles[1002]})
+        with self.assertRaisesRegex(ValueError, "tile 1001 is given twice"):
+            relief.height_udim([(1001, self.tiles[1001]), (1001, self.tiles[1002])])
 
 
 class UdimCommandLine(unittest.TestCase):

@@ -90,6 +90,10 @@ RELIEF_API std::string call_problem(const std::string& operation, std::size_t im
 // input that joins tiles, at least one tile, a number for each image.
 RELIEF_API std::string tiles_call_problem(const std::string& operation, std::size_t numbers,
                                           std::size_t images);
+// And the numbers themselves: each from 1001 to 1999, none twice (a C
+// host's relief_run_tiles gets RELIEF_INVALID for them, as for the counts).
+RELIEF_API std::string tiles_call_problem(const std::string& operation, const std::vector<int>& numbers,
+                                          std::size_t images);
 
 // Runs `call` on `inputs` (as many as the table's inputs, in that order),
 // with `exec` (device, messages, progress, cancel). Progress is 0 first and

@@ -333,11 +333,12 @@ int relief_run_tiles(const char* device, const char* operation, const char* modi
                 throw Refused("relief_run_tiles: outputs is NULL");
             const auto [call, op, info] = parse_call(operation, modifiers);
             const std::size_t given = n_tiles > 0 ? std::size_t(n_tiles) : 0;
-            if (const std::string why = relief::tiles_call_problem(op, tiles ? given : 0, inputs ? given : 0);
+            const std::vector<int> numbers =
+                tiles ? std::vector<int>(tiles, tiles + given) : std::vector<int>();
+            if (const std::string why = relief::tiles_call_problem(op, numbers, inputs ? given : 0);
                 !why.empty())
                 throw Refused(why);
             const InputImages in(inputs, n_tiles, *info, op, true);
-            const std::vector<int> numbers(tiles, tiles + n_tiles);
             // Only now: `outputs` may be the inputs' own array.
             for (int i = 0; i < n_tiles; ++i)
                 outputs[i] = relief_image{};

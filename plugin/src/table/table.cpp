@@ -5,6 +5,7 @@
 #include <climits>
 #include <map>
 #include <stdexcept>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -268,6 +269,21 @@ std::string tiles_call_problem(const std::string& operation, std::size_t numbers
     return "";
 }
 
+std::string tiles_call_problem(const std::string& operation, const std::vector<int>& numbers,
+                               std::size_t images)
+{
+    if (std::string why = tiles_call_problem(operation, numbers.size(), images); !why.empty())
+        return why;
+    std::set<int> seen;
+    for (int n : numbers) {
+        if (n < 1001 || n > 1999)
+            return operation + ": UDIM tile numbers run from 1001 to 1999, got " + std::to_string(n);
+        if (!seen.insert(n).second)
+            return operation + ": UDIM tile " + std::to_string(n) + " is given twice";
+    }
+    return "";
+}
+
 bool run_operation(ImageBuf& dst, const OperationCall& call, const std::vector<const ImageBuf*>& inputs,
                    const Execution& exec)
 {
@@ -298,8 +314,7 @@ bool run_operation_on_tiles(std::vector<ImageBuf>& dst, const OperationCall& cal
     dst.clear();
     try {
         const Operation& op = find_or_throw(call.operation);
-        if (const std::string why = tiles_call_problem(op.info.name, tiles.size(), inputs.size());
-            !why.empty())
+        if (const std::string why = tiles_call_problem(op.info.name, tiles, inputs.size()); !why.empty())
             throw std::invalid_argument(why);
         for (const ImageBuf* in : inputs)
             if (!in)
