@@ -577,6 +577,27 @@ class Callbacks(unittest.TestCase):
         self.assertGreater(len(steps), 20)  # one a sweep, besides 0 and 1
         self.assertEqual(steps, sorted(steps))
 
+    def test_relief_called_from_its_own_callback_is_refused_not_deadlocked(self):
+        inner = []
+
+        def call_again(_):
+            try:
+                relief.height(self.flat, normal="opengl")
+                inner.append("ran")
+            except RuntimeError as e:
+                inner.append(str(e))
+
+        relief.correct(self.cliffs, scale=0.3, levels=1, iterations=3, progress=call_again)
+        self.assertGreater(len(inner), 2)
+        for said in inner:
+            self.assertIn("called from inside a message, progress or cancel callback", said)
+        heard = []
+        relief.height(self.flat, normal="opengl",
+                      messages=lambda s, t: heard.append(call_again(None)))
+        self.assertTrue(heard)
+        self.assertIn("called from inside", inner[-1])
+        relief.height(self.flat, normal="opengl")  # and afterwards freely again
+
     def test_warnings_are_relief_warnings(self):
         heard = []
         with warnings.catch_warnings(record=True) as caught:

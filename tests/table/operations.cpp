@@ -592,6 +592,92 @@ TEST_CASE("C ABI: metadata is lines of name=value, the last one read without its
     }
 }
 
+TEST_CASE("C ABI and C++: relief called again from its own callbacks is refused at once, the outer call "
+          "unharmed",
+          "[operations][abi][errors]")
+{
+    const int w = 32, h = 24;
+    std::vector<float> normals = wavy_normals(w, h);
+    const relief_image cn = {w, h, 3, RELIEF_FLOAT, normals.data(), nullptr};
+    struct Host {
+        const relief_image* in = nullptr;
+        int inner_calls = 0, inner_invalid = 0;
+        std::string inner_error;
+        std::string error_heard;
+    } host;
+    host.in = &cn;
+    // From progress, in a correction (which reports as it goes) and a height.
+    relief_callbacks from_progress{};
+    from_progress.user = &host;
+    from_progress.progress = [](double, void* user) -> int {
+        auto& hs = *static_cast<Host*>(user);
+        relief_image again{};
+        ++hs.inner_calls;
+        if (relief_run("height", "normal=opengl", hs.in, 1, &again) == RELIEF_INVALID)
+            ++hs.inner_invalid;
+        hs.inner_error = relief_last_error();
+        relief_image_free(&again);
+        return 0;
+    };
+    std::vector<float> hts = test::waves(w, h, 2.0, 5);
+    const relief_image ch = {w, h, 1, RELIEF_FLOAT, hts.data(), nullptr};
+    for (const auto& [op, in] : {std::pair{"height", &cn}, std::pair{"correct", &ch}}) {
+        INFO(op);
+        host = Host{};
+        host.in = &cn;
+        relief_image out{};
+        const std::string mods = op == std::string("height") ? "normal=opengl" : "scale=0.2:levels=2";
+        CHECK(relief_run_with("auto", op, mods.c_str(), in, 1, &out, &from_progress) == RELIEF_OK);
+        CHECK(out.pixels != nullptr);
+        relief_image_free(&out);
+        CHECK(host.inner_calls >= 2);
+        CHECK(host.inner_invalid == host.inner_calls);
+        CHECK(host.inner_error.find("called from inside a message, progress or cancel callback") !=
+              std::string::npos);
+    }
+    // From the message callback as it hears the outer call's failure: the
+    // outer error is what relief_last_error() says afterwards.
+    relief_callbacks from_message{};
+    from_message.user = &host;
+    from_message.message = [](int severity, const char* text, void* user) {
+        auto& hs = *static_cast<Host*>(user);
+        if (severity != RELIEF_ERROR)
+            return;
+        hs.error_heard = text;
+        relief_image again{};
+        ++hs.inner_calls;
+        if (relief_run("height", "normal=opengl", hs.in, 1, &again) == RELIEF_INVALID)
+            ++hs.inner_invalid;
+        relief_image_free(&again);
+    };
+    host = Host{};
+    host.in = &cn;
+    relief_image out{};
+    CHECK(relief_run_with("9:9", "height", "", &cn, 1, &out, &from_message) == RELIEF_FAILED);
+    CHECK(host.inner_calls == 1);
+    CHECK(host.inner_invalid == 1);
+    CHECK(std::string(relief_last_error()).find("9:9") != std::string::npos);
+    CHECK(relief_last_error() == host.error_heard);
+
+    // C++: an operation started from a callback fails at once, saying why.
+    std::string inner;
+    int progress_calls = 0;
+    const ImageBuf n = test::image(w, h, 3, normals);
+    Execution exec;
+    exec.on_progress = [&](double) {
+        ++progress_calls;
+        inner = relief::height(n, HeightOptions{}).geterror();
+    };
+    OperationCall call;
+    REQUIRE(parse_modifiers(call, "height", "normal=opengl:method=rays:rays=8:radius=8"));
+    ImageBuf result;
+    CHECK(run_operation(result, call, {&n}, exec));
+    CHECK(progress_calls >= 2);
+    CHECK(inner.find("called from inside a message, progress or cancel callback") != std::string::npos);
+    // Outside callbacks, the same thread calls freely again.
+    CHECK(relief::height(n, HeightOptions{}).spec().width == w);
+}
+
 TEST_CASE("C ABI: relief_run_with tells the API's messages at their severity, its progress, and stops at a "
           "cancel",
           "[operations][abi]")

@@ -65,6 +65,9 @@ struct Execution {
     // true stops the operation there, within one kernel's time. It then
     // fails with geterror() "<operation>: cancelled", writes nothing and
     // keeps nothing. Called on the operation's thread.
+    // None of the three may start a relief operation on that thread (the
+    // running one holds the device): such a call fails at once, geterror()
+    // saying why, and the running operation goes on.
     std::function<bool()> cancel;
 };
 

@@ -84,7 +84,12 @@ typedef enum relief_severity {
  *             would queue, frees what it holds, writes no output and
  *             returns RELIEF_CANCELLED (bench_cancel: a 1024^2 correction
  *             returns 8 ms after the answer, median of 5, at most 15 ms,
- *             on a 2-core CPU device). */
+ *             on a 2-core CPU device).
+ * A callback may not run relief itself on that thread (the running call
+ * holds the device): such a call returns RELIEF_INVALID at once, saying
+ * why, and the outer call goes on; another thread's call waits its turn.
+ * Whatever a callback does, relief_last_error() after the outer call is
+ * the outer call's. */
 typedef struct relief_callbacks {
     void (*message)(int severity, const char* text, void* user);
     int (*progress)(double fraction, void* user);

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "callbacks.h"
 #include "error_state.h"
 #include "relief/errors.h"
 #include "relief/operations.h"
@@ -130,6 +131,8 @@ struct ParsedCall {
 
 ParsedCall parse_call(const char* operation, const char* modifiers)
 {
+    if (std::string why = relief::detail::reentry_problem(); !why.empty())
+        throw Refused(why);
     if (!operation)
         throw Refused("relief_run: operation is NULL");
     ParsedCall p;
@@ -195,6 +198,7 @@ public:
     // Reports `fraction` done; false once the host has asked to cancel.
     bool progress(double fraction)
     {
+        const relief::detail::InCallback in;
         if (cb_.progress && !cancelled_ && cb_.progress(fraction, cb_.user) != 0)
             cancelled_ = true;
         return !cancelled_;
@@ -202,6 +206,7 @@ public:
     bool cancelled() const { return cancelled_; }
     void say(relief_severity severity, const std::string& text) const
     {
+        const relief::detail::InCallback in;
         if (cb_.message)
             cb_.message(int(severity), text.c_str(), cb_.user);
     }
@@ -247,8 +252,14 @@ int run_entry(const char* entry, const HostCallbacks* host, Body body, Cleanup l
         c_last_error = std::string(entry) + ": unknown failure";
     }
     leave_nothing();
-    if (host)
-        host->say(RELIEF_ERROR, c_last_error);
+    if (host) {
+        // The host hears why; whatever its callback does (it may call relief
+        // again, which sets the thread's last error), the outer call's
+        // error is what relief_last_error() says after it returns.
+        const std::string error = c_last_error;
+        host->say(RELIEF_ERROR, error);
+        c_last_error = error;
+    }
     return status;
 }
 

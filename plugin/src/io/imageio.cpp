@@ -18,6 +18,7 @@
 #include <sys/stat.h>
 #include <vector>
 
+#include "callbacks.h"
 #include "error_state.h"
 #include "library_output.h"
 #include "device/memory_budget.h"  // host/: no OpenCL types
@@ -163,8 +164,10 @@ std::string lowercase(std::string s)
 
 void say(const WriteOptions& o, Severity s, const std::string& msg)
 {
-    if (o.on_message)
+    if (o.on_message) {
+        const detail::InCallback in;
         o.on_message(s, msg);
+    }
 }
 
 // The file under an image writer: remembers the first write that did not

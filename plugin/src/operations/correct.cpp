@@ -98,7 +98,7 @@ bool correct(ImageBuf& dst, const ImageBuf& height, const CorrectOptions& option
         std::vector<float> offsets(2 * std::size_t(w) * h);
         host::CorrectReport hr;
         host::correct_distortion(*ctx, heights.data(), w, h, p, offsets.data(), &hr,
-                                 options.exec.on_progress);
+                                 detail::marked(options.exec.on_progress));
 
         CorrectReport rep = detail::correct_report(hr, call, w, h);
         rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

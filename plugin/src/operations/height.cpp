@@ -280,10 +280,10 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
             host::RayReport report;
             if (chosen.impl == RayImpl::Fast)
                 host::integrate_rays_fast(*derived.context, slopes_for_stage(), p, sink,
-                                          options.exec.on_progress, &report);
+                                          detail::marked(options.exec.on_progress), &report);
             else
                 host::integrate_rays_reference(*derived.context, derived.slopes, p, sink(),
-                                               options.exec.on_progress, &report);
+                                               detail::marked(options.exec.on_progress), &report);
             if (p.skip_flat)
                 detail::say(options.exec, Severity::Info,
                             "rays: skipped " + std::to_string(report.skipped) + " of " +

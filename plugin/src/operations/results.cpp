@@ -22,8 +22,10 @@ std::string format_double(const char* fmt, double v)
 
 void say(const Execution& exec, Severity s, const std::string& msg)
 {
-    if (exec.on_message)
+    if (exec.on_message) {
+        const InCallback in;
         exec.on_message(s, msg);
+    }
 }
 
 ROI resolve_roi(const ImageBuf& image, ROI roi)

@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "callbacks.h"
 #include "device/cancel.h"
 #include "io/library_output.h"
 #include "relief/options.h"
@@ -27,8 +28,10 @@ OIIO::ROI resolve_roi(const OIIO::ImageBuf& image, OIIO::ROI roi);
 class OperationScope : host::CancelCheck, LibraryOutputSink {
 public:
     explicit OperationScope(const Execution& exec)
-        : host::CancelCheck(exec.cancel), LibraryOutputSink(exec.on_message)
+        : host::CancelCheck(marked(exec.cancel)), LibraryOutputSink(marked(exec.on_message))
     {
+        if (std::string why = reentry_problem(); !why.empty())
+            throw std::invalid_argument(std::move(why));
         host::stop_if_cancelled();
     }
 };

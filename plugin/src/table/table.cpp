@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "callbacks.h"
 #include "error_state.h"
 #include "io/library_output.h"
 #include "device/memory_budget.h"
@@ -236,12 +237,16 @@ OperationCall with_execution(const OperationCall& call, const Execution& exec)
 template <class Run>
 bool with_progress_ends(const Execution& exec, Run run)
 {
-    if (exec.on_progress)
+    if (exec.on_progress) {
+        const detail::InCallback in;
         exec.on_progress(0.0);
+    }
     if (!run())
         return false;
-    if (exec.on_progress)
+    if (exec.on_progress) {
+        const detail::InCallback in;
         exec.on_progress(1.0);
+    }
     return true;
 }
 
@@ -288,6 +293,8 @@ bool run_operation(ImageBuf& dst, const OperationCall& call, const std::vector<c
                    const Execution& exec)
 {
     try {
+        if (std::string why = detail::reentry_problem(); !why.empty())
+            throw std::invalid_argument(std::move(why));
         const Operation& op = find_or_throw(call.operation);
         if (const std::string why = call_problem(op.info.name, inputs.size()); !why.empty())
             throw std::invalid_argument(why);
@@ -299,7 +306,7 @@ bool run_operation(ImageBuf& dst, const OperationCall& call, const std::vector<c
                 throw std::invalid_argument(op.info.name + ": input '" + op.info.inputs[i].name +
                                             "' is missing (null)");
         // (The mask and fix files are read here, before the operation.)
-        const detail::LibraryOutputSink library_output(exec.on_message);
+        const detail::LibraryOutputSink library_output(detail::marked(exec.on_message));
         return with_progress_ends(exec, [&] { return op.run(dst, with_execution(call, exec), inputs); });
     } catch (const std::exception& e) {
         detail::set_error(e.what());
@@ -313,6 +320,8 @@ bool run_operation_on_tiles(std::vector<ImageBuf>& dst, const OperationCall& cal
 {
     dst.clear();
     try {
+        if (std::string why = detail::reentry_problem(); !why.empty())
+            throw std::invalid_argument(std::move(why));
         const Operation& op = find_or_throw(call.operation);
         if (const std::string why = tiles_call_problem(op.info.name, tiles, inputs.size()); !why.empty())
             throw std::invalid_argument(why);
