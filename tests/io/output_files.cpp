@@ -19,6 +19,7 @@
 #include <vector>
 
 #include <fcntl.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/sysmacros.h>
@@ -392,6 +393,35 @@ TEST_CASE(
     CHECK(relief::geterror().find("it is a FIFO") != std::string::npos);
     CHECK(fs::is_fifo(fifo));
     ::close(s);
+}
+
+TEST_CASE("output files: a write that fails part way leaves no descriptor open and no temporary file",
+          "[io][files]")
+{
+    const fs::path d = relief::test::scratch("output_files/failed_write");
+    const auto open_descriptors = [] {
+        return std::distance(fs::directory_iterator("/proc/self/fd"), fs::directory_iterator());
+    };
+    // The file size limit (EFBIG, SIGXFSZ ignored) fails the write after
+    // its first 4 KiB, as a full disk would.
+    struct sigaction ignore {
+    }, was{};
+    ignore.sa_handler = SIG_IGN;
+    REQUIRE(::sigaction(SIGXFSZ, &ignore, &was) == 0);
+    rlimit limit{}, small{};
+    REQUIRE(::getrlimit(RLIMIT_FSIZE, &limit) == 0);
+    small = limit;
+    small.rlim_cur = 4096;
+    const auto before = open_descriptors();
+    REQUIRE(::setrlimit(RLIMIT_FSIZE, &small) == 0);
+    const bool written = relief::write_text_file((d / "big.json").string(), std::string(1 << 20, 'x'));
+    ::setrlimit(RLIMIT_FSIZE, &limit);
+    ::sigaction(SIGXFSZ, &was, nullptr);
+    CHECK_FALSE(written);
+    CHECK(relief::geterror().find("cannot write '") != std::string::npos);
+    CHECK(open_descriptors() == before);
+    CHECK_FALSE(fs::exists(d / "big.json"));
+    CHECK(temporaries(d).empty());
 }
 
 TEST_CASE(
