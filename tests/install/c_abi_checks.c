@@ -134,7 +134,7 @@ int main(int argc, char** argv)
     setenv("RELIEF_MEMORY_LIMIT", "64M", 1);
     relief_image big = {8000, 8000, 3, RELIEF_FLOAT, px, NULL};
     refused(r, "height", "", &big, 1,
-            "(8000x8000x3) needs 768.0 MB of memory, this machine has 67.1 MB (RELIEF_MEMORY_LIMIT) to copy");
+            "(8000x8000x3) needs 732.4 MiB of memory, RELIEF_MEMORY_LIMIT=64M allows 64.0 MiB to copy");
     unsetenv("RELIEF_MEMORY_LIMIT");
 
     relief_image h;

@@ -4,6 +4,7 @@
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
+#include <xxhash.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -192,6 +193,59 @@ private:
     int errno_ = 0;
 };
 
+// The pixels' digest (XXH3-64, 16 hex digits) as `format` holds them, a
+// band of rows at a time: what --update checks an output by (its header's
+// job digest alone survives damage inside the file). Only for files whose
+// stored values are the buffer's converted: not where an alpha channel may
+// be associated or not on the way (PNG), whose digest would never match.
+std::string pixel_digest(const ImageBuf& image, TypeDesc format)
+{
+    const ImageSpec& spec = image.spec();
+    if (spec.alpha_channel >= 0 || spec.nchannels == 2 || spec.nchannels == 4)
+        return "";
+    std::unique_ptr<XXH3_state_t, XXH_errorcode (*)(XXH3_state_t*)> state(XXH3_createState(), XXH3_freeState);
+    if (!state || XXH3_64bits_reset(state.get()) != XXH_OK)
+        return "";
+    const int band = 64;
+    const std::size_t row = std::size_t(spec.width) * std::size_t(spec.nchannels) * format.size();
+    std::vector<unsigned char> bytes(row * std::size_t(band));
+    for (int y = spec.y; y < spec.y + spec.height; y += band) {
+        const int end = std::min(y + band, spec.y + spec.height);
+        const OIIO::ROI roi(spec.x, spec.x + spec.width, y, end, spec.z, spec.z + 1, 0, spec.nchannels);
+        if (!image.get_pixels(roi, format, bytes.data()))
+            return "";
+        XXH3_64bits_update(state.get(), bytes.data(), row * std::size_t(end - y));
+    }
+    char hex[17];
+    std::snprintf(hex, sizeof hex, "%016llx", (unsigned long long)XXH3_64bits_digest(state.get()));
+    return hex;
+}
+
+// The same digest of a file's pixels as stored (native), read back.
+std::string stored_pixel_digest(OIIO::ImageInput& in)
+{
+    const ImageSpec& spec = in.spec();
+    if (spec.tile_width > 0 || spec.width <= 0 || spec.height <= 0 || spec.depth > 1)
+        return "";
+    std::unique_ptr<XXH3_state_t, XXH_errorcode (*)(XXH3_state_t*)> state(XXH3_createState(), XXH3_freeState);
+    if (!state || XXH3_64bits_reset(state.get()) != XXH_OK)
+        return "";
+    const int band = 64;
+    const std::size_t row = spec.scanline_bytes(true);
+    std::vector<unsigned char> bytes(row * std::size_t(band));
+    for (int y = spec.y; y < spec.y + spec.height; y += band) {
+        const int end = std::min(y + band, spec.y + spec.height);
+        const bool read =
+            in.read_scanlines(0, 0, y, end, spec.z, 0, spec.nchannels, TypeDesc::UNKNOWN, bytes.data());
+        if (!read || !in.geterror().empty())
+            return "";
+        XXH3_64bits_update(state.get(), bytes.data(), row * std::size_t(end - y));
+    }
+    char hex[17];
+    std::snprintf(hex, sizeof hex, "%016llx", (unsigned long long)XXH3_64bits_digest(state.get()));
+    return hex;
+}
+
 // Writes `image` into the temporary file `tmp` for `target` as `format`
 // with `compression` (empty: the format's default); returns "" or why not.
 // Not through ImageBuf::write: it ignores the writer's close(), where PNG
@@ -215,7 +269,24 @@ std::string write_file(const ImageBuf& image, const fs::path& target, detail::Te
     if (!compression.empty())
         spec.attribute("compression", compression);
     spec.attribute("Software", std::string("relief ") + version());  // what made the file
-    const std::string digest = spec.get_string_attribute("relief:digest");
+    std::string digest = spec.get_string_attribute("relief:digest");
+    if (!digest.empty()) {
+        // "JOB.PIXELS": the job's digest and the pixels' (see recorded_digest),
+        // in the type the file stores (OpenEXR holds 8- and 16-bit integers
+        // as half, OpenImageIO's TIFF half as float), for the lossless
+        // formats relief writes.
+        TypeDesc stored = format;
+        if (ext == ".exr" && (format.basetype == TypeDesc::UINT8 || format.basetype == TypeDesc::INT8 ||
+                              format.basetype == TypeDesc::UINT16 || format.basetype == TypeDesc::INT16))
+            stored = TypeDesc::HALF;
+        if ((ext == ".tif" || ext == ".tiff") && format.basetype == TypeDesc::HALF)
+            stored = TypeDesc::FLOAT;
+        const bool lossless = ext == ".exr" || ext == ".png" || ext == ".tif" || ext == ".tiff";
+        if (const std::string pixels = lossless ? pixel_digest(image, stored) : ""; !pixels.empty()) {
+            digest += "." + pixels;
+            spec.attribute("relief:digest", digest);
+        }
+    }
     if (!digest.empty() && ext != ".exr" && ext != ".png") {
         // These formats drop custom attributes but keep the description
         // (after relief's own first line, which says how to read the data).
@@ -254,30 +325,35 @@ namespace {
 // so reading the last row would decode every row); other scanline files
 // (OpenEXR's offset table, TIFF's strips) read their last scanline or
 // strip. relief writes no tiled files: those are taken as they are.
-bool pixels_complete(OIIO::ImageInput& in, const std::string& path, const std::string& ext)
+bool pixels_decode(OIIO::ImageInput& in)
 {
     const ImageSpec& spec = in.spec();
-    if (ext == ".png") {
-        static const unsigned char iend[12] = {0, 0, 0, 0, 'I', 'E', 'N', 'D', 0xAE, 0x42, 0x60, 0x82};
-        std::ifstream f(path, std::ios::binary);
-        unsigned char tail[12] = {};
-        f.seekg(-12, std::ios::end);
-        return f.read(reinterpret_cast<char*>(tail), 12) && std::memcmp(tail, iend, 12) == 0;
+    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
+        return false;
+    // Bands of rows (whole tiles or strips), read in order: a file cut short
+    // or damaged inside (a checksum, a compressed stream that does not
+    // inflate) fails where its pixels are, whatever keeps its header and
+    // size. Uncompressed pixels carry no check: those outputs are trusted
+    // as any file is.
+    const int rows =
+        spec.tile_height > 0 ? spec.tile_height : std::max(1, spec.get_int_attribute("tiff:RowsPerStrip", 1));
+    const int band = std::max(rows, (64 + rows - 1) / rows * rows);
+    const int depth = std::max(1, spec.depth);
+    std::vector<float> pixels(std::size_t(spec.width) * std::size_t(spec.nchannels) * std::size_t(band) *
+                              std::size_t(depth));
+    for (int y = spec.y; y < spec.y + spec.height; y += band) {
+        const int end = std::min(y + band, spec.y + spec.height);
+        // OIIO 2.4 returns true for a strip libtiff could not read, with the
+        // error set: both count.
+        const bool read =
+            spec.tile_width > 0
+                ? in.read_tiles(0, 0, spec.x, spec.x + spec.width, y, end, spec.z, spec.z + depth, 0,
+                                spec.nchannels, TypeDesc::FLOAT, pixels.data())
+                : in.read_scanlines(0, 0, y, end, spec.z, 0, spec.nchannels, TypeDesc::FLOAT, pixels.data());
+        if (!read || !in.geterror().empty())
+            return false;
     }
-    if (spec.tile_width > 0 || spec.width <= 0 || spec.height <= 0)
-        return true;
-    // The whole last strip of a TIFF: OIIO reads a single scanline of a
-    // compressed TIFF by decoding every row before it (16 ms for a 512^2
-    // zip file, against 0.7 ms for its last strip of 32 rows).
-    const int rows = std::max(1, spec.get_int_attribute("tiff:RowsPerStrip", 1));
-    const int first = spec.y + (spec.height - 1) / rows * rows, end = spec.y + spec.height;
-    std::vector<float> strip(std::size_t(spec.width) * std::size_t(spec.nchannels) *
-                             std::size_t(end - first));
-    // OIIO 2.4 returns true for a strip libtiff could not read, with the
-    // error set: both count.
-    const bool read =
-        in.read_scanlines(0, 0, first, end, 0, 0, spec.nchannels, TypeDesc::FLOAT, strip.data());
-    return in.geterror().empty() && read;
+    return true;
 }
 
 }  // namespace
@@ -335,8 +411,19 @@ std::string recorded_digest(const std::string& path)
         if (at != std::string::npos)
             digest = d.substr(at + key.size(), d.find('\n', at) - at - key.size());
     }
-    if (!digest.empty() && !pixels_complete(*in, path, ext))
-        digest.clear();  // a truncated file keeps its header: recompute it
+    // "JOB.PIXELS": the pixels as stored must hash to PIXELS; a digest
+    // without it (a file whose values may change on the way, or an older
+    // relief's) must at least decode. A damaged file keeps its header and
+    // size: recompute it.
+    const std::size_t dot = digest.find('.');
+    if (dot != std::string::npos) {
+        if (stored_pixel_digest(*in) != digest.substr(dot + 1))
+            digest.clear();
+        else
+            digest.resize(dot);
+    } else if (!digest.empty() && !pixels_decode(*in)) {
+        digest.clear();
+    }
     in->close();
     OIIO::geterror();
     return digest;
