@@ -83,12 +83,24 @@ ImageBuf to_imagebuf(const py::array& input, const relief::ImageSlot& slot, cons
     const std::string problem = relief::input_problem(op, slot, w, h, c, int(type.size()));
     if (!problem.empty())
         throw py::value_error(problem);
-    const py::array a = py::array::ensure(input, py::array::c_style);
-    if (!a)  // numpy could not make the copy (its MemoryError is set)
-        throw py::error_already_set();
+    // One copy, into the image, whatever the array's strides, as long as a
+    // pixel's channels lie side by side (any C-contiguous array, a view of
+    // rows or columns, a broadcast); otherwise numpy's C-ordered copy
+    // first.
     ImageBuf buf(OIIO::ImageSpec(int(w), int(h), int(c), type));
-    if (!buf.set_pixels(buf.roi(), type, a.data()))
-        throw std::runtime_error(what + ": " + buf.geterror());
+    const py::ssize_t item = input.itemsize();
+    const bool channels_packed = input.ndim() == 2 || c == 1 || input.strides(2) == item;
+    if (channels_packed) {
+        const OIIO::stride_t xstride = input.strides(1), ystride = input.strides(0);
+        if (!buf.set_pixels(buf.roi(), type, input.data(), xstride, ystride))
+            throw std::runtime_error(what + ": " + buf.geterror());
+    } else {
+        const py::array a = py::array::ensure(input, py::array::c_style);
+        if (!a)  // numpy could not make the copy (its MemoryError is set)
+            throw py::error_already_set();
+        if (!buf.set_pixels(buf.roi(), type, a.data()))
+            throw std::runtime_error(what + ": " + buf.geterror());
+    }
     for (const auto& [key, value] : metadata)
         set_attribute(buf.specmod(), py::str(key), value);
     return buf;

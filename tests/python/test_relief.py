@@ -108,6 +108,16 @@ class MoreDoors(unittest.TestCase):
     path = Doors.path
     cli_result = Doors.cli_result
 
+    def test_any_strides_give_the_c_ordered_arrays_result(self):
+        # views (every other row, x reversed, a column band), Fortran order,
+        # channels reversed, and a broadcast: each as its C-ordered copy
+        n = self.normals
+        for view in (n[::2], n[:, ::-1], n[:, 100:300], np.asfortranarray(n), n[..., ::-1],
+                     np.broadcast_to(n[:1], n.shape)):
+            np.testing.assert_array_equal(relief.height(view, normal="opengl", boundary="free"),
+                                          relief.height(np.ascontiguousarray(view), normal="opengl",
+                                                        boundary="free"))
+
     def test_uint16_and_half_inputs_equal_the_cli_on_the_same_bytes(self):
         n16 = (self.normals.astype(np.uint16) * 257).astype(np.uint16)
         png16 = self.path("n16.png")

@@ -84,9 +84,9 @@ LibraryOutput::~LibraryOutput()
     }
 }
 
-LibraryOutputSink::LibraryOutputSink(const MessageSink& sink) : previous_(thread_sink)
+LibraryOutputSink::LibraryOutputSink(MessageSink sink) : sink_(std::move(sink)), previous_(thread_sink)
 {
-    thread_sink = &sink;
+    thread_sink = &sink_;
 }
 
 LibraryOutputSink::~LibraryOutputSink()

@@ -34,12 +34,14 @@ public:
 // While it lives, `sink` receives this thread's captured library output.
 class LibraryOutputSink {
 public:
-    explicit LibraryOutputSink(const MessageSink& sink);
+    // (`sink` is copied: it may be a temporary.)
+    explicit LibraryOutputSink(MessageSink sink);
     ~LibraryOutputSink();
     LibraryOutputSink(const LibraryOutputSink&) = delete;
     LibraryOutputSink& operator=(const LibraryOutputSink&) = delete;
 
 private:
+    MessageSink sink_;
     const MessageSink* previous_;
 };
 
