@@ -15,6 +15,7 @@
 #include <ctime>
 #include <filesystem>
 #include <future>
+#include <map>
 #include <memory>
 #include <optional>
 #include <set>
@@ -299,8 +300,15 @@ int run_jobs(const Program& top, const std::vector<Job>& all, const std::string&
     // A dry run makes no files: a reader of an earlier job's output is
     // pending, not failed for want of it.
     std::set<int> readers;
-    for (const Dependency& c : chains)
+    std::map<int, std::vector<int>> writers_of;
+    for (const Dependency& c : chains) {
         readers.insert(c.reader);
+        writers_of[c.reader].push_back(c.writer);
+    }
+    // A dry run's jobs that would run: a reader of one of their outputs
+    // would run too (the real run rewrites what it reads), whatever the
+    // output on disk records now.
+    std::set<int> would_run;
     const std::vector<Job> jobs = shard_of(chained, top.shard_index, top.shard_count);
     JobLog log(top.dry_run ? std::string() : top.log);
     int ok = 0, skipped = 0, failed = 0, pending = 0;
@@ -380,6 +388,15 @@ int run_jobs(const Program& top, const std::vector<Job>& all, const std::string&
             } catch (const UsageError& e) {
                 rec.message = e.what();
             }
+            if (top.dry_run && rec.status == "skipped" && reader)
+                for (int w : writers_of[job.index])
+                    if (would_run.count(w)) {
+                        rec.status = "pending";
+                        rec.message = "reads the output of job " + std::to_string(w) + ", which would run";
+                        break;
+                    }
+            if (top.dry_run && rec.status == "pending")
+                would_run.insert(job.index);
         }
         if (reads) {
             read_time += reads->read_seconds();

@@ -165,3 +165,33 @@ TEST_CASE("update: a single run up to date says so under -v only, and writes not
     CHECK(r.err.find("up to date") == std::string::npos);
     CHECK(relief::test::run_cli(zip, in_d).err.find("relief: up to date") != std::string::npos);
 }
+
+TEST_CASE("update: a dry run calls a chain's reader pending when the job it reads would run, as the real run "
+          "does",
+          "[update][cli]")
+{
+    const fs::path d = scratch("update_chain");
+    write_crop(kNormal, d / "n.png", 0, 64);
+    const auto manifest = [&](const std::string& modifiers) {
+        std::ofstream f(d / "jobs.txt");
+        f << "n.png --height" << modifiers << " -o a.exr\na.exr --normals -o b.exr\n";
+    };
+    const auto run = [&](const std::string& extra) {
+        fs::remove(d / "log.jsonl");
+        return relief::test::run_cli("--batch jobs.txt --update --log log.jsonl " + extra,
+                                     "cd '" + d.string() + "' &&");
+    };
+    using S = std::vector<std::string>;
+    manifest("");
+    REQUIRE(run("").rc == 0);
+    CHECK(statuses(d / "log.jsonl") == S{"ok", "ok"});
+    auto dry = run("--dry-run");
+    CHECK(dry.err.find("0 pending, 2 skipped") != std::string::npos);
+    manifest(":boundary=free");  // the writer changes; its reader's file on disk does not, yet
+    dry = run("--dry-run");
+    INFO(dry.out);
+    CHECK(dry.err.find("2 pending, 0 skipped") != std::string::npos);
+    CHECK(dry.out.find("reads the output of job 0, which would run") != std::string::npos);
+    CHECK(run("").rc == 0);
+    CHECK(statuses(d / "log.jsonl") == S{"ok", "ok"});
+}
