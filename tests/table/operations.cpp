@@ -592,6 +592,34 @@ TEST_CASE("C ABI: metadata is lines of name=value, the last one read without its
     }
 }
 
+TEST_CASE("height reports progress by stage: the slopes, the boundary, the integration (the rays' within "
+          "it), the end",
+          "[operations]")
+{
+    const int w = 64, h = 48;
+    const ImageBuf n = test::image(w, h, 3, wavy_normals(w, h));
+    for (const char* mods : {"normal=opengl", "normal=opengl:method=rays:rays=8:radius=8"}) {
+        INFO(mods);
+        OperationCall call;
+        REQUIRE(parse_modifiers(call, "height", mods));
+        std::vector<double> said;
+        Execution exec;
+        exec.on_progress = [&](double f) { said.push_back(f); };
+        ImageBuf out;
+        REQUIRE(run_operation(out, call, {&n}, exec));
+        REQUIRE(said.size() >= 5);
+        CHECK(said == [&] {
+            std::vector<double> s = said;
+            std::sort(s.begin(), s.end());
+            return s;
+        }());
+        CHECK(std::vector<double>(said.begin(), said.begin() + 3) == std::vector<double>{0.0, 0.2, 0.35});
+        CHECK(std::vector<double>(said.end() - 2, said.end()) == std::vector<double>{0.9, 1.0});
+        if (std::string(mods).find("rays") != std::string::npos)
+            CHECK(said.size() > 6);  // the rays' own steps, inside [0.35, 0.9]
+    }
+}
+
 TEST_CASE("C ABI and C++: relief called again from its own callbacks is refused at once, the outer call "
           "unharmed",
           "[operations][abi][errors]")

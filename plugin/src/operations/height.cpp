@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <functional>
 #include <climits>
 #include <cstdint>
 #include <cmath>
@@ -248,12 +249,25 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
             chosen.method = HeightMethod::Poisson;
         const bool rays = chosen.method == HeightMethod::Rays;
         check_memory(chosen, roi.width(), roi.height(), false);
+        // Progress by stage (the slopes, the boundary's tests, the
+        // integration, which the rays report within their share), so that a
+        // host's progress, and the C ABI's cancel that answers it, come
+        // between the stages and not only at the ends.
+        const std::function<void(double)> progress = detail::marked(options.exec.on_progress);
+        const auto at = [&](double fraction) {
+            if (progress)
+                progress(fraction);
+        };
         auto derived = detail::derive_slopes(normals, roi, options.normals, options.exec);
+        at(0.2);
         if (options.method == HeightMethod::Auto)
             detail::say(options.exec, Severity::Info, "method: poisson (the default; method=rays for rays)");
         chosen.boundary = choose_boundary(chosen, derived, rays);
         if (chosen.boundary != options.boundary)
             check_memory(chosen, roi.width(), roi.height(), true);
+        at(0.35);
+        const std::function<void(double)> integration =
+            progress ? std::function<void(double)>([&](double f) { at(0.35 + 0.55 * f); }) : nullptr;
 
         // The result's memory is taken when the stage has it ready, after
         // its grids are freed; without a report to make, the stage also
@@ -279,11 +293,11 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
             p.skip_flat = chosen.skip_flat;
             host::RayReport report;
             if (chosen.impl == RayImpl::Fast)
-                host::integrate_rays_fast(*derived.context, slopes_for_stage(), p, sink,
-                                          detail::marked(options.exec.on_progress), &report);
+                host::integrate_rays_fast(*derived.context, slopes_for_stage(), p, sink, integration,
+                                          &report);
             else
-                host::integrate_rays_reference(*derived.context, derived.slopes, p, sink(),
-                                               detail::marked(options.exec.on_progress), &report);
+                host::integrate_rays_reference(*derived.context, derived.slopes, p, sink(), integration,
+                                               &report);
             if (p.skip_flat)
                 detail::say(options.exec, Severity::Info,
                             "rays: skipped " + std::to_string(report.skipped) + " of " +
@@ -311,6 +325,7 @@ bool height(ImageBuf& dst, const ImageBuf& normals, const HeightOptions& options
                                 " conjugate-gradient iterations, relative residual " +
                                 detail::format_double("%.2g", report.residual));
         }
+        at(0.9);
         if (HeightReport* r = options.report) {
             const host::RoundTrip t = host::round_trip(
                 *derived.context, derived.slopes, static_cast<const float*>(result.localpixels()),

@@ -202,8 +202,9 @@ void solve_group(std::vector<ImageBuf>& dst, const std::vector<int>& group,
     // Memory first: the canvas of normals, the weights, the tiles cut out.
     const std::uint64_t n = std::uint64_t(c.width()) * std::uint64_t(c.height());
     HeightOptions o = options;
-    o.udim = UdimMode::Each;  // (the canvas is one map)
-    ImageBuf mask;            // weight 0 on missing tiles, unless the alpha is the mask
+    o.udim = UdimMode::Each;       // (the canvas is one map)
+    o.exec.on_progress = nullptr;  // (a group's progress is no fraction of the set's)
+    ImageBuf mask;                 // weight 0 on missing tiles, unless the alpha is the mask
     if (!full && !o.mask_alpha)
         o.mask = &mask;
     detail::check_height_memory(o, c.width(), c.height(),
@@ -358,7 +359,9 @@ bool height_udim(std::vector<ImageBuf>& dst, const std::vector<UdimTile>& tiles,
             if (group.size() == 1) {
                 // Alone: exactly height() of the tile.
                 const std::size_t i = at.at(group.front());
-                if (!relief::height(out[i], *tiles[i].normals, options))
+                HeightOptions alone = options;
+                alone.exec.on_progress = nullptr;  // (a tile's progress is no fraction of the set's)
+                if (!relief::height(out[i], *tiles[i].normals, alone))
                     throw std::runtime_error("tile " + std::to_string(group.front()) + ": " +
                                              out[i].geterror());
                 if (options.udim != UdimMode::Each)
