@@ -19,6 +19,7 @@
 #include "errors.h"
 #include "device/memory_budget.h"
 #include "fft/plan_cache.h"
+#include "poisson/poisson_stage.h"
 #include "device/setup_times.h"
 #include "slopes/slope_stage.h"
 #include "support/run_cli.h"
@@ -456,4 +457,22 @@ TEST_CASE(
     const SetupTimes a = delta(t1, setup_times());
     CHECK(a.prepared >= 0.02);
     CHECK(a.device == 0.0);
+}
+
+TEST_CASE("prepare: a one-texel-wide map's plan is the one its height uses", "[host][cache]")
+{
+    // The Poisson stage lays a 1 x N map out as N x 1: set-up ahead must
+    // plan that (not N x N), so the height finds it made.
+    auto ctx = ComputeContext::acquire("auto");
+    const int n = 397;  // (a size no other test plans)
+    prepare_height(*ctx, 1, n);
+    const std::size_t prepared = ctx->impl().plans->size();
+    CHECK(ctx->impl().plans->keeps(std::size_t(n), 1));
+    std::vector<float> slopes(2 * std::size_t(n), 0.01f);
+    auto s = upload_slopes(*ctx, slopes.data(), 1, n);
+    PoissonParams p;
+    p.boundary_x = p.boundary_y = PoissonBoundary::Free;
+    std::vector<float> out(n);
+    integrate_poisson(*ctx, s, p, out.data());
+    CHECK(ctx->impl().plans->size() == prepared);  // found, not made again
 }
