@@ -27,7 +27,7 @@
 #include "console.h"
 #include "file_uses.h"
 #include "job_digest.h"
-#include "json_text.h"
+#include "job_log.h"
 #include "read_ahead.h"
 #include "stack_runner.h"
 #include "relief/relief.h"
@@ -35,53 +35,6 @@
 namespace relief::cli {
 
 namespace {
-
-// What one job did, for stderr and the --log line.
-struct JobRecord {
-    int index = 0, line = 0;
-    std::vector<std::string> args;
-    std::vector<std::string> inputs, outputs;
-    std::string status = "failed";
-    double seconds = 0.0;
-    std::string message;
-};
-
-// When a record is written, in UTC (ISO 8601, to the second): logs of
-// many hosts and time zones sort as one.
-std::string utc_now()
-{
-    const std::time_t now = std::time(nullptr);
-    std::tm utc{};
-    gmtime_r(&now, &utc);
-    char text[32];
-    std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
-    return text;
-}
-
-// The machine that ran the job (farms append many hosts' records to one log).
-std::string host_name()
-{
-    char name[256] = {};
-    if (gethostname(name, sizeof name - 1) != 0)
-        return "";
-    return name;
-}
-
-std::string json_line(const JobRecord& r)
-{
-    Json line;
-    line["job"] = r.index;
-    line["line"] = r.line;
-    line["args"] = json_bytes(r.args);
-    line["inputs"] = json_bytes(r.inputs);
-    line["outputs"] = json_bytes(r.outputs);
-    line["status"] = r.status;
-    line["seconds"] = std::round(r.seconds * 1000.0) / 1000.0;
-    line["message"] = json_bytes(r.message);
-    line["time"] = utc_now();
-    line["host"] = json_bytes(host_name());
-    return json_text(line);
-}
 
 // Whether every output of the job (its programs: one, or a tile set's)
 // exists and records the digest it would get from the job's `digest` (read
@@ -152,47 +105,6 @@ DeferredWrites run_job(const std::vector<Program>& progs, const std::vector<int>
     rec.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return rest;
 }
-
-// The --log file: one JSON line per job, appended as each job ends, so a
-// killed process leaves the lines of the jobs it finished. Opened for
-// appending and each line written by one write(2) under O_APPEND: batches
-// that share a log (shards of one farm) add whole lines, never tear or
-// overwrite another's.
-class JobLog {
-public:
-    explicit JobLog(const std::string& path) : path_(path)
-    {
-        if (path.empty())
-            return;
-        fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0666);
-        if (fd_ < 0)
-            throw RunError("--log " + path + ": cannot write it: " + std::strerror(errno));
-    }
-    ~JobLog()
-    {
-        if (fd_ >= 0)
-            ::close(fd_);
-    }
-    JobLog(const JobLog&) = delete;
-    JobLog& operator=(const JobLog&) = delete;
-    void add(const JobRecord& r)
-    {
-        if (fd_ < 0)
-            return;
-        const std::string line = json_line(r) + "\n";
-        ssize_t done;
-        do
-            done = ::write(fd_, line.data(), line.size());
-        while (done < 0 && errno == EINTR);
-        if (done != ssize_t(line.size()))
-            throw RunError("--log " + path_ +
-                           ": write failed: " + (done < 0 ? std::strerror(errno) : "the disk is full"));
-    }
-
-private:
-    std::string path_;
-    int fd_ = -1;
-};
 
 // A job as it runs: a manifest's job gets the batch's -v, --device,
 // --update and --dry-run first (its own come later and win). Throws
@@ -465,72 +377,6 @@ void run_command_line(const Program& prog, const std::vector<std::string>& args)
         throw RunError(rec.message);
     if (rec.status == "skipped" && prog.verbose)
         say("relief: up to date (every output records this run's relief:digest)\n");
-}
-
-namespace {
-
-// Every word of `args` that may name a file, but --log's own: each
-// argument, and each modifier's value (--op:key=value:...).
-std::vector<std::string> named_files(const std::vector<std::string>& args)
-{
-    std::vector<std::string> out;
-    for (std::size_t i = 0; i < args.size(); ++i) {
-        const std::string& a = args[i];
-        if (i > 0 && args[i - 1] == "--log")
-            continue;
-        out.push_back(a);
-        if (a.rfind("--", 0) != 0)
-            continue;
-        for (std::size_t at = a.find(':'); at != std::string::npos; at = a.find(':', at + 1)) {
-            const std::size_t eq = a.find('=', at), end = a.find(':', at + 1);
-            if (eq != std::string::npos && eq < end)
-                out.push_back(a.substr(eq + 1, end == std::string::npos ? std::string::npos : end - eq - 1));
-        }
-    }
-    return out;
-}
-
-// One file, existing (by identity) or not yet (by normalised path).
-bool same_file(const std::string& a, const std::string& b)
-{
-    namespace fs = std::filesystem;
-    std::error_code ec;
-    if (fs::equivalent(a, b, ec) && !ec)
-        return true;
-    const fs::path pa = fs::weakly_canonical(fs::absolute(a, ec), ec);
-    if (ec)
-        return false;
-    const fs::path pb = fs::weakly_canonical(fs::absolute(b, ec), ec);
-    return !ec && pa == pb;
-}
-
-}  // namespace
-
-void log_refused_command_line(const std::vector<std::string>& args, const std::string& why)
-{
-    std::string path;
-    for (std::size_t i = 0; i + 1 < args.size(); ++i)
-        if (args[i] == "--log")
-            path = args[i + 1];
-    if (std::find(args.begin(), args.end(), "--dry-run") != args.end())
-        return;  // (a dry run writes no log)
-    try {
-        // Only where --log itself would have been taken (text_output's rule),
-        // and never into a file the line names otherwise (the refusal may be
-        // that very clash: --log onto the --batch file or an input).
-        if (path.empty() || !relief::output_name_problem(path).empty() || std::filesystem::is_directory(path))
-            return;
-        for (const std::string& named : named_files(args))
-            if (same_file(named, path))
-                return;
-        JobLog log(path);
-        JobRecord rec;
-        rec.args = args;
-        rec.message = why;
-        log.add(rec);
-    } catch (const std::exception& e) {
-        say("relief: warning: %s\n", e.what());
-    }
 }
 
 }  // namespace relief::cli

@@ -24,10 +24,4 @@ int run_jobs(const Program& top, const std::vector<Job>& all, const std::string&
 // (a clobbered file), RunError (the job failed: its message).
 void run_command_line(const Program& prog, const std::vector<std::string>& args);
 
-// A command line refused before it could run (`why`: a bad option or
-// modifier, a missing input): its failed record in the --log file the
-// arguments name, if they name one it could write, so that every run with
-// --log leaves a record. Never throws (a log it cannot write is warned of).
-void log_refused_command_line(const std::vector<std::string>& args, const std::string& why);
-
 }  // namespace relief::cli

@@ -11,6 +11,7 @@
 #include "batch.h"
 #include "command_line.h"
 #include "console.h"
+#include "job_log.h"
 #include "job_runner.h"
 #include "process.h"
 #include "stack_runner.h"
