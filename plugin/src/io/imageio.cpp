@@ -4,7 +4,6 @@
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
-#include <xxhash.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -25,6 +24,7 @@
 #include "device/memory_budget.h"  // host/: no OpenCL types
 #include "relief/output_files.h"
 #include "relief/version.h"
+#include "pixel_digest.h"
 #include "temporary_file.h"
 
 namespace relief {
@@ -193,59 +193,6 @@ private:
     int errno_ = 0;
 };
 
-// The pixels' digest (XXH3-64, 16 hex digits) as `format` holds them, a
-// band of rows at a time: what --update checks an output by (its header's
-// job digest alone survives damage inside the file). Only for files whose
-// stored values are the buffer's converted: not where an alpha channel may
-// be associated or not on the way (PNG), whose digest would never match.
-std::string pixel_digest(const ImageBuf& image, TypeDesc format)
-{
-    const ImageSpec& spec = image.spec();
-    if (spec.alpha_channel >= 0 || spec.nchannels == 2 || spec.nchannels == 4)
-        return "";
-    std::unique_ptr<XXH3_state_t, XXH_errorcode (*)(XXH3_state_t*)> state(XXH3_createState(), XXH3_freeState);
-    if (!state || XXH3_64bits_reset(state.get()) != XXH_OK)
-        return "";
-    const int band = 64;
-    const std::size_t row = std::size_t(spec.width) * std::size_t(spec.nchannels) * format.size();
-    std::vector<unsigned char> bytes(row * std::size_t(band));
-    for (int y = spec.y; y < spec.y + spec.height; y += band) {
-        const int end = std::min(y + band, spec.y + spec.height);
-        const OIIO::ROI roi(spec.x, spec.x + spec.width, y, end, spec.z, spec.z + 1, 0, spec.nchannels);
-        if (!image.get_pixels(roi, format, bytes.data()))
-            return "";
-        XXH3_64bits_update(state.get(), bytes.data(), row * std::size_t(end - y));
-    }
-    char hex[17];
-    std::snprintf(hex, sizeof hex, "%016llx", (unsigned long long)XXH3_64bits_digest(state.get()));
-    return hex;
-}
-
-// The same digest of a file's pixels as stored (native), read back.
-std::string stored_pixel_digest(OIIO::ImageInput& in)
-{
-    const ImageSpec& spec = in.spec();
-    if (spec.tile_width > 0 || spec.width <= 0 || spec.height <= 0 || spec.depth > 1)
-        return "";
-    std::unique_ptr<XXH3_state_t, XXH_errorcode (*)(XXH3_state_t*)> state(XXH3_createState(), XXH3_freeState);
-    if (!state || XXH3_64bits_reset(state.get()) != XXH_OK)
-        return "";
-    const int band = 64;
-    const std::size_t row = spec.scanline_bytes(true);
-    std::vector<unsigned char> bytes(row * std::size_t(band));
-    for (int y = spec.y; y < spec.y + spec.height; y += band) {
-        const int end = std::min(y + band, spec.y + spec.height);
-        const bool read =
-            in.read_scanlines(0, 0, y, end, spec.z, 0, spec.nchannels, TypeDesc::UNKNOWN, bytes.data());
-        if (!read || !in.geterror().empty())
-            return "";
-        XXH3_64bits_update(state.get(), bytes.data(), row * std::size_t(end - y));
-    }
-    char hex[17];
-    std::snprintf(hex, sizeof hex, "%016llx", (unsigned long long)XXH3_64bits_digest(state.get()));
-    return hex;
-}
-
 // Writes `image` into the temporary file `tmp` for `target` as `format`
 // with `compression` (empty: the format's default); returns "" or why not.
 // Not through ImageBuf::write: it ignores the writer's close(), where PNG
@@ -282,7 +229,7 @@ std::string write_file(const ImageBuf& image, const fs::path& target, detail::Te
         if ((ext == ".tif" || ext == ".tiff") && format.basetype == TypeDesc::HALF)
             stored = TypeDesc::FLOAT;
         const bool lossless = ext == ".exr" || ext == ".png" || ext == ".tif" || ext == ".tiff";
-        if (const std::string pixels = lossless ? pixel_digest(image, stored) : ""; !pixels.empty()) {
+        if (const std::string pixels = lossless ? detail::pixel_digest(image, stored) : ""; !pixels.empty()) {
             digest += "." + pixels;
             spec.attribute("relief:digest", digest);
         }
@@ -318,46 +265,6 @@ std::string write_file(const ImageBuf& image, const fs::path& target, detail::Te
 
 }  // namespace
 
-namespace {
-
-// Whether the file's pixels end where its header says, without decoding
-// them all: a PNG ends with its IEND chunk (its rows are one zlib stream,
-// so reading the last row would decode every row); other scanline files
-// (OpenEXR's offset table, TIFF's strips) read their last scanline or
-// strip. relief writes no tiled files: those are taken as they are.
-bool pixels_decode(OIIO::ImageInput& in)
-{
-    const ImageSpec& spec = in.spec();
-    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
-        return false;
-    // Bands of rows (whole tiles or strips), read in order: a file cut short
-    // or damaged inside (a checksum, a compressed stream that does not
-    // inflate) fails where its pixels are, whatever keeps its header and
-    // size. Uncompressed pixels carry no check: those outputs are trusted
-    // as any file is.
-    const int rows =
-        spec.tile_height > 0 ? spec.tile_height : std::max(1, spec.get_int_attribute("tiff:RowsPerStrip", 1));
-    const int band = std::max(rows, (64 + rows - 1) / rows * rows);
-    const int depth = std::max(1, spec.depth);
-    std::vector<float> pixels(std::size_t(spec.width) * std::size_t(spec.nchannels) * std::size_t(band) *
-                              std::size_t(depth));
-    for (int y = spec.y; y < spec.y + spec.height; y += band) {
-        const int end = std::min(y + band, spec.y + spec.height);
-        // OIIO 2.4 returns true for a strip libtiff could not read, with the
-        // error set: both count.
-        const bool read =
-            spec.tile_width > 0
-                ? in.read_tiles(0, 0, spec.x, spec.x + spec.width, y, end, spec.z, spec.z + depth, 0,
-                                spec.nchannels, TypeDesc::FLOAT, pixels.data())
-                : in.read_scanlines(0, 0, y, end, spec.z, 0, spec.nchannels, TypeDesc::FLOAT, pixels.data());
-        if (!read || !in.geterror().empty())
-            return false;
-    }
-    return true;
-}
-
-}  // namespace
-
 bool image_size(const std::string& path, int& width, int& height)
 {
     const detail::LibraryOutput quiet;  // the image libraries print nothing
@@ -371,62 +278,6 @@ bool image_size(const std::string& path, int& width, int& height)
     width = in->spec().width;
     height = in->spec().height;
     return true;
-}
-
-std::string recorded_digest(const std::string& path)
-{
-    const detail::LibraryOutput quiet;  // the image libraries print nothing
-    // Meshes (--mesh) record it near their start: an OBJ or PLY comment
-    // "relief:digest=HEX", glTF's asset.extras "relief:digest":"HEX".
-    const std::string ext = lowercase(fs::path(path).extension().string());
-    if (ext == ".obj" || ext == ".ply" || ext == ".gltf" || ext == ".glb") {
-        std::ifstream f(path, std::ios::binary);
-        std::string head(1 << 16, '\0');
-        f.read(&head[0], std::streamsize(head.size()));
-        head.resize(std::size_t(f.gcount()));
-        std::size_t at = head.find("relief:digest");
-        if (at == std::string::npos)
-            return "";
-        at += 13;
-        while (at < head.size() && (head[at] == '=' || head[at] == '"' || head[at] == ':' || head[at] == ' '))
-            ++at;
-        std::size_t end = at;
-        while (end < head.size() && std::isxdigit(static_cast<unsigned char>(head[end])))
-            ++end;
-        return head.substr(at, end - at);
-    }
-    if (!input_file_problem(path).empty())
-        return "";  // missing, or a FIFO whose probe would hang
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) {
-        OIIO::geterror();  // consume it: a missing output just means "recompute"
-        return "";
-    }
-    const ImageSpec& spec = in->spec();
-    std::string digest = spec.get_string_attribute("relief:digest");
-    if (digest.empty()) {
-        const std::string d = spec.get_string_attribute("ImageDescription");
-        const std::string key = "relief:digest=";
-        const std::size_t at = d.find(key);
-        if (at != std::string::npos)
-            digest = d.substr(at + key.size(), d.find('\n', at) - at - key.size());
-    }
-    // "JOB.PIXELS": the pixels as stored must hash to PIXELS; a digest
-    // without it (a file whose values may change on the way, or an older
-    // relief's) must at least decode. A damaged file keeps its header and
-    // size: recompute it.
-    const std::size_t dot = digest.find('.');
-    if (dot != std::string::npos) {
-        if (stored_pixel_digest(*in) != digest.substr(dot + 1))
-            digest.clear();
-        else
-            digest.resize(dot);
-    } else if (!digest.empty() && !pixels_decode(*in)) {
-        digest.clear();
-    }
-    in->close();
-    OIIO::geterror();
-    return digest;
 }
 
 bool check_output_path(const std::string& path)
