@@ -97,6 +97,12 @@ std::string conflict(const FileUse& a, const FileUse& b)
 
 }  // namespace
 
+bool same_file(const std::string& a, const std::string& b)
+{
+    const Identity x = identity_of(a), y = identity_of(b);
+    return !(x < y) && !(y < x);
+}
+
 void add_file_uses(const Program& prog, int job, int line, std::vector<FileUse>& uses)
 {
     const auto add = [&](const std::string& path, Role role) {

@@ -29,6 +29,10 @@ struct FileUse {
 // its --report.
 void add_file_uses(const Program& prog, int job, int line, std::vector<FileUse>& uses);
 
+// Whether `a` and `b` name one file: by identity where it exists (device
+// and inode: hard links, "x/../a"), by normalised absolute path otherwise.
+bool same_file(const std::string& a, const std::string& b);
+
 // One job's -o output read by another, later job.
 struct Dependency {
     int writer = 0, reader = 0;  // job indices, writer < reader

@@ -14,6 +14,7 @@
 
 #include "command_line.h"
 #include "console.h"
+#include "file_uses.h"
 #include "json_text.h"
 #include "relief/output_files.h"
 #include "stack_runner.h"
@@ -111,20 +112,6 @@ std::vector<std::string> named_files(const std::vector<std::string>& args)
         }
     }
     return out;
-}
-
-// One file, existing (by identity) or not yet (by normalised path).
-bool same_file(const std::string& a, const std::string& b)
-{
-    namespace fs = std::filesystem;
-    std::error_code ec;
-    if (fs::equivalent(a, b, ec) && !ec)
-        return true;
-    const fs::path pa = fs::weakly_canonical(fs::absolute(a, ec), ec);
-    if (ec)
-        return false;
-    const fs::path pb = fs::weakly_canonical(fs::absolute(b, ec), ec);
-    return !ec && pa == pb;
 }
 
 }  // namespace
