@@ -28,8 +28,13 @@ endif()
 foreach(_tag IN LISTS _tags)
   string(REGEX REPLACE "^\\[#(.*)\\]$" "\\1" _file "${_tag}")
   add_test("fast: ${_file}" ${FAST_EXECUTOR} "${FAST_EXECUTABLE}" --filenames-as-tags "${_tag}${FAST_FILTER}" -w NoTests)
+  set(_labels fast)
+  list(FIND FAST_FRONT_END_FILES "${_file}" _front_end)  # (ctest has no policies: no IN_LIST)
+  if(_front_end GREATER -1)
+    list(APPEND _labels front-end)
+  endif()
   set_tests_properties("fast: ${_file}" PROPERTIES
     WORKING_DIRECTORY "${FAST_WORKING_DIRECTORY}"
     FAIL_REGULAR_EXPRESSION "relief-test-skipped:"
-    LABELS fast)
+    LABELS "${_labels}")
 endforeach()
