@@ -147,6 +147,28 @@ std::vector<ImageBuf> to_imagebufs(const std::string& op, const std::vector<py::
     return bufs;
 }
 
+// Before any array is copied: each array's shape and the memory its copy
+// needs (ValueError), then the
+// operation's memory estimate for its size on `device` (RuntimeError, as
+// the run itself would refuse it), so a map too large is refused at once.
+void check_before_copy(const relief::OperationCall& call, const std::string& device,
+                       const std::vector<py::array>& arrays, bool one_slot)
+{
+    const relief::OperationInfo& info = *relief::find_operation(call.operation);
+    for (std::size_t i = 0; i < arrays.size(); ++i) {
+        const py::array& a = arrays[i];
+        if (a.ndim() != 2 && a.ndim() != 3)
+            continue;  // (to_imagebuf says why)
+        const long long h = a.shape(0), w = a.shape(1), c = a.ndim() == 3 ? a.shape(2) : 1;
+        if (const std::string why = relief::input_problem(call.operation, info.inputs[one_slot ? 0 : i], w, h,
+                                                          c, int(pixel_type(a).size()));
+            !why.empty())
+            throw py::value_error(why);
+        if (const std::string why = relief::memory_problem(call, device, w, h); !why.empty())
+            throw std::runtime_error(why);
+    }
+}
+
 std::vector<const ImageBuf*> pointers(const std::vector<ImageBuf>& bufs)
 {
     std::vector<const ImageBuf*> p;
@@ -257,6 +279,7 @@ py::tuple run(const std::string& op, const std::vector<py::array>& arrays,
     const relief::OperationCall call = parse_call(op, modifiers);
     if (const std::string why = relief::call_problem(op, arrays.size()); !why.empty())
         throw py::value_error(why);
+    check_before_copy(call, device, arrays, false);
     const std::vector<ImageBuf> bufs = to_imagebufs(op, arrays, metadata, false);
     PythonCallbacks callbacks(std::move(messages), std::move(progress));
     const relief::Execution exec = callbacks.execution(device);
@@ -283,6 +306,7 @@ py::list run_tiles(const std::string& op, const std::vector<int>& numbers,
     const relief::OperationCall call = parse_call(op, modifiers);
     if (const std::string why = relief::tiles_call_problem(op, numbers, arrays.size()); !why.empty())
         throw py::value_error(why);
+    check_before_copy(call, device, arrays, true);
     const std::vector<ImageBuf> bufs = to_imagebufs(op, arrays, metadata, true);
     PythonCallbacks callbacks(std::move(messages), std::move(progress));
     const relief::Execution exec = callbacks.execution(device);

@@ -38,7 +38,7 @@ void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch, c
                 for (std::size_t i = 0; i < n; ++i)
                     plane[i] = src[i * nch + ch];
             c.queue.enqueueWriteBuffer(in, CL_TRUE, 0, sizeof(float) * values, planar ? plane.data() : src);
-            c.launch(k, n);
+            c.launch_in_parts(k, n, 262144);  // (a cancel between parts of 256K texels)
             c.queue.enqueueReadBuffer(out, CL_TRUE, 0, sizeof(float) * values, planar ? plane.data() : dst);
             if (planar)
                 for (std::size_t i = 0; i < n; ++i)

@@ -355,6 +355,18 @@ std::size_t ComputeContext::Impl::launch(cl::Kernel& kernel, std::size_t items,
     return g;
 }
 
+void ComputeContext::Impl::launch_in_parts(cl::Kernel& kernel, std::size_t items, std::size_t per_part)
+{
+    const std::size_t g = group_size(kernel);
+    const std::size_t part = round_up(std::max<std::size_t>(per_part, 1), g);
+    for (std::size_t first = 0; first < std::max<std::size_t>(items, 1); first += part) {
+        stop_if_cancelled();
+        const std::size_t count = std::min(part, round_up(std::max<std::size_t>(items, 1), g) - first);
+        queue.enqueueNDRangeKernel(kernel, cl::NDRange(first), cl::NDRange(count), cl::NDRange(g));
+        queue.finish();
+    }
+}
+
 void ComputeContext::Impl::fill(cl::Buffer& buffer, const void* pattern, std::size_t size, std::size_t offset,
                                 std::size_t bytes)
 {

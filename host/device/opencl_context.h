@@ -79,6 +79,12 @@ struct ComputeContext::Impl {
     // (no non-uniform groups in OpenCL 1.2; kernels bound-check). Returns
     // the group size used.
     std::size_t launch(cl::Kernel& kernel, std::size_t items, std::size_t local_bytes_per_item = 0);
+    // launch() over `items` in parts of at least `per_part` work-items (a
+    // multiple of the group size; get_global_id counts on from part to
+    // part), each finished before the next is queued: one long pass stays
+    // within reach of a cancel (asked before each part) and of a GPU's
+    // watchdog.
+    void launch_in_parts(cl::Kernel& kernel, std::size_t items, std::size_t per_part);
 
     // clEnqueueFillBuffer by a kernel of relief's (kernels/device.cl): the
     // `bytes` from `offset` on set to `pattern` repeated (1, 4 or 8 bytes;

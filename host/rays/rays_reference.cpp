@@ -126,9 +126,11 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes, c
                     data, active, cl_int(kSkipTile), cl_int(tiles_x), out);
 
         // Launch in bands of rows: each launch stays short (GPU watchdogs,
-        // responsive progress) whatever the radius.
+        // responsive progress and cancel) whatever the radius: 3e7 steps, 40
+        // ms on two CPU cores (2e8 had been 272 ms between progress calls
+        // at 1024^2, 16 rays of 64 texels).
         const double work_per_row = double(w) * double(std::max<std::size_t>(t.offsets.size(), 1));
-        const int band = int(std::clamp(2.0e8 / work_per_row, 1.0, double(h)));
+        const int band = int(std::clamp(3.0e7 / work_per_row, 1.0, double(h)));
         for (int row0 = 0; row0 < h; row0 += band) {
             const int rows = std::min(band, h - row0);
             set_args_at(k, 3, row0, rows);

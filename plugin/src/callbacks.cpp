@@ -1,6 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "callbacks.h"
 
+#include <memory>
+#include <utility>
+
 namespace relief::detail {
 
 namespace {
@@ -61,6 +64,40 @@ std::function<void(Severity, const std::string&)> marked(std::function<void(Seve
         const InCallback in;
         f(s, text);
     };
+}
+
+Execution paced(const Execution& exec, std::chrono::steady_clock::duration interval)
+{
+    if (!exec.on_progress)
+        return exec;
+    using Clock = std::chrono::steady_clock;
+    struct Heard {
+        std::function<void(double)> progress;
+        Clock::time_point at = Clock::now();
+        double fraction = 0.0;
+        void operator()(double f)
+        {
+            at = Clock::now();
+            fraction = f;
+            progress(f);
+        }
+    };
+    auto heard = std::make_shared<Heard>();
+    heard->progress = exec.on_progress;
+    Execution e = exec;
+    e.on_progress = [heard](double f) {
+        if (f < 1.0)
+            (*heard)(f);
+    };
+    e.cancel = [heard, interval, cancel = exec.cancel] {
+        if (cancel && cancel())
+            return true;  // (no heartbeat once the host has asked to stop)
+        if (Clock::now() - heard->at < interval)
+            return false;
+        (*heard)(heard->fraction);
+        return cancel && cancel();
+    };
+    return e;
 }
 
 }  // namespace relief::detail

@@ -7,6 +7,7 @@
 // operation started inside one is refused at once (reentry_problem), in
 // every front end: the C ABI's RELIEF_INVALID, a failed C++ call, a Python
 // exception. Another thread's call waits its turn as before.
+#include <chrono>
 #include <functional>
 #include <string>
 
@@ -34,5 +35,20 @@ std::string reentry_problem();
 std::function<void(double)> marked(std::function<void(double)> f);
 std::function<bool()> marked(std::function<bool()> f);
 std::function<void(Severity, const std::string&)> marked(std::function<void(Severity, const std::string&)> f);
+
+// `exec` as the table runs it (every front end: the command line, the C
+// ABI, Python), with two rules for its progress:
+// - A heartbeat. The stages ask cancel before each kernel they queue
+//   (host/device/cancel.h); when they do and `interval` has passed since
+//   the host last heard progress, on_progress hears the last fraction
+//   again. A host whose only way to cancel is its progress callback (the C
+//   ABI, Python's callable) is asked at least that often while kernels
+//   run, also in a stage that has no finer measure of its own.
+// - One final call. Only the table's last call (1, once the result is
+//   complete) reports 1: a stage's own 1 is not passed on, so a cancel
+//   answered to 1 always comes after the work, and the operation returns
+//   its result.
+Execution paced(const Execution& exec,
+                std::chrono::steady_clock::duration interval = std::chrono::milliseconds(50));
 
 }  // namespace relief::detail

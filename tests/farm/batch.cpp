@@ -534,9 +534,48 @@ TEST_CASE("batch: a single run refused before it starts still leaves its failed 
                   (d / "." / "h.exr").string() + "'")
               .rc == 2);
     CHECK(!fs::exists(h));
+    // ... nor onto a file a modifier names (mask=): the mask stays as it was.
+    const fs::path mask = d / "mask.png";
+    fs::copy_file(kNormal, mask, fs::copy_options::overwrite_existing);
+    const std::string mask_before = relief::test::slurp(mask);
+    CHECK(run_cli("'" + n.string() + "' --height:mask='" + mask.string() + "':bogus=1 -o '" + h.string() +
+                  "' --log '" + mask.string() + "'")
+              .rc == 2);
+    CHECK(relief::test::slurp(mask) == mask_before);
     // A dry run writes no log, refused or not.
     CHECK(run_cli("'" + n.string() + "' --height:bogus=1 --dry-run" + at).rc == 2);
     CHECK(lines_of(log).size() == cases.size());
+    CHECK(!fs::exists(h));
+    // A batch refused before any job (a manifest line that does not parse)
+    // leaves its failed record too.
+    {
+        std::ofstream m(d / "jobs.txt");
+        m << "'" << n.string() << " --height -o '" << h.string() << "'\n";  // (a quote left open)
+    }
+    const fs::path batch_log = d / "batch.jsonl";
+    fs::remove(batch_log);
+    const auto r = run_cli("--batch '" + (d / "jobs.txt").string() + "' --log '" + batch_log.string() + "'");
+    INFO(r.err);
+    CHECK(r.rc == 2);
+    const std::vector<std::string> batch_lines = lines_of(batch_log);
+    REQUIRE(batch_lines.size() == 1);
+    const nlohmann::json refused = nlohmann::json::parse(batch_lines[0]);
+    CHECK(refused["status"] == "failed");
+    CHECK(refused["message"].get<std::string>().find("unterminated ' quote") != std::string::npos);
+}
+
+TEST_CASE("batch: a single --dry-run prints its plan and writes no --log", "[batch][cli]")
+{
+    const fs::path d = scratch("single_dry_run");
+    const fs::path log = d / "l.jsonl", h = d / "h.exr";
+    fs::remove(log);
+    const auto r =
+        run_cli("'" + kNormal + "' --height -o '" + h.string() + "' --dry-run --log '" + log.string() + "'");
+    INFO(r.out << r.err);
+    CHECK(r.rc == 0);
+    CHECK(r.out.find("\"status\":\"pending\"") != std::string::npos);
+    CHECK(r.err.find("1 pending, 0 skipped, 0 failed of 1 job(s) (dry run)") != std::string::npos);
+    CHECK(!fs::exists(log));
     CHECK(!fs::exists(h));
 }
 

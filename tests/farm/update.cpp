@@ -174,7 +174,8 @@ TEST_CASE("update: a dry run calls a chain's reader pending when the job it read
     write_crop(kNormal, d / "n.png", 0, 64);
     const auto manifest = [&](const std::string& modifiers) {
         std::ofstream f(d / "jobs.txt");
-        f << "n.png --height" << modifiers << " -o a.exr\na.exr --normals -o b.exr\n";
+        f << "n.png --height" << modifiers << " -o a.exr\na.exr --normals -o b.exr\n"
+          << "b.exr --slopes -o c.exr\n";  // (a third link: pending because its reader's writer is)
     };
     const auto run = [&](const std::string& extra) {
         fs::remove(d / "log.jsonl");
@@ -184,14 +185,15 @@ TEST_CASE("update: a dry run calls a chain's reader pending when the job it read
     using S = std::vector<std::string>;
     manifest("");
     REQUIRE(run("").rc == 0);
-    CHECK(statuses(d / "log.jsonl") == S{"ok", "ok"});
+    CHECK(statuses(d / "log.jsonl") == S{"ok", "ok", "ok"});
     auto dry = run("--dry-run");
-    CHECK(dry.err.find("0 pending, 2 skipped") != std::string::npos);
+    CHECK(dry.err.find("0 pending, 3 skipped") != std::string::npos);
     manifest(":boundary=free");  // the writer changes; its reader's file on disk does not, yet
     dry = run("--dry-run");
     INFO(dry.out);
-    CHECK(dry.err.find("2 pending, 0 skipped") != std::string::npos);
+    CHECK(dry.err.find("3 pending, 0 skipped") != std::string::npos);
     CHECK(dry.out.find("reads the output of job 0, which would run") != std::string::npos);
+    CHECK(dry.out.find("reads the output of job 1, which would run") != std::string::npos);
     CHECK(run("").rc == 0);
-    CHECK(statuses(d / "log.jsonl") == S{"ok", "ok"});
+    CHECK(statuses(d / "log.jsonl") == S{"ok", "ok", "ok"});
 }

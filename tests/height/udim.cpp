@@ -6,6 +6,7 @@
 
 #include <OpenImageIO/imagebufalgo.h>
 
+#include <cstring>
 #include <map>
 #include <string>
 #include <vector>
@@ -269,13 +270,17 @@ TEST_CASE("udim through the C ABI: relief_run_tiles equals height_udim, refusals
     refused("bake", "", 4, "does not take the tiles");
     refused("height", "udim=sometimes", 4, "udim");
     refused("height", "", 0, "at least one tile");
+    refused("height", "", -1, "at least one tile");
     CHECK(relief_run_tiles("auto", "height", "", numbers.data(), in.data(), 4, nullptr) == RELIEF_INVALID);
     // Tile numbers out of range or given twice: refused as the counts are.
     for (const auto& [bad, says] :
          {std::pair{std::vector<int>{1001, 1002, 1002, 1012}, "tile 1002 is given twice"},
           std::pair{std::vector<int>{1000, 1002, 1011, 1012}, "1001 to 1999, got 1000"},
           std::pair{std::vector<int>{1001, 1002, 1011, 2000}, "1001 to 1999, got 2000"}}) {
-        std::vector<relief_image> o(in.size(), relief_image{1, 1, 1, RELIEF_FLOAT, nullptr, nullptr});
+        // (outputs holding whatever the caller's memory held: refused before
+        // they are relief's, they are zeroed, never freed)
+        std::vector<relief_image> o(in.size());
+        std::memset(static_cast<void*>(o.data()), 0x5a, sizeof(relief_image) * o.size());
         CHECK(relief_run_tiles("auto", "height", "", bad.data(), in.data(), 4, o.data()) == RELIEF_INVALID);
         CHECK(std::string(relief_last_error()).find(says) != std::string::npos);
         for (const relief_image& r : o)
@@ -287,6 +292,22 @@ TEST_CASE("udim through the C ABI: relief_run_tiles equals height_udim, refusals
         CHECK(relief_run_tiles("auto", "height", "", numbers_missing ? nullptr : numbers.data(),
                                numbers_missing ? in.data() : nullptr, 4, o.data()) == RELIEF_INVALID);
         CHECK(std::string(relief_last_error()).find("at least one tile") != std::string::npos);
+    }
+    // The last tile number there is, 1999, is a tile like any other; an
+    // image without pixels is refused.
+    {
+        const int last = 1999;
+        std::vector<relief_image> one(1);
+        CHECK(relief_run_tiles("auto", "height", "boundary=free", &last, in.data(), 1, one.data()) ==
+              RELIEF_OK);
+        CHECK(one[0].pixels != nullptr);
+        relief_image_free(&one[0]);
+        relief_image no_pixels = in[0];
+        no_pixels.pixels = nullptr;
+        CHECK(relief_run_tiles("auto", "height", "", &last, &no_pixels, 1, one.data()) == RELIEF_INVALID);
+        CHECK(std::string(relief_last_error()).find("has no pixels (NULL)") != std::string::npos);
+        CHECK(relief_run_on("auto", "height", "", &no_pixels, 1, one.data()) == RELIEF_INVALID);
+        CHECK(std::string(relief_last_error()).find("has no pixels (NULL)") != std::string::npos);
     }
     // One tile is a set of one: its own height, as height() gives it.
     {

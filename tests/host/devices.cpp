@@ -251,11 +251,11 @@ TEST_CASE("devices: work-groups come from the device's and the kernel's limits",
         CHECK(shape[0] <= 4);
         CHECK(shape[1] <= 32);
     }
-    {
-        ScopedEnv g("RELIEF_MAX_WORK_GROUP_SIZE", "lots");
+    for (const std::string bad : {"lots", "-1", "0"}) {
+        ScopedEnv g("RELIEF_MAX_WORK_GROUP_SIZE", bad.c_str());
         CHECK_THROWS_WITH(
             ComputeContext(choose_device("auto")),
-            Catch::Contains("RELIEF_MAX_WORK_GROUP_SIZE must be a whole number > 0, not 'lots'"));
+            Catch::Contains("RELIEF_MAX_WORK_GROUP_SIZE must be a whole number > 0, not '" + bad + "'"));
     }
 }
 

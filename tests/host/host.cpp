@@ -366,6 +366,11 @@ TEST_CASE("memory: sizes said in decimal units, or in the binary ones RELIEF_MEM
     CHECK(refuse_host(13600000) == "needs 13.6 MB of memory, RELIEF_MEMORY_LIMIT=10MB allows 10.0 MB");
     env.set("RELIEF_MEMORY_LIMIT", nullptr);
     CHECK(refuse_host(~0ull / 2).find("of memory, this machine has ") != std::string::npos);
+    // a limit above what the machine has: the machine is the bound, and said
+    env.set("RELIEF_MEMORY_LIMIT", "1000T");
+    const std::string above = refuse_host(~0ull / 2);
+    CHECK(above.find("of memory, this machine has ") != std::string::npos);
+    CHECK(above.find("RELIEF_MEMORY_LIMIT") == std::string::npos);
 }
 
 TEST_CASE("memory: a cgroup's limit less its use, the tightest of the group and the groups above it",

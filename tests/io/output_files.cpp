@@ -526,7 +526,7 @@ TEST_CASE("output files: --update recomputes an output damaged inside, its size 
     // type: up to date as written; 64 bytes changed mid-file (the header
     // and the size kept) make it stale, uncompressed floats included.
     int n = 0;
-    for (const char* ext : {"exr", "tif", "png"})
+    for (const char* ext : {"exr", "tif", "tiff", "png"})  // (.tiff: TIFF's other name, stored alike)
         for (const char* type : {"float", "half", "uint16", "uint8"}) {
             const std::string name = std::string("h") + std::to_string(n++) + "." + ext;
             INFO(name << " -d " << type);

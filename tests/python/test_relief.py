@@ -4,6 +4,7 @@
 at the command line, RELIEF_TEST_DATA at examples/data)."""
 import json
 import os
+import resource
 import shutil
 import signal
 import subprocess
@@ -204,6 +205,12 @@ class Refusals(unittest.TestCase):
         self.assertFalse(os.path.exists(path))
         relief.write(path, np.zeros((1, 1, 4096), np.float32))
         self.assertEqual(relief.read(path).shape, (1, 1, 4096))
+        # a name with a NUL byte: refused, not cut at the NUL
+        cut = os.path.join(os.path.dirname(path), "cut.exr")
+        with self.assertRaises((ValueError, RuntimeError, OSError)) as e:
+            relief.write(cut + "\0.png", np.zeros((1, 1, 1), np.float32))
+        self.assertIn("the name holds a NUL byte", str(e.exception))
+        self.assertFalse(os.path.exists(cut))
 
     def test_sizes_are_refused_before_any_copy(self):
         # 3 floats that claim 30 GB: refused from the shape, never copied
@@ -220,6 +227,35 @@ class Refusals(unittest.TestCase):
             tracemalloc.stop()
             del os.environ["RELIEF_MEMORY_LIMIT"]
         self.assertLess(peak, 64 << 20)  # the 768 MB were never copied
+
+    def test_the_operations_memory_estimate_refuses_before_the_copy(self):
+        # A 40000^2 uint8 normal map (4.8 GB) whose copy fits the limit, but
+        # whose height does not: refused at once by the estimate, never
+        # copied (the run had copied it for minutes, then refused it).
+        huge = np.broadcast_to(np.zeros(3, np.uint8), (40000, 40000, 3))
+        os.environ["RELIEF_MEMORY_LIMIT"] = "6G"
+        try:
+            before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+            start = time.monotonic()
+            with self.assertRaises(RuntimeError) as e:
+                relief.height(huge, normal="opengl")
+            seconds = time.monotonic() - start
+            grown = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before  # KiB
+        finally:
+            del os.environ["RELIEF_MEMORY_LIMIT"]
+        # (the device's memory or the limit, whichever is short first)
+        self.assertIn("height: the Poisson integration of a 40000x40000 map needs", str(e.exception))
+        self.assertLess(grown, 256 << 10)  # no copy: under 256 MiB more at the peak
+        self.assertLess(seconds, 10.0)  # (about 0.1 s here; a copy took minutes)
+        # the tiles of a UDIM set alike, each checked before any is copied
+        os.environ["RELIEF_MEMORY_LIMIT"] = "6G"
+        try:
+            with self.assertRaises(RuntimeError) as e:
+                relief.height_udim({1001: huge, 1002: huge}, normal="opengl")
+        finally:
+            del os.environ["RELIEF_MEMORY_LIMIT"]
+        self.assertIn("of a 40000x40000 map needs", str(e.exception))
+        self.assertLess(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before, 256 << 10)
 
     def test_a_failed_run_raises_runtime_error(self):
         with self.assertRaises(RuntimeError) as e:

@@ -36,6 +36,14 @@ RELIEF_API const OperationInfo* find_operation(const std::string& name);
 // a pixel, so a size a caller cannot have is refused with the numbers.
 RELIEF_API std::string input_problem(const std::string& operation, const ImageSlot& slot, long long width,
                                      long long height, long long channels, int bytes_per_channel = 0);
+// Why `call` cannot run on a width x height map on `device` for want of
+// memory, or "": every operation's float result, and the operation's own
+// estimate where it has one before any work (the height's slopes and
+// integration grids for its method and boundary). Python checks it before
+// it copies an array, so a map too large is refused at once, not after a
+// copy of minutes.
+RELIEF_API std::string memory_problem(const OperationCall& call, const std::string& device, long long width,
+                                      long long height);
 // The table as a JSON document: {"abi_version": 2, "operations": [...]}.
 RELIEF_API std::string operations_json();
 

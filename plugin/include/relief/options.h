@@ -59,10 +59,14 @@ struct Execution {
     // Receives what an operation chose and any warning (one line each).
     // Without it nothing is printed; the result's metadata records the same.
     std::function<void(Severity, const std::string&)> on_message;
-    // Fraction done in [0, 1] for long operations.
+    // Fraction done in [0, 1], never falling. Through the table
+    // (run_operation: the command line, the C ABI, Python) 0 first and 1
+    // last, once the result is complete, and the last fraction again when
+    // a stage asks cancel 50 ms or more after the last report.
     std::function<void(double)> on_progress;
-    // Asked before each kernel is queued (and the operation's set-up):
-    // true stops the operation there, within one kernel's time. It then
+    // Asked before each kernel is queued, between the parts of a long
+    // pass and between host passes (and at the operation's set-up): true
+    // stops the operation there, within one kernel's or part's time. It then
     // fails with geterror() "<operation>: cancelled", writes nothing and
     // keeps nothing. Called on the operation's thread.
     // None of the three may start a relief operation on that thread (the

@@ -79,12 +79,16 @@ typedef enum relief_severity {
  * callback its messages go nowhere (the result's metadata keeps what the
  * operation chose).
  *   message:  one line of text, `severity` a relief_severity.
- *   progress: `fraction` done, 0 first and 1 last, rising; returning
- *             non-zero cancels: relief stops before the next kernel it
- *             would queue, frees what it holds, writes no output and
- *             returns RELIEF_CANCELLED (bench_cancel: a 1024^2 correction
- *             returns 8 ms after the answer, median of 5, at most 15 ms,
- *             on a 2-core CPU device).
+ *   progress: `fraction` done, 0 first and 1 last, never falling; while
+ *             the operation works, called at least every 50 ms that a
+ *             kernel or a pass is started (the last fraction again where
+ *             a stage has no finer measure). Returning non-zero cancels:
+ *             relief stops before the next kernel or pass, frees what it
+ *             holds, writes no output and returns RELIEF_CANCELLED
+ *             (bench_cancel, 1024^2, a 2-core CPU device: within half a
+ *             second in every operation). The call with 1 comes once the
+ *             result is complete: a non-zero answer to it cancels nothing,
+ *             and the call returns RELIEF_OK.
  * A callback may not run relief itself on that thread (the running call
  * holds the device): such a call returns RELIEF_INVALID at once, saying
  * why, and the outer call goes on; another thread's call waits its turn.

@@ -7,13 +7,16 @@
 #include <tiny_gltf.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cfloat>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <sstream>
+#include <ostream>
 #include <stdexcept>
+#include <streambuf>
 
+#include "device/cancel.h"
 #include "error_state.h"
 #include "relief/output_files.h"
 #include "temporary_file.h"
@@ -37,19 +40,34 @@ std::string comment(const std::string& digest)
     return "relief " + std::string(version()) + (digest.empty() ? "" : " relief:digest=" + digest);
 }
 
+// A cancel asked every 64K items of a long pass (host/device/cancel.h): the
+// text of a million vertices took seconds.
+void poll_every(std::size_t i)
+{
+    if (i % 65536 == 0)
+        host::stop_if_cancelled();
+}
+
 void write_obj(const Mesh& m, std::FILE* f, const std::string& digest)
 {
     std::fprintf(f, "# %s\n# x, y in texels (y down the rows), z = scale x height\n",
                  comment(digest).c_str());
     const std::size_t n = m.positions.size() / 3;
-    for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t i = 0; i < n; ++i) {
+        poll_every(i);
         std::fprintf(f, "v %.9g %.9g %.9g\n", m.positions[3 * i], m.positions[3 * i + 1],
                      m.positions[3 * i + 2]);
-    for (std::size_t i = 0; i < n; ++i)
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+        poll_every(i);
         std::fprintf(f, "vt %.9g %.9g\n", m.texcoords[2 * i], m.texcoords[2 * i + 1]);
-    for (std::size_t i = 0; i < n; ++i)
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+        poll_every(i);
         std::fprintf(f, "vn %.9g %.9g %.9g\n", m.normals[3 * i], m.normals[3 * i + 1], m.normals[3 * i + 2]);
+    }
     for (std::size_t t = 0; t < m.triangles.size(); t += 3) {
+        poll_every(t);
         const unsigned long a = m.triangles[t] + 1ul, b = m.triangles[t + 1] + 1ul,
                             c = m.triangles[t + 2] + 1ul;
         std::fprintf(f, "f %lu/%lu/%lu %lu/%lu/%lu %lu/%lu/%lu\n", a, a, a, b, b, b, c, c, c);
@@ -74,11 +92,13 @@ void write_ply(const Mesh& m, std::FILE* f, const std::string& digest)
         rec.insert(rec.end(), c, c + bytes);
     };
     for (std::size_t i = 0; i < n; ++i) {
+        poll_every(i);
         put(&m.positions[3 * i], 12);
         put(&m.normals[3 * i], 12);
         put(&m.texcoords[2 * i], 8);
     }
     for (std::size_t t = 0; t < faces; ++t) {
+        poll_every(t);
         const unsigned char three = 3;
         put(&three, 1);
         put(&m.triangles[3 * t], 12);
@@ -91,6 +111,7 @@ template <class T>
 int add_accessor(tinygltf::Model& model, const std::vector<T>& data, int components, int component_type,
                  int type, int target, bool bounds)
 {
+    host::stop_if_cancelled();
     tinygltf::Buffer& buffer = model.buffers[0];
     while (buffer.data.size() % 4)
         buffer.data.push_back(0);
@@ -122,9 +143,46 @@ int add_accessor(tinygltf::Model& model, const std::vector<T>& data, int compone
     return int(model.accessors.size()) - 1;
 }
 
-// The whole file in memory (buffers embedded), written by write_mesh's
-// checked writer: TinyGLTF's own file writer does not report a short write.
-std::string gltf_bytes(const Mesh& m, bool binary, const std::string& digest)
+// TinyGLTF's output straight into write_mesh's temporary file (its own
+// file writer does not report a short write; the whole file in an
+// ostringstream first had cost 0.6 s and a copy at 1024^2): each write
+// checked, a cancel asked every 8 MB. The stream's exceptions pass the
+// failure or the cancel on through TinyGLTF.
+class FileOut : public std::streambuf {
+public:
+    explicit FileOut(std::FILE* f) : f_(f) {}
+
+protected:
+    std::streamsize xsputn(const char* s, std::streamsize n) override
+    {
+        for (std::size_t done = 0; done < std::size_t(n);) {
+            const std::size_t part = std::min(std::size_t(n) - done, kPoll - written_ % kPoll);
+            if (std::fwrite(s + done, 1, part, f_) != part)
+                throw std::runtime_error(std::strerror(errno));
+            done += part;
+            written_ += part;
+            if (written_ % kPoll == 0)
+                host::stop_if_cancelled();
+        }
+        return n;
+    }
+    int_type overflow(int_type c) override
+    {
+        if (traits_type::eq_int_type(c, traits_type::eof()))
+            return traits_type::not_eof(c);
+        const char ch = traits_type::to_char_type(c);
+        xsputn(&ch, 1);
+        return c;
+    }
+
+private:
+    static constexpr std::size_t kPoll = std::size_t(8) << 20;
+    std::FILE* f_;
+    std::size_t written_ = 0;
+};
+
+// The glTF file (buffers embedded) into `f`.
+void write_gltf(const Mesh& m, std::FILE* f, bool binary, const std::string& digest)
 {
     tinygltf::Model model;
     model.asset.version = "2.0";
@@ -141,12 +199,14 @@ std::string gltf_bytes(const Mesh& m, bool binary, const std::string& digest)
         uv[i] = 1.0f - uv[i];
     tinygltf::Primitive prim;
     prim.mode = TINYGLTF_MODE_TRIANGLES;
+    host::stop_if_cancelled();
     prim.attributes["POSITION"] = add_accessor(model, m.positions, 3, TINYGLTF_COMPONENT_TYPE_FLOAT,
                                                TINYGLTF_TYPE_VEC3, TINYGLTF_TARGET_ARRAY_BUFFER, true);
     prim.attributes["NORMAL"] = add_accessor(model, m.normals, 3, TINYGLTF_COMPONENT_TYPE_FLOAT,
                                              TINYGLTF_TYPE_VEC3, TINYGLTF_TARGET_ARRAY_BUFFER, false);
     prim.attributes["TEXCOORD_0"] = add_accessor(model, uv, 2, TINYGLTF_COMPONENT_TYPE_FLOAT,
                                                  TINYGLTF_TYPE_VEC2, TINYGLTF_TARGET_ARRAY_BUFFER, false);
+    host::stop_if_cancelled();
     prim.indices = add_accessor(model, m.triangles, 1, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT,
                                 TINYGLTF_TYPE_SCALAR, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER, false);
     tinygltf::Mesh mesh;
@@ -160,11 +220,13 @@ std::string gltf_bytes(const Mesh& m, bool binary, const std::string& digest)
     scene.nodes.push_back(0);
     model.scenes.push_back(scene);
     model.defaultScene = 0;
+    host::stop_if_cancelled();
     tinygltf::TinyGLTF writer;
-    std::ostringstream bytes;
-    if (!writer.WriteGltfSceneToStream(&model, bytes, !binary, binary))
+    FileOut out(f);
+    std::ostream stream(&out);
+    stream.exceptions(std::ios::badbit);  // (what FileOut throws comes through)
+    if (!writer.WriteGltfSceneToStream(&model, stream, !binary, binary))
         throw std::runtime_error("the glTF writer failed");
-    return bytes.str();
 }
 
 }  // namespace
@@ -205,12 +267,14 @@ bool write_mesh(const Mesh& m, const std::string& path, const std::string& diges
         else if (e == ".ply")
             write_ply(m, f, digest);
         else {
-            const std::string bytes = gltf_bytes(m, e == ".glb", digest);
-            std::fwrite(bytes.data(), 1, bytes.size(), f);
+            write_gltf(m, f, e == ".glb", digest);
         }
         // Every write, the flush and the sync checked: a full disk fails here.
+        host::stop_if_cancelled();
         tmp.commit();
         return true;
+    } catch (const host::Cancelled&) {
+        throw;  // (the temporary file is gone; the operation says it was cancelled)
     } catch (const std::exception& x) {
         detail::set_error("cannot write '" + path + "': " + x.what());
         return false;

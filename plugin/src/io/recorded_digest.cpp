@@ -23,6 +23,31 @@ using OIIO::ImageBuf;
 using OIIO::ImageSpec;
 using OIIO::TypeDesc;
 
+namespace {
+
+// XXH3-64 of an image's rows of `row` bytes, as hex, read in bands of 64
+// rows by read(y, end, bytes) (false: no digest, "").
+template <class ReadBand>
+std::string band_digest(const ImageSpec& spec, std::size_t row, ReadBand read)
+{
+    std::unique_ptr<XXH3_state_t, XXH_errorcode (*)(XXH3_state_t*)> state(XXH3_createState(), XXH3_freeState);
+    if (!state || XXH3_64bits_reset(state.get()) != XXH_OK)
+        return "";
+    const int band = 64;
+    std::vector<unsigned char> bytes(row * std::size_t(band));
+    for (int y = spec.y; y < spec.y + spec.height; y += band) {
+        const int end = std::min(y + band, spec.y + spec.height);
+        if (!read(y, end, bytes.data()))
+            return "";
+        XXH3_64bits_update(state.get(), bytes.data(), row * std::size_t(end - y));
+    }
+    char hex[17];
+    std::snprintf(hex, sizeof hex, "%016llx", (unsigned long long)XXH3_64bits_digest(state.get()));
+    return hex;
+}
+
+}  // namespace
+
 namespace detail {
 
 std::string pixel_digest(const ImageBuf& image, TypeDesc format)
@@ -30,22 +55,11 @@ std::string pixel_digest(const ImageBuf& image, TypeDesc format)
     const ImageSpec& spec = image.spec();
     if (spec.alpha_channel >= 0 || spec.nchannels == 2 || spec.nchannels == 4)
         return "";
-    std::unique_ptr<XXH3_state_t, XXH_errorcode (*)(XXH3_state_t*)> state(XXH3_createState(), XXH3_freeState);
-    if (!state || XXH3_64bits_reset(state.get()) != XXH_OK)
-        return "";
-    const int band = 64;
     const std::size_t row = std::size_t(spec.width) * std::size_t(spec.nchannels) * format.size();
-    std::vector<unsigned char> bytes(row * std::size_t(band));
-    for (int y = spec.y; y < spec.y + spec.height; y += band) {
-        const int end = std::min(y + band, spec.y + spec.height);
+    return band_digest(spec, row, [&](int y, int end, unsigned char* bytes) {
         const OIIO::ROI roi(spec.x, spec.x + spec.width, y, end, spec.z, spec.z + 1, 0, spec.nchannels);
-        if (!image.get_pixels(roi, format, bytes.data()))
-            return "";
-        XXH3_64bits_update(state.get(), bytes.data(), row * std::size_t(end - y));
-    }
-    char hex[17];
-    std::snprintf(hex, sizeof hex, "%016llx", (unsigned long long)XXH3_64bits_digest(state.get()));
-    return hex;
+        return image.get_pixels(roi, format, bytes);
+    });
 }
 
 }  // namespace detail
@@ -58,23 +72,10 @@ std::string stored_pixel_digest(OIIO::ImageInput& in)
     const ImageSpec& spec = in.spec();
     if (spec.tile_width > 0 || spec.width <= 0 || spec.height <= 0 || spec.depth > 1)
         return "";
-    std::unique_ptr<XXH3_state_t, XXH_errorcode (*)(XXH3_state_t*)> state(XXH3_createState(), XXH3_freeState);
-    if (!state || XXH3_64bits_reset(state.get()) != XXH_OK)
-        return "";
-    const int band = 64;
-    const std::size_t row = spec.scanline_bytes(true);
-    std::vector<unsigned char> bytes(row * std::size_t(band));
-    for (int y = spec.y; y < spec.y + spec.height; y += band) {
-        const int end = std::min(y + band, spec.y + spec.height);
-        const bool read =
-            in.read_scanlines(0, 0, y, end, spec.z, 0, spec.nchannels, TypeDesc::UNKNOWN, bytes.data());
-        if (!read || !in.geterror().empty())
-            return "";
-        XXH3_64bits_update(state.get(), bytes.data(), row * std::size_t(end - y));
-    }
-    char hex[17];
-    std::snprintf(hex, sizeof hex, "%016llx", (unsigned long long)XXH3_64bits_digest(state.get()));
-    return hex;
+    return band_digest(spec, spec.scanline_bytes(true), [&](int y, int end, unsigned char* bytes) {
+        return in.read_scanlines(0, 0, y, end, spec.z, 0, spec.nchannels, TypeDesc::UNKNOWN, bytes) &&
+               in.geterror().empty();
+    });
 }
 
 // Whether every pixel decodes: for the outputs without a pixel digest.

@@ -138,6 +138,7 @@ bool bake(ImageBuf& dst, const ImageBuf& texture, const ImageBuf& offsets, const
         troi.chend = nch;
         if (!texture.get_pixels(troi, TypeDesc::FLOAT, px.data()))
             throw std::runtime_error("cannot read the texture: " + texture.geterror());
+        host::stop_if_cancelled();  // (between the host's passes: each is tens of ms at 1024^2)
 
         const BakeKind kind = resolve_kind(options, texture, px, nch);
         if (kind == BakeKind::Height)
@@ -181,6 +182,7 @@ bool bake(ImageBuf& dst, const ImageBuf& texture, const ImageBuf& offsets, const
                           out.data());
         if (!space.empty())
             detail::from_linear(out, nch, space);
+        host::stop_if_cancelled();
         if (kind == BakeKind::Normal) {
             // Interpolated unit vectors are shorter: renormalise (UNORM-style
             // encodings in [0, 1], signed float maps as they are).

@@ -8,10 +8,12 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <memory_resource>
 #include <numeric>
 #include <unordered_map>
 #include <vector>
 
+#include "device/cancel.h"
 #include "relief/check.h"
 
 namespace relief::detail::mesh_building {
@@ -78,6 +80,7 @@ public:
         tris_.resize(std::size_t(patches()));
         errors_.resize(std::size_t(patches()));
         for (int p : which) {
+            host::stop_if_cancelled();  // (a 1024^2 map of 16-texel patches: 1.4 ms a patch here)
             cur_ = &tris_[std::size_t(p)];
             cur_->clear();
             add_patch(p);
@@ -93,7 +96,9 @@ public:
     {
         Mesh m;
         std::vector<std::uint32_t> number(pos_.size() / 3, UINT32_MAX);
-        for (const auto& list : tris_)
+        for (const auto& list : tris_) {
+            if ((&list - tris_.data()) % 256 == 0)
+                host::stop_if_cancelled();
             for (std::uint32_t v : list) {
                 if (number[v] == UINT32_MAX) {
                     number[v] = std::uint32_t(m.positions.size() / 3);
@@ -106,6 +111,7 @@ public:
                 }
                 m.triangles.push_back(number[v]);
             }
+        }
         m.levels = levels_;
         m.errors = errors_;
         return m;
@@ -348,7 +354,11 @@ private:
     std::vector<std::uint32_t>* cur_ = nullptr;     // the patch being built
     std::vector<double> errors_;                    // per patch
     std::vector<float> pos_, nrm_, uv_;             // every vertex made so far
-    std::unordered_map<Key, std::uint32_t, KeyHash> index_;
+    // The map's nodes come from one pool, freed with it in a few blocks:
+    // freed one by one, a 1024^2 map's millions had taken 0.55 s, which a
+    // cancel waited for.
+    std::pmr::monotonic_buffer_resource pool_;
+    std::pmr::unordered_map<Key, std::uint32_t, KeyHash> index_{&pool_};
 };
 
 }  // namespace relief::detail::mesh_building

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <stdexcept>
 #include <vector>
 
@@ -138,7 +139,28 @@ public:
         ImageSpec spec(3 * cw_ + 4 * kMargin, 2 * cell_h + 3 * kMargin, 3, TypeDesc::FLOAT);
         image_.reset(spec);
         const float background[3] = {0.13f, 0.13f, 0.14f};
-        IBA::fill(image_, background);
+        // In bands, a cancel asked between them (a sheet of 1024^2 panels
+        // is 85 MB of floats: 167 ms at once here).
+        for (int y = 0; y < spec.height; y += kBand) {
+            host::stop_if_cancelled();
+            if (!IBA::fill(image_, background, OIIO::ROI(0, spec.width, y, std::min(y + kBand, spec.height))))
+                throw std::runtime_error("cannot compose the sheet: " + image_.geterror());
+        }
+    }
+
+    // The sheet as `dst` in `spec`'s format, in bands of rows as above.
+    void deliver(ImageBuf& dst, const ImageSpec& spec) const
+    {
+        dst.reset(spec);
+        const int w = image_.spec().width, h = image_.spec().height;
+        std::vector<float> band(std::size_t(w) * 3 * std::size_t(kBand));
+        for (int y = 0; y < h; y += kBand) {
+            host::stop_if_cancelled();
+            const OIIO::ROI rows(0, w, y, std::min(y + kBand, h), 0, 1, 0, 3);
+            if (!image_.get_pixels(rows, TypeDesc::FLOAT, band.data()) ||
+                !dst.set_pixels(rows, TypeDesc::FLOAT, band.data()))
+                throw std::runtime_error("cannot compose the sheet: " + dst.geterror());
+        }
     }
 
     // Cell (col, row)'s top-left corner.
@@ -189,6 +211,7 @@ public:
     ImageBuf& image() { return image_; }
 
 private:
+    static constexpr int kBand = 256;
     int ph_, cw_, ch_;
     ImageBuf image_;
 };
@@ -264,6 +287,18 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
                                      ", the height " + std::to_string(hroi.width()) + "x" +
                                      std::to_string(hroi.height()) +
                                      "; give the height made from these normals");
+        // The sheet is host work between few kernels: progress by pass, a
+        // cancel asked within each (the passes took 1.2 s at 1024^2 here).
+        const std::function<void(double)> progress = detail::marked(o.exec.on_progress);
+        const auto step = [&](double done) {
+            host::stop_if_cancelled();
+            if (progress)
+                progress(done);
+        };
+        const auto poll_every = [](std::size_t i) {
+            if (i % 65536 == 0)
+                host::stop_if_cancelled();
+        };
         const std::vector<float> h = detail::height_channel(height, hroi, o.exec, "preview");
         const detail::Wrap wrap = detail::height_wrap(height, h, w, ht, o.boundary, o.exec, "preview");
         const SphericalHarmonics sh = o.env.empty() ? sky_harmonics() : [&] {
@@ -281,6 +316,7 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         host::read_slopes(*d.context, d.slopes, g.data());
         host::height_normals(*d.context, h.data(), w, ht, wrap.x, wrap.y, 1.0f, true, nh.data());
         const host::RoundTrip trip = host::round_trip(*d.context, d.slopes, h.data(), wrap.x, wrap.y, true);
+        step(0.3);
 
         // Lighting: white key light plus the environment's diffuse light,
         // normalised so that an upward surface receives 1 from it.
@@ -300,6 +336,7 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         };
         std::vector<float> lit_in(3 * n), lit_h(3 * n), emboss(3 * n), heat(3 * n), relief_map(3 * n);
         for (std::size_t i = 0; i < n; ++i) {
+            poll_every(i);
             const float gx = g[2 * i], gy = g[2 * i + 1];
             const float len = std::sqrt(gx * gx + gy * gy + 1.0f);
             const float nin[3] = {-gx / len, -gy / len, 1.0f / len};
@@ -308,6 +345,7 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         }
         detail::from_linear(lit_in, 3, "sRGB");
         detail::from_linear(lit_h, 3, "sRGB");
+        step(0.55);
 
         // Emboss: the height one texel toward the light minus the height.
         const double lx = std::cos(az), ly = -std::sin(az);
@@ -319,6 +357,7 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         std::vector<float> diff(n);
         for (int j = 0; j < ht; ++j)
             for (int i = 0; i < w; ++i) {
+                poll_every(std::size_t(j) * std::size_t(w) + std::size_t(i));
                 const double x = i + lx, y = j + ly;
                 const int i0 = int(std::floor(x)), j0 = int(std::floor(y));
                 const double fx = x - i0, fy = y - j0;
@@ -334,6 +373,7 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
             emboss[3 * i] = emboss[3 * i + 1] = emboss[3 * i + 2] =
                 float(std::clamp(0.5 + 0.5 * diff[i] / k, 0.0, 1.0));
 
+        step(0.7);
         // Angular error: 0 to a round bound at or above its 99th percentile.
         const double p99 = quantile(trip.angle_deg, 0.99);
         double top = 90.0;
@@ -345,6 +385,7 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         const auto [lo_it, hi_it] = std::minmax_element(h.begin(), h.end());
         const double lo = *lo_it, hi = *hi_it;
         for (std::size_t i = 0; i < n; ++i) {
+            poll_every(i);
             const Rgb a = ramp(kHeat, trip.angle_deg[i] / top);
             const Rgb b = ramp(kViridis, hi > lo ? (h[i] - lo) / (hi - lo) : 0.5);
             heat[3 * i] = a.r;
@@ -360,14 +401,19 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         if (w * s < 344.0)
             s = std::min(344.0 / w, 2048.0 / ht);
         const int pw = std::max(1, int(std::lround(w * s))), ph = std::max(1, int(std::lround(ht * s)));
+        step(0.8);
         Sheet sheet(pw, ph);
         const char* convention = detail::convention_name(d.stats.chosen);
         sheet.panel(0, 0, std::string("a  input normals, lit (") + convention + ")",
                     fit(lit_in, w, ht, pw, ph));
+        step(0.84);
         sheet.panel(1, 0, "b  the height's normals, lit", fit(lit_h, w, ht, pw, ph));
+        step(0.88);
         sheet.panel(2, 0, "c  emboss: height toward the light - height", fit(emboss, w, ht, pw, ph));
+        step(0.92);
         sheet.panel(0, 1, "d  angular error between a and b", fit(heat, w, ht, pw, ph));
         sheet.bar(0, 1, kHeat, 0.0, top, "deg");
+        step(0.96);
         sheet.panel(1, 1, "e  height", fit(relief_map, w, ht, pw, ph));
         sheet.bar(1, 1, kViridis, lo, hi, "texels");
         const int tx = sheet.x(2), ty = sheet.y(1) + kCaption;
@@ -390,9 +436,7 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         spec.set_format(TypeDesc::UINT8);
         spec.attribute("relief:native_format", "uint8");
         spec.attribute("oiio:ColorSpace", "sRGB");
-        std::vector<float> px(std::size_t(spec.width) * spec.height * 3);
-        sheet.image().get_pixels(sheet.image().roi(), TypeDesc::FLOAT, px.data());
-        detail::set_result(dst, spec, px.data());
+        sheet.deliver(dst, spec);
         detail::say(o.exec, Severity::Info,
                     "preview: " + std::to_string(spec.width) + "x" + std::to_string(spec.height) +
                         " sheet, panels " + std::to_string(pw) + "x" + std::to_string(ph));

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "operations/height_memory.h"
 #include "relief/height.h"
 #include "relief/slopes.h"
 #include "relief/udim.h"
@@ -181,6 +182,12 @@ Operation height_operation()
         if (c.report_json)
             *c.report_json = o.report->to_json();
         return true;
+    };
+    op.check_memory = [](const OperationCall& c, int w, int h) {
+        HeightOptions o = c.height;
+        if (!c.mask_file.empty() && !o.mask)
+            o.mask = &file_to_come();
+        detail::check_height_memory(o, w, h, 0);
     };
     op.joins_tiles = [](const OperationCall& c) {
         return c.height.udim == UdimMode::Joint ||

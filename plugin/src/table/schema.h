@@ -54,6 +54,10 @@ struct Operation {
                        const std::vector<const ImageBuf*>&)>
         run_tiles;
     std::function<std::string(const OperationCall&)> describe;  // empty: nothing to add
+    // Throws, with the numbers, when the call's estimate for a width x
+    // height map does not fit the device and the machine (known before any
+    // work); empty: no estimate beyond the float result's.
+    std::function<void(const OperationCall&, int width, int height)> check_memory;
 };
 
 using detail::number_text;

@@ -2,6 +2,7 @@
 // The operation table: the entries gathered, looked up, parsed from
 // modifiers and run. Each family's entries are in entries_*.cpp, the schema
 // they are written with in schema.h; the JSON listing is operations_json.cpp.
+#include <algorithm>
 #include <climits>
 #include <map>
 #include <stdexcept>
@@ -231,9 +232,11 @@ OperationCall with_execution(const OperationCall& call, const Execution& exec)
     return c;
 }
 
-// Reports 0, runs `run`, reports 1 when it succeeded: every operation
-// reports both ends, also those too quick for steps of their own, and a
-// cancel asked at 0 stops it before any work.
+// Reports 0, runs `run` with the operation's Execution (detail::paced:
+// the heartbeat, a stage's own 1 held back), reports 1 when it succeeded:
+// every operation reports both ends, also those too quick for steps of
+// their own; a cancel asked at 0 stops it before any work, one asked at 1
+// comes after it.
 template <class Run>
 bool with_progress_ends(const Execution& exec, Run run)
 {
@@ -241,7 +244,7 @@ bool with_progress_ends(const Execution& exec, Run run)
         const detail::InCallback in;
         exec.on_progress(0.0);
     }
-    if (!run())
+    if (!run(detail::paced(exec)))
         return false;
     if (exec.on_progress) {
         const detail::InCallback in;
@@ -251,6 +254,31 @@ bool with_progress_ends(const Execution& exec, Run run)
 }
 
 }  // namespace
+
+std::string memory_problem(const OperationCall& call, const std::string& device, long long width,
+                           long long height)
+{
+    try {
+        const Operation& op = find_or_throw(call.operation);
+        if (width <= 0 || height <= 0 || width > INT_MAX - 2 || height > INT_MAX - 2)
+            return "";          // (input_problem's to say)
+        if (op.check_memory) {  // (the operation's own estimate says more)
+            Execution exec;
+            exec.device = device;
+            op.check_memory(with_execution(call, exec), int(width), int(height));
+        }
+        if (!op.info.outputs.empty()) {
+            const auto bytes = host::Bytes(width) * host::Bytes(height) *
+                               host::Bytes(std::max(op.info.outputs[0].min_channels, 1)) * sizeof(float);
+            if (const std::string why = host::refuse_host(bytes); !why.empty())
+                return op.info.name + ": the " + std::to_string(width) + "x" + std::to_string(height) +
+                       " result " + why;
+        }
+        return "";
+    } catch (const std::exception& e) {
+        return call.operation + ": " + e.what();
+    }
+}
 
 std::string call_problem(const std::string& operation, std::size_t images)
 {
@@ -307,7 +335,8 @@ bool run_operation(ImageBuf& dst, const OperationCall& call, const std::vector<c
                                             "' is missing (null)");
         // (The mask and fix files are read here, before the operation.)
         const detail::LibraryOutputSink library_output(detail::marked(exec.on_message));
-        return with_progress_ends(exec, [&] { return op.run(dst, with_execution(call, exec), inputs); });
+        return with_progress_ends(
+            exec, [&](const Execution& e) { return op.run(dst, with_execution(call, e), inputs); });
     } catch (const std::exception& e) {
         detail::set_error(e.what());
         return false;
@@ -328,8 +357,9 @@ bool run_operation_on_tiles(std::vector<ImageBuf>& dst, const OperationCall& cal
         for (const ImageBuf* in : inputs)
             if (!in)
                 throw std::invalid_argument(op.info.name + ": a tile's image is missing (null)");
-        return with_progress_ends(
-            exec, [&] { return op.run_tiles(dst, with_execution(call, exec), tiles, inputs); });
+        return with_progress_ends(exec, [&](const Execution& e) {
+            return op.run_tiles(dst, with_execution(call, e), tiles, inputs);
+        });
     } catch (const std::exception& e) {
         detail::set_error(e.what());
         return false;
