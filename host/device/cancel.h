@@ -6,6 +6,7 @@
 // takes effect at the next kernel boundary: the kernels already queued
 // finish, nothing half-enqueued is read, and every buffer is released by
 // the unwinding that Cancelled starts.
+#include <cstddef>
 #include <functional>
 
 #include "errors.h"
@@ -33,5 +34,13 @@ private:
 // Throws Cancelled when this thread's check says so (nothing when none is
 // installed).
 void stop_if_cancelled();
+
+// stop_if_cancelled() at every `period`-th item of a long host pass (item
+// 0, `period`, ...): a pass over a whole map stays within reach of a cancel.
+inline void stop_if_cancelled_every(std::size_t item, std::size_t period = 65536)
+{
+    if (item % period == 0)
+        stop_if_cancelled();
+}
 
 }  // namespace relief::host

@@ -40,34 +40,26 @@ std::string comment(const std::string& digest)
     return "relief " + std::string(version()) + (digest.empty() ? "" : " relief:digest=" + digest);
 }
 
-// A cancel asked every 64K items of a long pass (host/device/cancel.h): the
-// text of a million vertices took seconds.
-void poll_every(std::size_t i)
-{
-    if (i % 65536 == 0)
-        host::stop_if_cancelled();
-}
-
 void write_obj(const Mesh& m, std::FILE* f, const std::string& digest)
 {
     std::fprintf(f, "# %s\n# x, y in texels (y down the rows), z = scale x height\n",
                  comment(digest).c_str());
     const std::size_t n = m.positions.size() / 3;
     for (std::size_t i = 0; i < n; ++i) {
-        poll_every(i);
+        host::stop_if_cancelled_every(i);
         std::fprintf(f, "v %.9g %.9g %.9g\n", m.positions[3 * i], m.positions[3 * i + 1],
                      m.positions[3 * i + 2]);
     }
     for (std::size_t i = 0; i < n; ++i) {
-        poll_every(i);
+        host::stop_if_cancelled_every(i);
         std::fprintf(f, "vt %.9g %.9g\n", m.texcoords[2 * i], m.texcoords[2 * i + 1]);
     }
     for (std::size_t i = 0; i < n; ++i) {
-        poll_every(i);
+        host::stop_if_cancelled_every(i);
         std::fprintf(f, "vn %.9g %.9g %.9g\n", m.normals[3 * i], m.normals[3 * i + 1], m.normals[3 * i + 2]);
     }
     for (std::size_t t = 0; t < m.triangles.size(); t += 3) {
-        poll_every(t);
+        host::stop_if_cancelled_every(t);
         const unsigned long a = m.triangles[t] + 1ul, b = m.triangles[t + 1] + 1ul,
                             c = m.triangles[t + 2] + 1ul;
         std::fprintf(f, "f %lu/%lu/%lu %lu/%lu/%lu %lu/%lu/%lu\n", a, a, a, b, b, b, c, c, c);
@@ -92,13 +84,13 @@ void write_ply(const Mesh& m, std::FILE* f, const std::string& digest)
         rec.insert(rec.end(), c, c + bytes);
     };
     for (std::size_t i = 0; i < n; ++i) {
-        poll_every(i);
+        host::stop_if_cancelled_every(i);
         put(&m.positions[3 * i], 12);
         put(&m.normals[3 * i], 12);
         put(&m.texcoords[2 * i], 8);
     }
     for (std::size_t t = 0; t < faces; ++t) {
-        poll_every(t);
+        host::stop_if_cancelled_every(t);
         const unsigned char three = 3;
         put(&three, 1);
         put(&m.triangles[3 * t], 12);

@@ -295,10 +295,6 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
             if (progress)
                 progress(done);
         };
-        const auto poll_every = [](std::size_t i) {
-            if (i % 65536 == 0)
-                host::stop_if_cancelled();
-        };
         const std::vector<float> h = detail::height_channel(height, hroi, o.exec, "preview");
         const detail::Wrap wrap = detail::height_wrap(height, h, w, ht, o.boundary, o.exec, "preview");
         const SphericalHarmonics sh = o.env.empty() ? sky_harmonics() : [&] {
@@ -336,7 +332,7 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         };
         std::vector<float> lit_in(3 * n), lit_h(3 * n), emboss(3 * n), heat(3 * n), relief_map(3 * n);
         for (std::size_t i = 0; i < n; ++i) {
-            poll_every(i);
+            host::stop_if_cancelled_every(i);
             const float gx = g[2 * i], gy = g[2 * i + 1];
             const float len = std::sqrt(gx * gx + gy * gy + 1.0f);
             const float nin[3] = {-gx / len, -gy / len, 1.0f / len};
@@ -357,7 +353,7 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         std::vector<float> diff(n);
         for (int j = 0; j < ht; ++j)
             for (int i = 0; i < w; ++i) {
-                poll_every(std::size_t(j) * std::size_t(w) + std::size_t(i));
+                host::stop_if_cancelled_every(std::size_t(j) * std::size_t(w) + std::size_t(i));
                 const double x = i + lx, y = j + ly;
                 const int i0 = int(std::floor(x)), j0 = int(std::floor(y));
                 const double fx = x - i0, fy = y - j0;
@@ -385,7 +381,7 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         const auto [lo_it, hi_it] = std::minmax_element(h.begin(), h.end());
         const double lo = *lo_it, hi = *hi_it;
         for (std::size_t i = 0; i < n; ++i) {
-            poll_every(i);
+            host::stop_if_cancelled_every(i);
             const Rgb a = ramp(kHeat, trip.angle_deg[i] / top);
             const Rgb b = ramp(kViridis, hi > lo ? (h[i] - lo) / (hi - lo) : 0.5);
             heat[3 * i] = a.r;
