@@ -22,9 +22,10 @@ using relief::test::max_abs_diff;
 using relief::test::run_cli;
 using relief::test::slurp;
 
-namespace {
+using relief::test::kSampleHeight;
+using relief::test::kSampleNormal;
 
-const std::string kNormal = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
+namespace {
 
 // Nothing named like the output, temporary files included, may remain.
 bool folder_is_empty_but(const fs::path& dir, const std::string& keep = "")
@@ -41,7 +42,7 @@ TEST_CASE("cli: the documented example writes a float EXR height map with metada
 {
     auto dir = relief::test::scratch("cli/example");
     auto out = dir / "height.exr";
-    auto r = run_cli("'" + kNormal +
+    auto r = run_cli("'" + kSampleNormal +
                      "' --height:method=rays:impl=reference:normal=directx:rays=16:"
                      "radius=32:phase=0.5:boundary=clip -o '" +
                      out.string() + "'");
@@ -65,7 +66,7 @@ TEST_CASE("cli: -v reports device and convention, integer outputs state their sc
 {
     auto dir = relief::test::scratch("cli/verbose");
     const auto launched = std::chrono::steady_clock::now();
-    auto r = run_cli("-v '" + kNormal + "' --height:rays=8:radius=8 -o '" + (dir / "h.exr").string() +
+    auto r = run_cli("-v '" + kSampleNormal + "' --height:rays=8:radius=8 -o '" + (dir / "h.exr").string() +
                      "' -d uint16 -o '" + (dir / "h16.png").string() + "' -d uint8 -o '" +
                      (dir / "h8.png").string() + "' -o '" + (dir / "h8.tif").string() + "'");
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - launched).count();
@@ -91,12 +92,13 @@ TEST_CASE("cli: -v reports device and convention, integer outputs state their sc
                      "boundary=auto") != std::string::npos);
     CHECK(r.err.find("uint16 values v hold data = (v - 0.5) *") != std::string::npos);
     // What was read and written, each once.
-    CHECK(r.err.find("relief: read " + kNormal + ": ") != std::string::npos);
+    CHECK(r.err.find("relief: read " + kSampleNormal + ": ") != std::string::npos);
     for (const char* name : {"h.exr", "h16.png", "h8.png", "h8.tif"})
         CHECK(r.err.find("relief: wrote " + (dir / name).string() + "\n") != std::string::npos);
     // Without -v none of that: no read, write or progress lines.
-    const auto quiet = run_cli("'" + kNormal + "' --height --correct:scale=0.05:levels=1:iterations=3 -o '" +
-                               (dir / "q.exr").string() + "'");
+    const auto quiet =
+        run_cli("'" + kSampleNormal + "' --height --correct:scale=0.05:levels=1:iterations=3 -o '" +
+                (dir / "q.exr").string() + "'");
     INFO(quiet.err);
     REQUIRE(quiet.rc == 0);
     for (const char* chatter : {"relief: read ", "relief: wrote ", "%\n", "device:"})
@@ -104,7 +106,7 @@ TEST_CASE("cli: -v reports device and convention, integer outputs state their sc
     // With it, an operation that reports its progress says each tenth once,
     // in order, up to 100%.
     const auto steps =
-        run_cli("-v '" + kNormal + "' --height --correct:scale=0.05:levels=1:iterations=3 -o '" +
+        run_cli("-v '" + kSampleNormal + "' --height --correct:scale=0.05:levels=1:iterations=3 -o '" +
                 (dir / "v.exr").string() + "'");
     REQUIRE(steps.rc == 0);
     std::size_t at = 0;
@@ -137,7 +139,7 @@ TEST_CASE("cli: -v reports device and convention, integer outputs state their sc
 TEST_CASE("cli: --slopes pushes the 2-channel DDM and says which convention auto chose", "[cli]")
 {
     auto dir = relief::test::scratch("cli/slopes");
-    auto r = run_cli("'" + kNormal + "' --slopes:normal=auto -o '" + (dir / "s.exr").string() + "'");
+    auto r = run_cli("'" + kSampleNormal + "' --slopes:normal=auto -o '" + (dir / "s.exr").string() + "'");
     REQUIRE(r.rc == 0);
     CHECK(r.err.find("normal convention: directx (curl rms opengl") != std::string::npos);
     CHECK(r.err.find("device:") == std::string::npos);  // details only with -v
@@ -151,7 +153,7 @@ TEST_CASE("cli: results are bit-identical whatever the PoCL thread count", "[cli
 {
     auto dir = relief::test::scratch("cli/determinism");
     std::string a = (dir / "a.exr").string(), b = (dir / "b.exr").string();
-    std::string cmd = "'" + kNormal + "' --height:rays=12:radius=20:boundary=clip -o ";
+    std::string cmd = "'" + kSampleNormal + "' --height:rays=12:radius=20:boundary=clip -o ";
     REQUIRE(run_cli(cmd + "'" + a + "'", "POCL_MAX_PTHREAD_COUNT=1").rc == 0);
     REQUIRE(run_cli(cmd + "'" + b + "'", "POCL_MAX_PTHREAD_COUNT=2").rc == 0);
     OIIO::ImageBuf ia(a), ib(b);
@@ -170,7 +172,7 @@ TEST_CASE("cli: bad input fails with a clear message, a non-zero exit and no out
     {
         std::ofstream(dir / "empty.png");
         std::ofstream(dir / "text.png") << "this is not an image\n";
-        std::string png = slurp(kNormal);
+        std::string png = slurp(kSampleNormal);
         std::ofstream(dir / "truncated.png", std::ios::binary) << png.substr(0, png.size() / 3);
         OIIO::ImageBuf gray(OIIO::ImageSpec(16, 16, 1, OIIO::TypeDesc::UINT8));
         REQUIRE(gray.write((dir / "gray.png").string()));
@@ -182,7 +184,7 @@ TEST_CASE("cli: bad input fails with a clear message, a non-zero exit and no out
         std::string env;
         const char* message;
     };
-    const std::string ok = "'" + kNormal + "'";
+    const std::string ok = "'" + kSampleNormal + "'";
     fs::path kernels = dir / "kernels";
     fs::create_directories(kernels);
     for (const auto& f : fs::directory_iterator(RELIEF_KERNELS_DIR))
@@ -259,7 +261,7 @@ TEST_CASE("cli: a failure never clobbers an existing output", "[cli][errors]")
         fs::copy_file(fs::path(RELIEF_KERNELS_DIR) / f, kernels / f);
     std::ofstream(kernels / "rays_reference.cl") << "not OpenCL\n";
     std::ofstream(dir / "h.exr") << "precious";
-    auto r = run_cli("'" + kNormal + "' --height -o '" + (dir / "h.exr").string() + "'",
+    auto r = run_cli("'" + kSampleNormal + "' --height -o '" + (dir / "h.exr").string() + "'",
                      "RELIEF_KERNEL_DIR='" + kernels.string() + "'");
     CHECK(r.rc != 0);
     CHECK(slurp(dir / "h.exr") == "precious");
@@ -320,7 +322,7 @@ TEST_CASE("cli: --help and --version exit 0", "[cli]")
 TEST_CASE("cli: every image relief writes says so in its Software attribute", "[cli][io]")
 {
     const auto d = relief::test::scratch("cli/software");
-    const std::string normal = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
+    const std::string normal = kSampleNormal;
     for (const char* name : {"h.exr", "h.png", "h.tif"}) {
         const std::string out = (d / name).string();
         REQUIRE(run_cli("'" + normal + "' --height -o '" + out + "'").rc == 0);
@@ -459,7 +461,7 @@ TEST_CASE("cli: a mask file weights the least-squares solve", "[cli][mask]")
         }
     REQUIRE(m.write((dir / "mask.png").string()));
     auto out = dir / "h.exr";
-    auto r = run_cli("-v '" + kNormal + "' --height:mask='" + (dir / "mask.png").string() + "' -o '" +
+    auto r = run_cli("-v '" + kSampleNormal + "' --height:mask='" + (dir / "mask.png").string() + "' -o '" +
                      out.string() + "'");
     INFO(r.err);
     REQUIRE(r.rc == 0);
@@ -471,15 +473,15 @@ TEST_CASE("cli: a mask file weights the least-squares solve", "[cli][mask]")
     relief::HeightOptions o;
     const OIIO::ImageBuf mask = read((dir / "mask.png").string());
     o.mask = &mask;
-    const auto api = relief::test::pixels(relief::height(read(kNormal), o));
+    const auto api = relief::test::pixels(relief::height(read(kSampleNormal), o));
     CHECK(max_abs_diff(relief::test::pixels(h), api) == 0.0);
-    CHECK(relief::test::max_abs_diff(api, relief::test::pixels(relief::height(read(kNormal)))) > 1e-2);
+    CHECK(relief::test::max_abs_diff(api, relief::test::pixels(relief::height(read(kSampleNormal)))) > 1e-2);
 }
 
 TEST_CASE("cli: a damaged file gives one line of relief's own, library noise only under -v", "[cli][errors]")
 {
     auto dir = relief::test::scratch("cli/damaged");
-    const std::string png = slurp(kNormal);
+    const std::string png = slurp(kSampleNormal);
     std::ofstream(dir / "truncated.png", std::ios::binary) << png.substr(0, png.size() / 3);
     {
         OIIO::ImageBuf img(OIIO::ImageSpec(64, 64, 3, OIIO::TypeDesc::UINT8));
@@ -511,7 +513,7 @@ TEST_CASE("cli: a buffer larger than the device allows is refused with the numbe
     const std::string out = "'" + (dir / "out.exr").string() + "'";
     for (const char* op : {"--height", "--height:rays=8:radius=8", "--height:boundary=free"}) {
         INFO(op);
-        auto r = run_cli("'" + kNormal + "' " + op + " -o " + out, "RELIEF_DEVICE_MAX_ALLOC=100000");
+        auto r = run_cli("'" + kSampleNormal + "' " + op + " -o " + out, "RELIEF_DEVICE_MAX_ALLOC=100000");
         INFO("stderr: " << r.err);
         CHECK(r.rc == 1);
         CHECK(r.err.find("relief: error:") != std::string::npos);
@@ -521,7 +523,7 @@ TEST_CASE("cli: a buffer larger than the device allows is refused with the numbe
     }
     // The reference kernel's walk tables are refused before they are built.
     {
-        auto r = run_cli("'" + kNormal + "' --height:impl=reference:rays=64:radius=4000 -o " + out,
+        auto r = run_cli("'" + kSampleNormal + "' --height:impl=reference:rays=64:radius=4000 -o " + out,
                          "RELIEF_DEVICE_MAX_ALLOC=4000000");
         INFO("stderr: " << r.err);
         CHECK(r.rc == 1);
@@ -529,7 +531,7 @@ TEST_CASE("cli: a buffer larger than the device allows is refused with the numbe
         CHECK(r.err.find("MiB, more than the device allows in one buffer (3 MiB); use impl=fast") !=
               std::string::npos);
     }
-    auto r = run_cli("'" + kNormal + "' --height -o " + out, "RELIEF_DEVICE_MAX_ALLOC=lots");
+    auto r = run_cli("'" + kSampleNormal + "' --height -o " + out, "RELIEF_DEVICE_MAX_ALLOC=lots");
     CHECK(r.rc == 1);
     CHECK(r.err.find("RELIEF_DEVICE_MAX_ALLOC must be a number of bytes") != std::string::npos);
 }
@@ -552,7 +554,7 @@ TEST_CASE("cli: -d half warns for offsets wider than half floats hold to 1/8 tex
 TEST_CASE("cli: hats=always sweeps every iteration of every level, and -v and --report say so", "[cli][slow]")
 {
     auto dir = relief::test::scratch("cli/hat_sweeps");
-    const std::string height = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
+    const std::string height = kSampleHeight;
     auto r = run_cli("-v '" + height + "' --correct:scale=10:iterations=3:hats=always:global=off -o '" +
                      (dir / "c.exr").string() + "' --report '" + (dir / "r.json").string() + "'");
     INFO(r.err);
@@ -579,7 +581,7 @@ TEST_CASE("cli: global=always steps after every iteration, and -v, --report and 
           "[cli]")
 {
     auto dir = relief::test::scratch("cli/global_steps");
-    const std::string height = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
+    const std::string height = kSampleHeight;
     auto r = run_cli("-v '" + height + "' --correct:scale=0.05:iterations=3:global=always -o '" +
                      (dir / "c.exr").string() + "' --report '" + (dir / "r.json").string() + "'");
     INFO(r.err);
@@ -612,7 +614,7 @@ TEST_CASE(
     "[cli][slow]")
 {
     auto dir = relief::test::scratch("cli/polish");
-    const std::string height = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
+    const std::string height = kSampleHeight;
     const auto correct = [&](const std::string& polish, const std::string& name) {
         auto r = run_cli("-v '" + height + "' --correct:scale=0.05:iterations=3" + polish + " -o '" +
                          (dir / (name + ".exr")).string() + "' --report '" +
@@ -661,7 +663,7 @@ TEST_CASE("cli: -v says which share of the coarser offsets each correction level
     // coarser offsets (measured: 1/4 to 3/4); -v says it as the report
     // records it.
     auto dir = relief::test::scratch("cli/start_factor");
-    const std::string height = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
+    const std::string height = kSampleHeight;
     auto r = run_cli("-v '" + height + "' --correct:scale=10:iterations=3 -o '" + (dir / "c.exr").string() +
                      "' --report '" + (dir / "r.json").string() + "'");
     INFO(r.err);

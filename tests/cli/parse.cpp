@@ -8,6 +8,7 @@
 #include <functional>
 
 #include "command_line.h"
+#include "support/images.h"
 
 using namespace relief;
 using relief::cli::parse_command_line;
@@ -15,16 +16,15 @@ using relief::cli::Program;
 using relief::cli::Step;
 using relief::cli::UsageError;
 
-namespace {
+using relief::test::kSampleHeight;
+using relief::test::kSampleNormal;
 
-// An existing input file (the parser checks that inputs exist).
-const std::string kIn = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
-const std::string kHeight = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
+namespace {
 
 // Parses `in --command:mods` and returns the command's step.
 Step step_of(const std::string& command)
 {
-    const Program p = parse_command_line({kIn, kHeight, command});
+    const Program p = parse_command_line({kSampleNormal, kSampleHeight, command});
     REQUIRE(p.steps.size() == 3);
     return p.steps[2];
 }
@@ -181,8 +181,8 @@ TEST_CASE("parse: every --height modifier lands in its field", "[cli][parse]")
     CHECK(h("highpass=16").highpass == 16.0f);
     CHECK(h("highpass=16").method == HeightMethod::Auto);
     CHECK(h("mask=alpha").mask_alpha);
-    const Step file_mask = step_of("--height:mask=" + kHeight);
-    CHECK(file_mask.mask_file == kHeight);
+    const Step file_mask = step_of("--height:mask=" + kSampleHeight);
+    CHECK(file_mask.mask_file == kSampleHeight);
     CHECK_FALSE(file_mask.height.mask_alpha);
     const HeightOptions many =
         h("rays=5:radius=7:phase=0.75:boundary=clip:impl=reference:directions=exact:skip=off");
@@ -233,8 +233,8 @@ TEST_CASE("parse: every --correct modifier lands in its field", "[cli][parse]")
     CHECK(tent2.fix_width == 3.0f);
     CHECK(tent2.scale == 2.0f);
     CHECK(tent2.theta == 1.0f);
-    const Step file_fix = step_of("--correct:fix=" + kHeight);
-    CHECK(file_fix.fix_file == kHeight);
+    const Step file_fix = step_of("--correct:fix=" + kSampleHeight);
+    CHECK(file_fix.fix_file == kSampleHeight);
     CHECK(file_fix.correct.fix_width == 0.0f);
 }
 
@@ -261,16 +261,16 @@ TEST_CASE("parse: every --bake modifier lands in its field", "[cli][parse]")
 TEST_CASE("parse: options apply to the steps that follow, the stack is tracked", "[cli][parse]")
 {
     const Program p = parse_command_line(
-        {"-v",   "--device", "cpu",           kIn,        "--height", "-o",    "a.exr",
-         "-d",   "uint16",   "--compression", "zip",      "-o",       "b.png", "-d",
-         "half", "-o",       "c.exr",         "--report", "r.json",   kHeight, "--correct:scale=1",
+        {"-v",   "--device", "cpu",           kSampleNormal, "--height", "-o",          "a.exr",
+         "-d",   "uint16",   "--compression", "zip",         "-o",       "b.png",       "-d",
+         "half", "-o",       "c.exr",         "--report",    "r.json",   kSampleHeight, "--correct:scale=1",
          "-o",   "d.exr"});
     CHECK(p.verbose);
     CHECK(p.device == "cpu");
     CHECK(p.report == "r.json");
     REQUIRE(p.steps.size() == 8);
     CHECK(p.steps[0].kind == Step::Kind::Read);
-    CHECK(p.steps[0].path == kIn);
+    CHECK(p.steps[0].path == kSampleNormal);
     const Step& a = p.steps[2];
     CHECK(a.kind == Step::Kind::Write);
     CHECK(a.path == "a.exr");
@@ -288,11 +288,13 @@ TEST_CASE("parse: options apply to the steps that follow, the stack is tracked",
     CHECK(p.steps[5].kind == Step::Kind::Read);
     CHECK(p.steps[6].operation == "correct");
     CHECK(p.steps[7].format == OIIO::TypeDesc::HALF);
-    CHECK(parse_command_line({kIn, "-d", "uint8", "-o", "x.png"}).steps[1].format == OIIO::TypeDesc::UINT8);
-    CHECK(parse_command_line({kIn, "-d", "float", "-o", "x.exr"}).steps[1].format == OIIO::TypeDesc::FLOAT);
+    CHECK(parse_command_line({kSampleNormal, "-d", "uint8", "-o", "x.png"}).steps[1].format ==
+          OIIO::TypeDesc::UINT8);
+    CHECK(parse_command_line({kSampleNormal, "-d", "float", "-o", "x.exr"}).steps[1].format ==
+          OIIO::TypeDesc::FLOAT);
     // the device is the program's, for every step (stack_runner's Execution)
-    CHECK(parse_command_line({kIn, "--slopes"}).device == "auto");
-    CHECK(parse_command_line({"--device", "0:0", kIn, kIn, "--bake"}).device == "0:0");
+    CHECK(parse_command_line({kSampleNormal, "--slopes"}).device == "auto");
+    CHECK(parse_command_line({"--device", "0:0", kSampleNormal, kSampleNormal, "--bake"}).device == "0:0");
     CHECK(parse_command_line({"--help"}).help);
     CHECK_FALSE(parse_command_line({"--help"}).help_markdown);
     CHECK(parse_command_line({"--help:format=markdown"}).help_markdown);
@@ -300,71 +302,75 @@ TEST_CASE("parse: options apply to the steps that follow, the stack is tracked",
                       Catch::Contains("--help takes :format=markdown"));
     CHECK(parse_command_line({"--version"}).version);
     CHECK(parse_command_line({"--list-devices"}).list_devices);
-    CHECK_FALSE(parse_command_line({kIn}).verbose);
+    CHECK_FALSE(parse_command_line({kSampleNormal}).verbose);
 }
 
 TEST_CASE("parse: nonsense is a usage error naming the argument", "[cli][parse][errors]")
 {
     const std::vector<std::pair<std::vector<std::string>, const char*>> bad = {
-        {{kIn, "--height:rays=0"}, "rays=0"},
-        {{kIn, "--height:rays=4097"}, "rays=4097"},
-        {{kIn, "--height:radius=0"}, "radius=0"},
-        {{kIn, "--height:phase=1"}, "phase=1"},
-        {{kIn, "--height:phase=-0.1"}, "phase=-0.1"},
-        {{kIn, "--height:max_angle=90"}, "max_angle=90"},
-        {{kIn, "--height:max_angle=0"}, "max_angle=0"},
-        {{kIn, "--height:range=both"}, "range=both"},
-        {{kIn, "--height:skip=maybe"}, "skip=maybe"},
-        {{kIn, "--height:rays=8:rays=9"}, "given twice"},
-        {{kIn, "--height:rays"}, "not key=value"},
-        {{kIn, "--height:method=rays:boundary=free"}, "boundary=periodic, clip"},
-        {{kIn, "--slopes:rays=8"}, "unknown modifier 'rays'"},
-        {{kIn, "--correct:theta=20.5"}, "theta=20.5"},
-        {{kIn, "--correct:theta=-1"}, "theta=-1"},
-        {{kIn, "--correct:nodes=edge"}, "nodes=edge"},
-        {{kIn, "--correct:boundary=free"}, "boundary=free"},
-        {{kIn, "--correct:iterations=0"}, "iterations=0"},
-        {{kIn, "--correct:levels=31"}, "levels=31"},
-        {{kIn, "--correct:tolerance=1"}, "tolerance=1"},
-        {{kIn, "--correct:threshold=-1"}, "threshold=-1"},
-        {{kIn, "--correct:relax=2"}, "relax=2"},
-        {{kIn, "--correct:relax=0.9"}, "relax=0.9"},
-        {{kIn, "--correct:search=newton"}, "search=newton"},
-        {{kIn, "--correct:fix=height:1:0"}, "tent half-width DH > 0"},
-        {{kIn, "--correct:fix=height:x:1"}, "write fix=height:H0:DH"},
-        {{kIn, "--correct:fix=height:1:inf"}, "write fix=height:H0:DH"},
-        {{kIn, "--correct:fix=nothing.png"}, "no such file"},
-        {{kIn, "--correct:scale=-1"}, "scale=-1"},
+        {{kSampleNormal, "--height:rays=0"}, "rays=0"},
+        {{kSampleNormal, "--height:rays=4097"}, "rays=4097"},
+        {{kSampleNormal, "--height:radius=0"}, "radius=0"},
+        {{kSampleNormal, "--height:phase=1"}, "phase=1"},
+        {{kSampleNormal, "--height:phase=-0.1"}, "phase=-0.1"},
+        {{kSampleNormal, "--height:max_angle=90"}, "max_angle=90"},
+        {{kSampleNormal, "--height:max_angle=0"}, "max_angle=0"},
+        {{kSampleNormal, "--height:range=both"}, "range=both"},
+        {{kSampleNormal, "--height:skip=maybe"}, "skip=maybe"},
+        {{kSampleNormal, "--height:rays=8:rays=9"}, "given twice"},
+        {{kSampleNormal, "--height:rays"}, "not key=value"},
+        {{kSampleNormal, "--height:method=rays:boundary=free"}, "boundary=periodic, clip"},
+        {{kSampleNormal, "--slopes:rays=8"}, "unknown modifier 'rays'"},
+        {{kSampleNormal, "--correct:theta=20.5"}, "theta=20.5"},
+        {{kSampleNormal, "--correct:theta=-1"}, "theta=-1"},
+        {{kSampleNormal, "--correct:nodes=edge"}, "nodes=edge"},
+        {{kSampleNormal, "--correct:boundary=free"}, "boundary=free"},
+        {{kSampleNormal, "--correct:iterations=0"}, "iterations=0"},
+        {{kSampleNormal, "--correct:levels=31"}, "levels=31"},
+        {{kSampleNormal, "--correct:tolerance=1"}, "tolerance=1"},
+        {{kSampleNormal, "--correct:threshold=-1"}, "threshold=-1"},
+        {{kSampleNormal, "--correct:relax=2"}, "relax=2"},
+        {{kSampleNormal, "--correct:relax=0.9"}, "relax=0.9"},
+        {{kSampleNormal, "--correct:search=newton"}, "search=newton"},
+        {{kSampleNormal, "--correct:fix=height:1:0"}, "tent half-width DH > 0"},
+        {{kSampleNormal, "--correct:fix=height:x:1"}, "write fix=height:H0:DH"},
+        {{kSampleNormal, "--correct:fix=height:1:inf"}, "write fix=height:H0:DH"},
+        {{kSampleNormal, "--correct:fix=nothing.png"}, "no such file"},
+        {{kSampleNormal, "--correct:scale=-1"}, "scale=-1"},
         // overflowing numbers are out of range, with the range; NaN is not a number
-        {{kIn, "--height:phase=inf"}, "phase=inf is out of range; it must be in"},
-        {{kIn, "--height:phase=1e999"}, "phase=1e999 is out of range; it must be in"},
-        {{kIn, "--height:phase=-inf"}, "phase=-inf is out of range"},
-        {{kIn, "--height:phase=nan"}, "phase=nan is not a number"},
+        {{kSampleNormal, "--height:phase=inf"}, "phase=inf is out of range; it must be in"},
+        {{kSampleNormal, "--height:phase=1e999"}, "phase=1e999 is out of range; it must be in"},
+        {{kSampleNormal, "--height:phase=-inf"}, "phase=-inf is out of range"},
+        {{kSampleNormal, "--height:phase=nan"}, "phase=nan is not a number"},
         // only regular files are read: a device or FIFO would never end
-        {{kIn, "--height:mask=/dev/zero"}, "mask=/dev/zero: not a regular file (a character device)"},
-        {{kIn, "--correct:fix=/dev/null"}, "fix=/dev/null: not a regular file (a character device)"},
-        {{kIn, kIn, "--preview:env=/tmp"}, "env=/tmp: it is a folder"},
+        {{kSampleNormal, "--height:mask=/dev/zero"},
+         "mask=/dev/zero: not a regular file (a character device)"},
+        {{kSampleNormal, "--correct:fix=/dev/null"},
+         "fix=/dev/null: not a regular file (a character device)"},
+        {{kSampleNormal, kSampleNormal, "--preview:env=/tmp"}, "env=/tmp: it is a folder"},
         {{"--batch", "/tmp"}, "--batch /tmp: it is a folder"},
         {{"--batch", "/dev/zero"}, "--batch /dev/zero: not a regular file (a character device)"},
-        {{kIn, "--bake"}, "needs 2 image(s)"},
-        {{kIn, kIn, "--bake", "--bake"}, "needs 2 image(s) on the stack, has 1"},
-        {{kIn, "--height:highpass=8:mask=alpha"}, "highpass cannot be combined with a mask"},
-        {{kIn, "--height:mask=" + kHeight + ":highpass=8"}, "highpass cannot be combined with a mask"},
-        {{kIn, kIn, "--bake:filter=nearest"}, "filter=nearest"},
-        {{kIn, kIn, "--bake:wrap=mirror"}, "wrap=mirror"},
-        {{kIn, "-d", "int16", "-o", "x.exr"}, "int16"},
-        {{kIn, "--compression", "", "-o", "x.exr"}, "needs a name"},
-        {{kIn, "--report", "r.json", "--slopes"},
+        {{kSampleNormal, "--bake"}, "needs 2 image(s)"},
+        {{kSampleNormal, kSampleNormal, "--bake", "--bake"}, "needs 2 image(s) on the stack, has 1"},
+        {{kSampleNormal, "--height:highpass=8:mask=alpha"}, "highpass cannot be combined with a mask"},
+        {{kSampleNormal, "--height:mask=" + kSampleHeight + ":highpass=8"},
+         "highpass cannot be combined with a mask"},
+        {{kSampleNormal, kSampleNormal, "--bake:filter=nearest"}, "filter=nearest"},
+        {{kSampleNormal, kSampleNormal, "--bake:wrap=mirror"}, "wrap=mirror"},
+        {{kSampleNormal, "-d", "int16", "-o", "x.exr"}, "int16"},
+        {{kSampleNormal, "--compression", "", "-o", "x.exr"}, "needs a name"},
+        {{kSampleNormal, "--report", "r.json", "--slopes"},
          "--report needs one --height or --correct, at most one of each; there are 0 --height and 0 "
          "--correct"},
-        {{kIn, "--dup", "--height", "--report", "r.json", "--dup", "--height"},
+        {{kSampleNormal, "--dup", "--height", "--report", "r.json", "--dup", "--height"},
          "there are 2 --height and 0 --correct"},
-        {{"--dup", kIn}, "--dup needs 1 image(s) on the stack, has 0"},
+        {{"--dup", kSampleNormal}, "--dup needs 1 image(s) on the stack, has 0"},
         {{"-o", "x.exr"}, "needs 1 image(s)"},
-        {{kIn, "--device"}, "needs a value"},
-        {{kIn, "--correct", "--report", "/nonexistent-folder/r.json"}, "its folder must exist"},
-        {{kIn, "--correct", "--report", "."}, "not a writable file path"},
-        {{kIn, "--correct", "--correct", "--report", "r.json"}, "there are 0 --height and 2 --correct"},
+        {{kSampleNormal, "--device"}, "needs a value"},
+        {{kSampleNormal, "--correct", "--report", "/nonexistent-folder/r.json"}, "its folder must exist"},
+        {{kSampleNormal, "--correct", "--report", "."}, "not a writable file path"},
+        {{kSampleNormal, "--correct", "--correct", "--report", "r.json"},
+         "there are 0 --height and 2 --correct"},
     };
     for (const auto& [args, message] : bad) {
         std::string joined;

@@ -60,7 +60,7 @@ std::vector<float> run_rays(const std::vector<float>& g, int w, int h, const Run
 }
 
 // Smooth slopes plus non-integrable noise, in float.
-std::vector<float> rough_slopes(int w, int h, unsigned seed, double noise_std = 0.3)
+std::vector<float> rough_float_slopes(int w, int h, unsigned seed, double noise_std = 0.3)
 {
     const std::vector<double> g = test::rough_slopes(w, h, seed, noise_std);
     return std::vector<float>(g.begin(), g.end());
@@ -160,7 +160,7 @@ TEST_CASE("reference kernel with rational directions equals the golden model", "
     for (const Case& c : cases) {
         INFO(c.w << "x" << c.h << " rays=" << c.s.rays << " radius=" << c.s.radius
                  << (c.s.periodic ? " periodic" : " clip"));
-        auto gf = rough_slopes(c.w, c.h, 11u + c.s.rays);
+        auto gf = rough_float_slopes(c.w, c.h, 11u + c.s.rays);
         std::vector<double> g(gf.begin(), gf.end());
         reference::RaySettings s = c.s;
         s.rational = true;
@@ -189,7 +189,7 @@ void check_fast_against_reference(const Case& c)
         INFO(c.w << "x" << c.h << " rays=" << c.s.rays << " radius=" << c.s.radius
                  << (c.s.periodic ? " periodic" : " clip") << (by_fft ? " fft" : "")
                  << (force_float ? " float" : " fp64"));
-        auto g = rough_slopes(c.w, c.h, 5u + c.s.rays);
+        auto g = rough_float_slopes(c.w, c.h, 5u + c.s.rays);
         Run r{c.s};
         r.force_float = force_float;
         r.by_fft = by_fft;
@@ -218,7 +218,7 @@ TEST_CASE("the reference kernel accumulates in float when asked, as on a device 
 {
     // force_float (and RELIEF_FP64=off) must reach the kernel: its sums in
     // float differ from fp64's in the last bits, within float's precision.
-    const auto g = rough_slopes(35, 27, 9u);
+    const auto g = rough_float_slopes(35, 27, 9u);
     Run r{{8, 9.5, 0.5, true}};
     const auto fp64 = run_rays(g, 35, 27, r);
     r.force_float = true;
@@ -260,7 +260,7 @@ TEST_CASE("flat tiles are skipped and the result is bit-identical", "[rays][fast
 {
     // An atlas: bumpy islands on an exactly flat background.
     const int w = 300, h = 220;
-    auto g = rough_slopes(w, h, 99u, 0.2);
+    auto g = rough_float_slopes(w, h, 99u, 0.2);
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
             const bool island = (x > 20 && x < 90 && y > 30 && y < 80) || (x > 200 && y > 150);

@@ -89,7 +89,7 @@ TEST_CASE("devices: auto ranks hardware GPUs, then CPUs, then others, simulators
 
 TEST_CASE("devices: RELIEF_DEVICE says what auto means, explicit specs are left alone", "[devices]")
 {
-    const std::vector<DeviceInfo> all = list_devices();
+    const std::vector<DeviceInfo> all = relief::host::list_devices();
     REQUIRE_FALSE(all.empty());
     const DeviceInfo& last = all.back();
     const std::string spec = std::to_string(last.platform_index) + ":" + std::to_string(last.device_index);

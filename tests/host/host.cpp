@@ -29,7 +29,7 @@ using namespace relief::host;
 
 TEST_CASE("device specs: auto finds a device, malformed specs are refused", "[host]")
 {
-    auto devices = list_devices();
+    auto devices = relief::host::list_devices();
     REQUIRE_FALSE(devices.empty());
     auto chosen = choose_device("auto");
     CHECK(chosen.platform_index >= 0);
@@ -85,9 +85,9 @@ TEST_CASE("maps past the kernels' 32-bit indices are refused before any work", "
     CHECK_THROWS_AS(check_index_range(1 << 30, 1, "test"), Error);
     // Each stage checks before it reads a pixel (null pointers: nothing is read).
     auto ctx = ComputeContext::acquire("auto");
-    CHECK_THROWS_WITH(
-        bake_gather(*ctx, nullptr, 46340, 46340, 3, nullptr, true, BakeFilter::Bilinear, nullptr),
-        Catch::Contains("bake: a 46340x46340 map"));
+    CHECK_THROWS_WITH(bake_gather(*ctx, nullptr, 46340, 46340, 3, nullptr, true,
+                                  relief::host::BakeFilter::Bilinear, nullptr),
+                      Catch::Contains("bake: a 46340x46340 map"));
     CHECK_THROWS_WITH(upload_slopes(*ctx, nullptr, 50000, 50000),
                       Catch::Contains("slopes: a 50000x50000 map"));
     CorrectParams p;
@@ -434,11 +434,11 @@ TEST_CASE(
     "[host]")
 {
     using std::chrono::milliseconds;
-    const auto delta = [](const SetupTimes& a, const SetupTimes& b) {
-        return SetupTimes{b.device - a.device, b.programs - a.programs, b.plans - a.plans,
-                          b.prepared - a.prepared};
+    const auto delta = [](const relief::host::SetupTimes& a, const relief::host::SetupTimes& b) {
+        return relief::host::SetupTimes{b.device - a.device, b.programs - a.programs, b.plans - a.plans,
+                                        b.prepared - a.prepared};
     };
-    const SetupTimes t0 = setup_times();
+    const relief::host::SetupTimes t0 = relief::host::setup_times();
     {
         SetupTimer plan(SetupTimer::Kind::Plans);
         std::this_thread::sleep_for(milliseconds(10));
@@ -447,19 +447,19 @@ TEST_CASE(
             std::this_thread::sleep_for(milliseconds(300));
         }
     }
-    const SetupTimes d = delta(t0, setup_times());
+    const relief::host::SetupTimes d = delta(t0, relief::host::setup_times());
     CHECK(d.programs >= 0.3);
     CHECK(d.plans >= 0.01);
     CHECK(d.plans < d.programs / 2);  // not 0.31: the build inside is the build's
     CHECK(d.device == 0.0);
     CHECK(d.prepared == 0.0);
-    const SetupTimes t1 = setup_times();
+    const relief::host::SetupTimes t1 = relief::host::setup_times();
     std::thread([] {
         Ahead ahead;
         SetupTimer device(SetupTimer::Kind::Device);
         std::this_thread::sleep_for(milliseconds(20));
     }).join();
-    const SetupTimes a = delta(t1, setup_times());
+    const relief::host::SetupTimes a = delta(t1, relief::host::setup_times());
     CHECK(a.prepared >= 0.02);
     CHECK(a.device == 0.0);
 }

@@ -26,10 +26,9 @@ namespace fs = std::filesystem;
 using relief::test::run_cli;
 using relief::test::slurp;
 
-namespace {
+using relief::test::kSampleNormal;
 
-const std::string kNormal = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
-const std::string kHeight = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
+namespace {
 
 // The names in `dir` other than `keep`.
 std::vector<std::string> others(const fs::path& dir, const std::string& keep)
@@ -217,7 +216,7 @@ TEST_CASE("cli: a full disk during -o keeps the old file, exit 1", "[cli][io][er
 TEST_CASE("cli: --compression and -d reach the file", "[cli][io]")
 {
     const auto dir = relief::test::scratch("io/formats");
-    auto r = run_cli("'" + kNormal + "' --height:normal=directx -o '" + (dir / "plain.exr").string() +
+    auto r = run_cli("'" + kSampleNormal + "' --height:normal=directx -o '" + (dir / "plain.exr").string() +
                      "' --compression zip -o '" + (dir / "zip.exr").string() +
                      "' --compression piz -d half -o '" + (dir / "piz_half.exr").string() +
                      "' -d uint16 -o '" + (dir / "h16.tif").string() + "' -d uint8 -o '" +
@@ -346,7 +345,7 @@ TEST_CASE("cli: a height that does not fit is refused with the numbers, before i
           "[cli][memory][errors]")
 {
     const auto dir = relief::test::scratch("io/memory-limit");
-    const std::string normal = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";  // 512 x 512
+    const std::string normal = kSampleNormal;  // 512 x 512
     const std::string out = (dir / "h.exr").string();
     // The map (0.8 MB) is read; its slopes (2.1 MB) and grids are not made.
     // RELIEF_MEMORY_LIMIT bounds host memory: on a device with memory of

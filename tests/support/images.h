@@ -14,6 +14,11 @@
 
 namespace relief::test {
 
+// The bundled sample (examples/data/gk_metal_tech_01): a DirectX normal map
+// and the height it was authored from.
+inline const std::string kSampleNormal = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/normal.png";
+inline const std::string kSampleHeight = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
+
 // An in-memory image of `format` holding `px` (w*h*nch floats, as OIIO
 // converts them: UNORM types take [0, 1]).
 inline OIIO::ImageBuf image(int w, int h, int nch, const std::vector<float>& px,

@@ -25,9 +25,9 @@
 using namespace relief;
 using OIIO::ImageBuf;
 
-namespace {
+using relief::test::kSampleHeight;
 
-const std::string kHeight = std::string(RELIEF_TEST_DATA) + "/gk_metal_tech_01/height.png";
+namespace {
 
 bool same_tessellation(const TessellationOptions& a, const TessellationOptions& b)
 {
@@ -167,7 +167,7 @@ TEST_CASE("operations: modifier_text writes every modifier, and any change to on
                     values.push_back(m.type == ModifierType::Integer ? std::to_string(long(v))
                                                                      : std::to_string(v));
             if (m.type == ModifierType::File)
-                values.push_back(kHeight);
+                values.push_back(kSampleHeight);
             if (m.type == ModifierType::Output)
                 values.push_back("relief-test-mesh.ply");
             if (m.type == ModifierType::Text)
@@ -1022,9 +1022,9 @@ TEST_CASE("validate: a rule reads the same from validate(), the modifiers and th
     }
     // A mask file is read only when the call runs, yet its rules hold at parse.
     OperationCall masked;
-    CHECK_FALSE(parse_modifiers(masked, "height", "rays=8:mask=" + kHeight));
+    CHECK_FALSE(parse_modifiers(masked, "height", "rays=8:mask=" + kSampleHeight));
     CHECK(geterror() == "a mask applies to method=poisson, not to rays");
-    CHECK(parse_modifiers(masked, "height", "mask=" + kHeight));
+    CHECK(parse_modifiers(masked, "height", "mask=" + kSampleHeight));
     // Enum values that C++ casts can make and no modifier can: refused with their number.
     HeightOptions cast;
     cast.method = static_cast<HeightMethod>(7);
