@@ -33,6 +33,10 @@ foreach(_tag IN LISTS _tags)
   if(_front_end GREATER -1)
     list(APPEND _labels front-end)
   endif()
+  list(FIND FAST_SCHEDULE_FILES "${_file}" _schedule)
+  if(_schedule GREATER -1)
+    list(APPEND _labels schedule)
+  endif()
   set_tests_properties("fast: ${_file}" PROPERTIES
     WORKING_DIRECTORY "${FAST_WORKING_DIRECTORY}"
     FAIL_REGULAR_EXPRESSION "relief-test-skipped:"
