@@ -35,7 +35,7 @@ using relief::cli::UsageError;
 using relief::test::run_cli;
 
 const std::string kData = std::string(RELIEF_TEST_DATA);
-const std::string& kNormal = relief::test::kSampleNormal;
+inline const std::string& kNormal = relief::test::kSampleNormal;
 const std::string kDem = kData + "/dem_jacksboro/normal.png";
 
 inline fs::path scratch(const std::string& name)
