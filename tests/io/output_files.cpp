@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include <OpenImageIO/imagebuf.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -547,10 +548,10 @@ TEST_CASE("output files: --update recomputes an output damaged inside, its size 
         std::vector<std::string> status(names.size());
         std::istringstream log(slurp(d / "log.jsonl"));
         for (std::string line; std::getline(log, line);) {
-            const std::size_t job = std::stoul(line.substr(line.find("\"job\":") + 6));
-            const std::size_t at = line.find("\"status\":\"") + 10;
+            const auto record = nlohmann::json::parse(line);
+            const std::size_t job = record.at("job");
             REQUIRE(job < status.size());
-            status[job] = line.substr(at, line.find('"', at) - at);
+            status[job] = record.at("status");
         }
         return status;
     };
