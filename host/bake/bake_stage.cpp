@@ -5,6 +5,7 @@
 
 #include "errors.h"
 #include "device/opencl_context.h"
+#include "device/queue_wait.h"
 
 namespace relief::host {
 
@@ -37,9 +38,9 @@ void bake_gather(ComputeContext& ctx, const float* src, int w, int h, int nch, c
             if (planar)
                 for (std::size_t i = 0; i < n; ++i)
                     plane[i] = src[i * nch + ch];
-            c.queue.enqueueWriteBuffer(in, CL_TRUE, 0, sizeof(float) * values, planar ? plane.data() : src);
+            write_asking(c.queue, in, 0, sizeof(float) * values, planar ? plane.data() : src);
             c.launch_in_parts(k, n, 262144);  // (a cancel between parts of 256K texels)
-            c.queue.enqueueReadBuffer(out, CL_TRUE, 0, sizeof(float) * values, planar ? plane.data() : dst);
+            read_asking(c.queue, out, 0, sizeof(float) * values, planar ? plane.data() : dst);
             if (planar)
                 for (std::size_t i = 0; i < n; ++i)
                     dst[i * nch + ch] = plane[i];

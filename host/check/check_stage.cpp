@@ -6,6 +6,7 @@
 
 #include "errors.h"
 #include "device/opencl_context.h"
+#include "device/queue_wait.h"
 
 namespace relief::host {
 
@@ -35,7 +36,7 @@ void height_normals(ComputeContext& ctx, const float* h, int w, int ht, bool per
         set_args(k, in, cl_int(w), cl_int(ht), cl_int(periodic_x), cl_int(periodic_y), cl_float(scale),
                  cl_float(directx ? 1.0f : -1.0f), normals);
         c.launch(k, n);
-        c.queue.enqueueReadBuffer(normals, CL_TRUE, 0, 3 * sizeof(float) * n, out);
+        read_asking(c.queue, normals, 0, 3 * sizeof(float) * n, out);
     } catch (const cl::Error& e) {
         throw opencl_error("check", e);
     }
@@ -59,8 +60,8 @@ RoundTrip round_trip(ComputeContext& ctx, const DeviceSlopes& slopes, const floa
             set_args(k, slopes.impl().buffer, in, cl_int(w), cl_int(ht), cl_int(periodic_x),
                      cl_int(periodic_y), a, r);
             c.launch(k, n);
-            c.queue.enqueueReadBuffer(a, CL_TRUE, 0, sizeof(float) * n, angle.data());
-            c.queue.enqueueReadBuffer(r, CL_TRUE, 0, 2 * sizeof(float) * n, residual.data());
+            read_asking(c.queue, a, 0, sizeof(float) * n, angle.data());
+            read_asking(c.queue, r, 0, 2 * sizeof(float) * n, residual.data());
         } catch (const cl::Error& e) {
             throw opencl_error("check", e);
         }
@@ -128,7 +129,7 @@ std::vector<std::uint8_t> tessellation_levels(ComputeContext& ctx, const float* 
             c.launch_in_parts(
                 k, items,
                 std::size_t(std::max<std::uint64_t>(65536 / std::max<std::uint64_t>(texels_per_item, 1), 1)));
-            c.queue.enqueueReadBuffer(out, CL_TRUE, 0, items, out_bytes.data());
+            read_asking(c.queue, out, 0, items, out_bytes.data());
         } catch (const cl::Error& e) {
             throw opencl_error("check", e);
         }

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "device/cancel.h"
+#include "device/queue_wait.h"
 
 namespace relief::host {
 
@@ -166,7 +167,7 @@ std::pair<double, double> GlobalStep::limits()
              cl::Local(sizeof(cl_float2) * group));
     s_.c.queue.enqueueNDRangeKernel(limits_k_, cl::NullRange, cl::NDRange(items), cl::NDRange(group));
     std::vector<cl_float2> lim(items / group);
-    s_.c.queue.enqueueReadBuffer(limits_, CL_TRUE, 0, sizeof(cl_float2) * lim.size(), lim.data());
+    read_asking(s_.c.queue, limits_, 0, sizeof(cl_float2) * lim.size(), lim.data());
     double flip = INFINITY, largest = 0.0;
     for (const auto& v : lim) {
         flip = std::min(flip, double(v.s[0]));

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "device/cancel.h"
+#include "device/queue_wait.h"
 
 namespace relief::host {
 
@@ -64,13 +65,13 @@ LevelState::LevelState(ComputeContext& ctx, const NodeGrid& grid, const std::vec
 
 void LevelState::upload(const std::vector<float>& values)
 {
-    c.queue.enqueueWriteBuffer(offsets, CL_TRUE, 0, sizeof(cl_float2) * nodes, values.data());
+    write_asking(c.queue, offsets, 0, sizeof(cl_float2) * nodes, values.data());
 }
 
 void LevelState::download(std::vector<float>& values)
 {
     values.resize(2 * nodes);
-    c.queue.enqueueReadBuffer(offsets, CL_TRUE, 0, sizeof(cl_float2) * nodes, values.data());
+    read_asking(c.queue, offsets, 0, sizeof(cl_float2) * nodes, values.data());
 }
 
 double LevelState::energy_of(const cl::Buffer& at, std::vector<float>* aniso, std::vector<float>* area)
@@ -107,8 +108,8 @@ double LevelState::energy_of(const cl::Buffer& at, std::vector<float>* aniso, st
             // Mapped, not read into a copy: a CPU device hands over its
             // own memory.
             const std::size_t real = std::min(count, nodes - first);
-            const auto* st = static_cast<const float*>(
-                c.queue.enqueueMapBuffer(stats, CL_TRUE, CL_MAP_READ, 0, sizeof(cl_float4) * real));
+            const auto* st =
+                static_cast<const float*>(map_for_reading_asking(c.queue, stats, sizeof(cl_float4) * real));
             for (std::size_t i = 0; i < 4 * real; i += 2)
                 if (!std::isnan(st[i])) {
                     aniso->push_back(st[i]);
@@ -143,12 +144,12 @@ void LevelState::add_partials(const cl::Buffer& partials, std::size_t groups, do
 {
     if (fp64) {
         std::vector<double> part(groups);
-        c.queue.enqueueReadBuffer(partials, CL_TRUE, 0, sizeof(double) * groups, part.data());
+        read_asking(c.queue, partials, 0, sizeof(double) * groups, part.data());
         for (double v : part)
             sum += v;
     } else {
         std::vector<float> part(groups);
-        c.queue.enqueueReadBuffer(partials, CL_TRUE, 0, sizeof(float) * groups, part.data());
+        read_asking(c.queue, partials, 0, sizeof(float) * groups, part.data());
         for (float v : part)
             sum += v;
     }

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "device/cancel.h"
 
+#include <chrono>
+#include <future>
 #include <utility>
 
 namespace relief::host {
@@ -21,9 +23,37 @@ CancelCheck::~CancelCheck()
     current = previous_;
 }
 
+bool cancel_requested()
+{
+    return current && (*current)();
+}
+
+bool cancel_check_installed() noexcept
+{
+    return current != nullptr;
+}
+
 void stop_if_cancelled()
 {
-    if (current && (*current)())
+    if (cancel_requested())
+        throw Cancelled();
+}
+
+void run_asking(const std::function<void(const std::atomic<bool>& stop)>& work)
+{
+    std::atomic<bool> stop{false};
+    std::future<void> done = std::async(std::launch::async, [&] { work(stop); });
+    while (done.wait_for(std::chrono::milliseconds(10)) != std::future_status::ready)
+        if (!stop.load() && cancel_requested())
+            stop.store(true);
+    try {
+        done.get();
+    } catch (...) {
+        if (stop.load())
+            throw Cancelled();  // (how it ended early: what was asked of it)
+        throw;
+    }
+    if (stop.load())
         throw Cancelled();
 }
 

@@ -16,6 +16,7 @@
 #include "errors.h"
 #include "device/setup_times.h"
 #include "fft/vkfft_version.h"
+#include "device/queue_wait.h"
 
 // VkFFT builds its kernels from source at every plan, and on PoCL every
 // clBuildProgram from source runs Clang's preprocessor (about 0.02 s each,
@@ -413,7 +414,7 @@ float* read_real_result(ComputeContext::Impl& c, cl::Buffer& grid, cl::Buffer& s
         set_args(gather, grid, cl_int(stride), cl_int(h), cl_int(w), cl_int(w), cl_int(1), spare);
         c.launch(gather, n);
         float* out = sink();
-        c.queue.enqueueReadBuffer(spare, CL_TRUE, 0, sizeof(float) * n, out);
+        read_asking(c.queue, spare, 0, sizeof(float) * n, out);
         return out;
     }
     // Rows out of the padded grid straight into the result.

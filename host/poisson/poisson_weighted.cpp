@@ -16,6 +16,7 @@
 #include "fft/plan_cache.h"
 #include "poisson/poisson_layout.h"
 #include "poisson/poisson_stage.h"
+#include "device/queue_wait.h"
 
 namespace relief::host {
 
@@ -100,7 +101,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
         auto dot = [&](cl::Buffer& a, cl::Buffer& b) {
             set_args(dot_k, a, b, cl_int(n), partial, cl::Local(sizeof(float) * dot_group));
             c.launch(dot_k, n, sizeof(float));
-            c.queue.enqueueReadBuffer(partial, CL_TRUE, 0, sizeof(float) * groups, partial_host.data());
+            read_asking(c.queue, partial, 0, sizeof(float) * groups, partial_host.data());
             double s = 0.0;
             for (float v : partial_host)
                 s += v;
@@ -168,7 +169,7 @@ void integrate_poisson_weighted(ComputeContext& ctx, const DeviceSlopes& slopes,
         }
         if (report)
             *report = rep;
-        c.queue.enqueueReadBuffer(x, CL_TRUE, 0, sizeof(float) * n, height_out);
+        read_asking(c.queue, x, 0, sizeof(float) * n, height_out);
     } catch (const cl::Error& e) {
         throw opencl_error("weighted Poisson", e);
     }

@@ -13,6 +13,7 @@
 #include "field_ops.h"
 #include "rays/rays_parts.h"
 #include "fft/fft_plan.h"
+#include "device/queue_wait.h"
 
 namespace relief::host {
 
@@ -250,14 +251,14 @@ void integrate_rays_chains(ComputeContext& ctx, const DeviceSlopes& slopes, cons
                 c.launch(windows, (starts.size() + lanes - 1) / lanes);
             }
             // The tables above go out of scope with this iteration.
-            c.queue.finish();
+            finish_asking(c.queue);
             if (progress)
                 progress(1.0 - chain_share + chain_share * double(j + 1) / double(dirs.size()));
         }
         cl::Kernel finish(prog, "rays_finish");
         set_args(finish, accum, cl_int(n), out);
         c.launch(finish, n);
-        c.queue.enqueueReadBuffer(out, CL_TRUE, 0, sizeof(float) * n, height_out);
+        read_asking(c.queue, out, 0, sizeof(float) * n, height_out);
     } catch (const cl::Error& e) {
         throw opencl_error("fast ray", e);
     }

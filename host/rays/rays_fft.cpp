@@ -13,6 +13,7 @@
 #include "rays/rays_parts.h"
 #include "fft/fft_plan.h"
 #include "fft/plan_cache.h"
+#include "device/queue_wait.h"
 
 namespace relief::host {
 
@@ -122,7 +123,7 @@ void fft_ray_sums(ComputeContext::Impl& c, DeviceSlopes& slopes, bool consume, c
         set_args(multiply, gx, kernel_grid, cl_int(count));
         c.launch(multiply, count);
         if (progress) {
-            c.queue.finish();
+            finish_asking(c.queue);
             progress(0.5);
         }
         make_kernel_spectrum(second);

@@ -11,6 +11,7 @@
 #include "errors.h"
 #include "field_ops.h"
 #include "rays/rays_parts.h"
+#include "device/queue_wait.h"
 #include <sstream>
 
 namespace relief::host {
@@ -136,11 +137,11 @@ void integrate_rays_reference(ComputeContext& ctx, const DeviceSlopes& slopes, c
             set_args_at(k, 3, row0, rows);
             c.launch(k, std::size_t(w) * rows);
             if (progress) {
-                c.queue.finish();
+                finish_asking(c.queue);
                 progress(double(row0 + rows) / h);
             }
         }
-        c.queue.enqueueReadBuffer(out, CL_TRUE, 0, sizeof(float) * n, height_out);
+        read_asking(c.queue, out, 0, sizeof(float) * n, height_out);
     } catch (const cl::Error& e) {
         throw opencl_error("ray", e);
     }

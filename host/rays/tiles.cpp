@@ -9,6 +9,7 @@
 #include "errors.h"
 #include "field_ops.h"
 #include "rays/rays_parts.h"
+#include "device/queue_wait.h"
 
 namespace relief::host {
 
@@ -29,7 +30,7 @@ cl::Buffer active_tiles(ComputeContext::Impl& c, const DeviceSlopes& slopes, dou
                  nonflat);
         c.launch(k, n);
         std::vector<cl_uchar> any(n);
-        c.queue.enqueueReadBuffer(nonflat, CL_TRUE, 0, n, any.data());
+        read_asking(c.queue, nonflat, 0, n, any.data());
         // Dilate by the reach in tiles (a square covers the disk), along x
         // then along y; periodic textures wrap.
         const int r = int(std::ceil(reach / T));

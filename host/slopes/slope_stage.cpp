@@ -7,6 +7,7 @@
 
 #include "errors.h"
 #include "device/opencl_context.h"
+#include "device/queue_wait.h"
 
 namespace relief::host {
 
@@ -30,7 +31,7 @@ void measure_curl(ComputeContext::Impl& cl_, const cl::Buffer& slopes, int w, in
     set_args(k, slopes, w, cell_rows, sums);
     cl_.launch(k, cell_rows);
     std::vector<cl_float2> host(cell_rows);
-    cl_.queue.enqueueReadBuffer(sums, CL_TRUE, 0, sizeof(cl_float2) * cell_rows, host.data());
+    read_asking(cl_.queue, sums, 0, sizeof(cl_float2) * cell_rows, host.data());
     double gl = 0.0, dx = 0.0;
     for (const auto& s : host) {
         gl += s.s[0];
@@ -84,11 +85,11 @@ DeviceSlopes derive_slopes(ComputeContext& ctx, const NormalRows& rows, const Sl
             const std::size_t first = std::size_t(first_row) * std::size_t(p.width);
             const std::size_t count = std::size_t(band_rows) * std::size_t(p.width);
             // Blocking: the next band reuses the buffer and the staging rows.
-            c.queue.enqueueWriteBuffer(in, CL_TRUE, 0, per_row * std::size_t(band_rows), staging.data());
+            write_asking(c.queue, in, 0, per_row * std::size_t(band_rows), staging.data());
             set_args_at(k, 2, cl_int(first), cl_int(count));
             c.launch(k, count);
         }
-        c.queue.enqueueReadBuffer(counters, CL_TRUE, 0, sizeof(zero), zero);
+        read_asking(c.queue, counters, 0, sizeof(zero), zero);
         stats.invalid = zero[0];
         stats.clamped = zero[1];
 
@@ -108,7 +109,7 @@ DeviceSlopes derive_slopes(ComputeContext& ctx, const NormalRows& rows, const Sl
             set_args(f, impl->buffer, texels);
             c.launch(f, n);
         }
-        c.queue.finish();
+        finish_asking(c.queue);
         return DeviceSlopes(p.width, p.height, impl);
     } catch (const cl::Error& e) {
         throw opencl_error("slope", e);
@@ -135,8 +136,8 @@ void read_slopes(ComputeContext& ctx, const DeviceSlopes& slopes, float* out)
     auto& c = ctx.impl();
     std::lock_guard<std::mutex> lock(c.mutex);
     try {
-        c.queue.enqueueReadBuffer(slopes.impl().buffer, CL_TRUE, 0,
-                                  sizeof(cl_float2) * texel_count(slopes.width(), slopes.height()), out);
+        read_asking(c.queue, slopes.impl().buffer, 0,
+                    sizeof(cl_float2) * texel_count(slopes.width(), slopes.height()), out);
     } catch (const cl::Error& e) {
         throw Error(std::string("OpenCL error reading slopes: ") + e.what());
     }
@@ -150,7 +151,7 @@ void with_slopes_on_host(ComputeContext& ctx, const DeviceSlopes& slopes,
     const std::size_t bytes = sizeof(cl_float2) * texel_count(slopes.width(), slopes.height());
     void* p = nullptr;
     try {
-        p = c.queue.enqueueMapBuffer(slopes.impl().buffer, CL_TRUE, CL_MAP_READ, 0, bytes);
+        p = map_for_reading_asking(c.queue, slopes.impl().buffer, bytes);
     } catch (const cl::Error& e) {
         throw Error(std::string("OpenCL error mapping slopes: ") + e.what());
     }

@@ -7,6 +7,7 @@
 #include <tiny_gltf.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cfloat>
 #include <cstdio>
@@ -98,6 +99,9 @@ void write_ply(const Mesh& m, std::FILE* f, const std::string& digest)
     std::fwrite(rec.data(), 1, rec.size(), f);
 }
 
+// A cancel asked between parts of this size of a large copy.
+constexpr std::size_t kCopyPart = std::size_t(8) << 20;
+
 // One accessor over a tightly packed view of `data`.
 template <class T>
 int add_accessor(tinygltf::Model& model, const std::vector<T>& data, int components, int component_type,
@@ -113,7 +117,11 @@ int add_accessor(tinygltf::Model& model, const std::vector<T>& data, int compone
     view.byteLength = data.size() * sizeof(T);
     view.target = target;
     const auto* bytes = reinterpret_cast<const unsigned char*>(data.data());
-    buffer.data.insert(buffer.data.end(), bytes, bytes + view.byteLength);
+    for (std::size_t done = 0; done < view.byteLength; done += kCopyPart) {
+        host::stop_if_cancelled();
+        const std::size_t part = std::min(kCopyPart, view.byteLength - done);
+        buffer.data.insert(buffer.data.end(), bytes + done, bytes + done + part);
+    }
     model.bufferViews.push_back(view);
 
     tinygltf::Accessor a;
@@ -125,6 +133,7 @@ int add_accessor(tinygltf::Model& model, const std::vector<T>& data, int compone
         a.minValues.assign(std::size_t(components), DBL_MAX);
         a.maxValues.assign(std::size_t(components), -DBL_MAX);
         for (std::size_t i = 0; i < data.size(); ++i) {
+            host::stop_if_cancelled_every(i, 3 * 65536);
             double& lo = a.minValues[i % std::size_t(components)];
             double& hi = a.maxValues[i % std::size_t(components)];
             lo = std::min(lo, double(data[i]));
@@ -138,11 +147,12 @@ int add_accessor(tinygltf::Model& model, const std::vector<T>& data, int compone
 // TinyGLTF's output straight into write_mesh's temporary file (its own
 // file writer does not report a short write; the whole file in an
 // ostringstream first had cost 0.6 s and a copy at 1024^2): each write
-// checked, a cancel asked every 8 MB. The stream's exceptions pass the
-// failure or the cancel on through TinyGLTF.
+// checked, `stop` looked at every 8 MB (TinyGLTF runs on a thread of its
+// own, see write_gltf). The stream's exceptions pass the failure or the
+// cancel on through TinyGLTF.
 class FileOut : public std::streambuf {
 public:
-    explicit FileOut(std::FILE* f) : f_(f) {}
+    FileOut(std::FILE* f, const std::atomic<bool>& stop) : f_(f), stop_(stop) {}
 
 protected:
     std::streamsize xsputn(const char* s, std::streamsize n) override
@@ -153,8 +163,8 @@ protected:
                 throw std::runtime_error(std::strerror(errno));
             done += part;
             written_ += part;
-            if (written_ % kPoll == 0)
-                host::stop_if_cancelled();
+            if (written_ % kPoll == 0 && stop_.load())
+                throw host::Cancelled();
         }
         return n;
     }
@@ -170,6 +180,7 @@ protected:
 private:
     static constexpr std::size_t kPoll = std::size_t(8) << 20;
     std::FILE* f_;
+    const std::atomic<bool>& stop_;
     std::size_t written_ = 0;
 };
 
@@ -185,6 +196,11 @@ void write_gltf(const Mesh& m, std::FILE* f, bool binary, const std::string& dig
         model.asset.extras = tinygltf::Value(extras);
     }
     model.buffers.resize(1);
+    // (one allocation for the four views, each padded to 4 bytes)
+    model.buffers[0].data.reserve(sizeof(float) *
+                                      (m.positions.size() + m.normals.size() + m.texcoords.size()) +
+                                  sizeof(std::uint32_t) * m.triangles.size() + 16);
+    host::stop_if_cancelled();
     // glTF's texture origin is the image's top-left: v = y / H.
     std::vector<float> uv = m.texcoords;
     for (std::size_t i = 1; i < uv.size(); i += 2)
@@ -212,13 +228,17 @@ void write_gltf(const Mesh& m, std::FILE* f, bool binary, const std::string& dig
     scene.nodes.push_back(0);
     model.scenes.push_back(scene);
     model.defaultScene = 0;
-    host::stop_if_cancelled();
-    tinygltf::TinyGLTF writer;
-    FileOut out(f);
-    std::ostream stream(&out);
-    stream.exceptions(std::ios::badbit);  // (what FileOut throws comes through)
-    if (!writer.WriteGltfSceneToStream(&model, stream, !binary, binary))
-        throw std::runtime_error("the glTF writer failed");
+    // TinyGLTF serialises the model and copies its buffer before it writes
+    // a byte (0.3 s at 1024^2, with no way in): on a thread of its own, this
+    // one asking the cancel meanwhile.
+    host::run_asking([&](const std::atomic<bool>& stop) {
+        tinygltf::TinyGLTF writer;
+        FileOut out(f, stop);
+        std::ostream stream(&out);
+        stream.exceptions(std::ios::badbit);  // (what FileOut throws comes through)
+        if (!writer.WriteGltfSceneToStream(&model, stream, !binary, binary))
+            throw std::runtime_error("the glTF writer failed");
+    });
 }
 
 }  // namespace
@@ -262,7 +282,10 @@ bool write_mesh(const Mesh& m, const std::string& path, const std::string& diges
             write_gltf(m, f, e == ".glb", digest);
         }
         // Every write, the flush and the sync checked: a full disk fails here.
+        // (The sync of a large mesh takes a while: the cancel is asked
+        // meanwhile, and a cancel leaves no file.)
         host::stop_if_cancelled();
+        host::run_asking([&](const std::atomic<bool>&) { tmp.close(); });
         tmp.commit();
         return true;
     } catch (const host::Cancelled&) {

@@ -120,6 +120,7 @@ bool build_mesh(Mesh& mesh, const OIIO::ImageBuf& height, const TessellationOpti
                 break;
         }
         mesh = builder.finish();
+        host::stop_if_cancelled();
         mesh.raised = 0;
         int over = 0;
         double worst = 0.0;

@@ -137,7 +137,7 @@ public:
     {
         const int cell_h = kCaption + ch_ + kBar;
         ImageSpec spec(3 * cw_ + 4 * kMargin, 2 * cell_h + 3 * kMargin, 3, TypeDesc::FLOAT);
-        image_.reset(spec);
+        image_.reset(spec, OIIO::InitializePixels::No);  // (filled next, in bands)
         const float background[3] = {0.13f, 0.13f, 0.14f};
         // In bands, a cancel asked between them (a sheet of 1024^2 panels
         // is 85 MB of floats: 167 ms at once here).
@@ -151,7 +151,7 @@ public:
     // The sheet as `dst` in `spec`'s format, in bands of rows as above.
     void deliver(ImageBuf& dst, const ImageSpec& spec) const
     {
-        dst.reset(spec);
+        dst.reset(spec, OIIO::InitializePixels::No);  // (every row is set below)
         const int w = image_.spec().width, h = image_.spec().height;
         std::vector<float> band(std::size_t(w) * 3 * std::size_t(kBand));
         for (int y = 0; y < h; y += kBand) {
@@ -169,6 +169,7 @@ public:
 
     void panel(int col, int row, const std::string& caption, const ImageBuf& pixels)
     {
+        host::stop_if_cancelled();  // (between the panel's resizing and its paste)
         text(x(col), y(row) + kCaption - 10, caption, kFontSize);
         ImageBuf& dst = image_;
         if (!IBA::paste(dst, x(col), y(row) + kCaption, 0, 0, pixels))
@@ -211,7 +212,7 @@ public:
     ImageBuf& image() { return image_; }
 
 private:
-    static constexpr int kBand = 256;
+    static constexpr int kBand = 64;  // rows (2.4 MB of a 1024^2 sheet's floats)
     int ph_, cw_, ch_;
     ImageBuf image_;
 };
@@ -330,7 +331,9 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
             for (int c = 0; c < 3; ++c)
                 out[c] = std::min(1.0f, 0.75f * (0.85f * key + 0.3f * norm * std::max(0.0f, e[c])));
         };
-        std::vector<float> lit_in(3 * n), lit_h(3 * n), emboss(3 * n), heat(3 * n), relief_map(3 * n);
+        // (Each picture is made when its pass starts: zeroing all five at
+        // once, 60 MB at 1024^2, kept a host from hearing progress.)
+        std::vector<float> lit_in(3 * n), lit_h(3 * n);
         for (std::size_t i = 0; i < n; ++i) {
             host::stop_if_cancelled_every(i);
             const float gx = g[2 * i], gy = g[2 * i + 1];
@@ -364,7 +367,10 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         std::vector<float> mag(n);
         for (std::size_t i = 0; i < n; ++i)
             mag[i] = std::abs(diff[i]);
+        host::stop_if_cancelled();
         const double k = std::max(1e-9, quantile(mag, 0.99));
+        host::stop_if_cancelled();
+        std::vector<float> emboss(3 * n);
         for (std::size_t i = 0; i < n; ++i)
             emboss[3 * i] = emboss[3 * i + 1] = emboss[3 * i + 2] =
                 float(std::clamp(0.5 + 0.5 * diff[i] / k, 0.0, 1.0));
@@ -372,6 +378,7 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         step(0.7);
         // Angular error: 0 to a round bound at or above its 99th percentile.
         const double p99 = quantile(trip.angle_deg, 0.99);
+        host::stop_if_cancelled();
         double top = 90.0;
         for (double b : {0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 30.0, 45.0, 90.0})
             if (b >= p99) {
@@ -380,6 +387,8 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
             }
         const auto [lo_it, hi_it] = std::minmax_element(h.begin(), h.end());
         const double lo = *lo_it, hi = *hi_it;
+        host::stop_if_cancelled();
+        std::vector<float> heat(3 * n), relief_map(3 * n);
         for (std::size_t i = 0; i < n; ++i) {
             host::stop_if_cancelled_every(i);
             const Rgb a = ramp(kHeat, trip.angle_deg[i] / top);
@@ -412,6 +421,7 @@ bool preview(ImageBuf& dst, const ImageBuf& normals, const ImageBuf& height, con
         step(0.96);
         sheet.panel(1, 1, "e  height", fit(relief_map, w, ht, pw, ph));
         sheet.bar(1, 1, kViridis, lo, hi, "texels");
+        host::stop_if_cancelled();
         const int tx = sheet.x(2), ty = sheet.y(1) + kCaption;
         const std::vector<std::string> lines = {
             "relief preview, " + std::to_string(w) + "x" + std::to_string(ht) + " texels",
