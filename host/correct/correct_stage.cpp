@@ -15,6 +15,7 @@
 
 #include "correct/correct_grid.h"
 #include "correct/level_solver.h"
+#include "device/cancel.h"
 #include "errors.h"
 #include "device/opencl_context.h"
 
@@ -176,12 +177,14 @@ CorrectPolish polish_mesh(ComputeContext& ctx, const std::vector<float>& texels,
     q.global = CorrectParams::Global::Off;
     const LevelInput in = level_input(texels, fix.empty() ? nullptr : &fix, w, h, w, q);
     to_texels(offsets, in.grid, true);
+    stop_if_cancelled();  // (host passes over the whole map, each tens of ms at 1024^2)
     CorrectPolish r;
     r.flipped = (long long)flipped_triangles(offsets, in.grid).size();
     if (r.flipped > 0) {
         r.repairs = unflip_mesh(offsets, in.grid, kUnflipRounds);
         r.flipped_left = (long long)flipped_triangles(offsets, in.grid).size();
     }
+    stop_if_cancelled();
     LevelSolver s(ctx, in.grid, in.z, in.fix, q);
     s.upload(offsets);
     r.energy_start = s.energy();
@@ -344,10 +347,12 @@ void correct_distortion(ComputeContext& ctx, const float* heights, int w, int h,
                 // The device still holds the final offsets: their energy is
                 // the level's end and the result's, with the statistics.
                 rep.energy_after = lv.energy_end = s.energy(&aniso, &area);
+                stop_if_cancelled();  // (the host's passes after the last level: tens of ms each at 1024^2)
                 summarise_both(aniso, area, rep.anisotropy_after, rep.area_after);
             }
             rep.levels.push_back(lv);
         }
+        stop_if_cancelled();
         std::vector<float> out = texel_offsets(offsets, finest.grid);
         if (polishing) {
             rep.polish = polish_mesh(ctx, texels, fix, w, h, p, out);

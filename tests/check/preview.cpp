@@ -397,6 +397,16 @@ TEST_CASE("preview: each panel is the map's size at the sheet's scale, in its ow
                     CHECK(coloured == cw);
                     CHECK(at(x0 + cw, bar + 2) == background);
                     CHECK(at(x0, bar + 2) != at(x0 + cw - 1, bar + 2));  // a ramp, not one colour
+                    // The whole ramp, end to end: d from inferno's black to its
+                    // pale yellow, e from viridis's purple to its yellow.
+                    using Colour = std::array<float, 3>;
+                    const Colour left = col == 0 ? Colour{0.0f, 0.0f, 0.02f} : Colour{0.27f, 0.0f, 0.33f};
+                    const Colour right = col == 0 ? Colour{0.99f, 1.0f, 0.64f} : Colour{0.99f, 0.91f, 0.14f};
+                    for (int k = 0; k < 3; ++k) {
+                        CHECK(std::abs(at(x0, bar + 2)[std::size_t(k)] - left[std::size_t(k)]) <= 1.0f / 255);
+                        CHECK(std::abs(at(x0 + cw - 1, bar + 2)[std::size_t(k)] - right[std::size_t(k)]) <=
+                              1.0f / 255);
+                    }
                     if (col == 1) {  // e: a flat height is its ramp's middle colour
                         const auto middle = at(x0 + cw / 2, bar + 2);
                         for (int k = 0; k < 3; ++k)
