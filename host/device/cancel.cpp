@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <future>
+#include <system_error>
 #include <utility>
 
 namespace relief::host {
@@ -42,7 +43,13 @@ void stop_if_cancelled()
 void run_asking(const std::function<void(const std::atomic<bool>& stop)>& work)
 {
     std::atomic<bool> stop{false};
-    std::future<void> done = std::async(std::launch::async, [&] { work(stop); });
+    std::future<void> done;
+    try {
+        done = std::async(std::launch::async, [&] { work(stop); });
+    } catch (const std::system_error&) {  // (no thread to be had: the call runs here, unasked)
+        work(stop);
+        return;
+    }
     while (done.wait_for(std::chrono::milliseconds(10)) != std::future_status::ready)
         if (!stop.load() && cancel_requested())
             stop.store(true);

@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <condition_variable>
+#include <exception>
 #include <memory>
 #include <mutex>
 
@@ -35,6 +36,12 @@ void CL_CALLBACK on_complete(cl_event, cl_int, void* user)
     c.changed.notify_all();
 }
 
+// Complete (CL_COMPLETE, 0) or failed (negative).
+bool ended(const cl::Event& e)
+{
+    return e.getInfo<CL_EVENT_COMMAND_EXECUTION_STATUS>() <= CL_COMPLETE;
+}
+
 void throw_if_failed(const cl::Event& done)
 {
     const cl_int status = done.getInfo<CL_EVENT_COMMAND_EXECUTION_STATUS>();
@@ -42,42 +49,93 @@ void throw_if_failed(const cl::Event& done)
         throw cl::Error(status, "clWaitForEvents");
 }
 
+// Until `done` has ended, whatever happens (for unwinding: the command may
+// use the caller's memory until then).
+void wait_regardless(const cl::Event& done) noexcept
+{
+    try {
+        done.wait();
+    } catch (...) {
+    }
+}
+
+// Waits for `done`, asking the check meanwhile: `stop` when it said so,
+// `failure` when it threw (a host's callback may), not asked again after
+// either. Returns once the command has ended.
+void wait_listening(const cl::Event& done, bool& stop, std::exception_ptr& failure)
+{
+    // (Oclgrind's flush runs the queue to its end, and it calls no callback
+    // registered on an event already complete.)
+    if (ended(done))
+        return;
+    auto completion = std::make_shared<Completion>();
+    auto held = std::make_unique<std::shared_ptr<Completion>>(completion);
+    cl::Event event = done;
+    event.setCallback(CL_COMPLETE, on_complete, held.get());  // (it may run at once)
+    held.release();
+    for (;;) {
+        {
+            std::unique_lock<std::mutex> lock(completion->mutex);
+            if (completion->changed.wait_for(lock, kAskEvery, [&] { return completion->done; }))
+                return;
+        }
+        if (ended(done))  // (a callback late or never called)
+            return;
+        if (!stop && !failure) {
+            try {
+                stop = cancel_requested();
+            } catch (...) {
+                failure = std::current_exception();
+            }
+        }
+    }
+}
+
 }  // namespace
 
 void wait_asking(const cl::Event& done)
 {
     if (!cancel_check_installed()) {
-        done.wait();
+        try {
+            done.wait();
+        } catch (const cl::Error&) {
+            throw_if_failed(done);  // (the command's own error, not the wait's)
+            throw;
+        }
         throw_if_failed(done);
         return;
     }
-    auto completion = std::make_shared<Completion>();
-    auto held = std::make_unique<std::shared_ptr<Completion>>(completion);
-    // (the callback runs, possibly at once, for a command complete or failed)
-    cl::Event event = done;
-    event.setCallback(CL_COMPLETE, on_complete, held.get());
-    held.release();
     bool stop = false;
-    std::unique_lock<std::mutex> lock(completion->mutex);
-    while (!completion->changed.wait_for(lock, kAskEvery, [&] { return completion->done; })) {
-        if (stop)
-            continue;
-        lock.unlock();
-        stop = cancel_requested();
-        lock.lock();
+    std::exception_ptr failure;
+    try {
+        wait_listening(done, stop, failure);
+    } catch (...) {
+        wait_regardless(done);
+        throw;
     }
-    lock.unlock();
+    if (failure)
+        std::rethrow_exception(failure);
     throw_if_failed(done);
     if (stop)
         throw Cancelled();
+}
+
+void complete_asking(const cl::CommandQueue& queue, const cl::Event& done)
+{
+    try {
+        queue.flush();
+    } catch (...) {
+        wait_regardless(done);
+        throw;
+    }
+    wait_asking(done);
 }
 
 void finish_asking(const cl::CommandQueue& queue)
 {
     cl::Event done;
     queue.enqueueMarkerWithWaitList(nullptr, &done);
-    queue.flush();
-    wait_asking(done);
+    complete_asking(queue, done);
 }
 
 void read_asking(const cl::CommandQueue& queue, const cl::Buffer& buffer, std::size_t offset,
@@ -85,8 +143,7 @@ void read_asking(const cl::CommandQueue& queue, const cl::Buffer& buffer, std::s
 {
     cl::Event done;
     queue.enqueueReadBuffer(buffer, CL_FALSE, offset, bytes, dst, nullptr, &done);
-    queue.flush();
-    wait_asking(done);
+    complete_asking(queue, done);
 }
 
 void write_asking(const cl::CommandQueue& queue, const cl::Buffer& buffer, std::size_t offset,
@@ -94,20 +151,21 @@ void write_asking(const cl::CommandQueue& queue, const cl::Buffer& buffer, std::
 {
     cl::Event done;
     queue.enqueueWriteBuffer(buffer, CL_FALSE, offset, bytes, src, nullptr, &done);
-    queue.flush();
-    wait_asking(done);
+    complete_asking(queue, done);
 }
 
 void* map_for_reading_asking(const cl::CommandQueue& queue, const cl::Buffer& buffer, std::size_t bytes)
 {
     cl::Event done;
     void* p = queue.enqueueMapBuffer(buffer, CL_FALSE, CL_MAP_READ, 0, bytes, nullptr, &done);
-    queue.flush();
     try {
-        wait_asking(done);
-    } catch (const Cancelled&) {
-        queue.enqueueUnmapMemObject(buffer, p);  // (the buffer is released unmapped)
-        queue.finish();
+        complete_asking(queue, done);
+    } catch (...) {
+        try {  // (the buffer is released unmapped)
+            queue.enqueueUnmapMemObject(buffer, p);
+            queue.finish();
+        } catch (...) {
+        }
         throw;
     }
     return p;

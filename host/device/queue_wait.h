@@ -9,7 +9,9 @@
 // (a read may be writing into the caller's memory, a write reading from it)
 // and only then throw Cancelled; the kernels before it are already queued,
 // which the stages bound by asking before each one they enqueue.
-// OpenCL failures are thrown as cl::Error, as the blocking calls throw them.
+// OpenCL failures are thrown as cl::Error, as the blocking calls throw them;
+// whatever is thrown (a host's callback may throw too) comes only once the
+// command has ended.
 #include <CL/opencl.hpp>
 
 #include <cstddef>
@@ -18,6 +20,11 @@ namespace relief::host {
 
 // Waits until `done` completes (successfully or not), asking the check.
 void wait_asking(const cl::Event& done);
+
+// Flushes `queue` and waits for `done`, a command queued on it without
+// blocking, as wait_asking does (for a call the helpers below lack, such as
+// a rectangular read).
+void complete_asking(const cl::CommandQueue& queue, const cl::Event& done);
 
 // queue.finish(), asking the check while it waits.
 void finish_asking(const cl::CommandQueue& queue);

@@ -422,8 +422,10 @@ float* read_real_result(ComputeContext::Impl& c, cl::Buffer& grid, cl::Buffer& s
     float* out = sink();
     const std::array<std::size_t, 3> origin{0, 0, 0};
     const std::array<std::size_t, 3> region{sizeof(float) * std::size_t(w), std::size_t(h), 1};
-    c.queue.enqueueReadBufferRect(grid, CL_TRUE, origin, origin, region, sizeof(float) * stride, 0,
-                                  sizeof(float) * std::size_t(w), 0, out);
+    cl::Event done;
+    c.queue.enqueueReadBufferRect(grid, CL_FALSE, origin, origin, region, sizeof(float) * stride, 0,
+                                  sizeof(float) * std::size_t(w), 0, out, nullptr, &done);
+    complete_asking(c.queue, done);
     return out;
 }
 

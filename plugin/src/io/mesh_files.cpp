@@ -285,7 +285,11 @@ bool write_mesh(const Mesh& m, const std::string& path, const std::string& diges
         // (The sync of a large mesh takes a while: the cancel is asked
         // meanwhile, and a cancel leaves no file.)
         host::stop_if_cancelled();
-        host::run_asking([&](const std::atomic<bool>&) { tmp.close(); });
+        // (errno goes with it: close() reports an earlier failed write's)
+        host::run_asking([&tmp, err = errno](const std::atomic<bool>&) {
+            errno = err;
+            tmp.close();
+        });
         tmp.commit();
         return true;
     } catch (const host::Cancelled&) {

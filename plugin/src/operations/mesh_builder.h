@@ -85,13 +85,17 @@ public:
         // with a neighbour counted twice): grown by doubling, the index
         // rehashed and the arrays copied millions of entries at a time,
         // 0.2-0.4 s at 1024^2 in which a host heard nothing.
-        std::size_t room = pos_.size() / 3;
+        // At most twice the memory check's own count (check_mesh_memory,
+        // max(L, 1)^2 a patch), which a map of level-1 patches would pass.
+        std::size_t room = 0, cap = 0;
         for (int p : which) {
-            const std::size_t side = std::size_t(std::max(levels_[std::size_t(p)], 1)) + 1;
-            room += side * side;
+            const std::size_t level = std::size_t(std::max(levels_[std::size_t(p)], 1));
+            room += (level + 1) * (level + 1);
+            cap += 2 * level * level;
         }
         if (pos_.empty())
             room += room / 4;  // (the patches raised later: growing would copy it all again)
+        room = pos_.size() / 3 + std::min(room, cap);
         if (double(room) > double(index_.bucket_count()) * double(index_.max_load_factor()))
             index_.reserve(room);
         pos_.reserve(3 * room);

@@ -151,16 +151,19 @@ public:
     // The sheet as `dst` in `spec`'s format, in bands of rows as above.
     void deliver(ImageBuf& dst, const ImageSpec& spec) const
     {
-        dst.reset(spec, OIIO::InitializePixels::No);  // (every row is set below)
+        // (Every row is set below; dst gets the sheet only when all are:
+        // a cancel part way leaves no uninitialised rows behind.)
+        ImageBuf out(spec, OIIO::InitializePixels::No);
         const int w = image_.spec().width, h = image_.spec().height;
         std::vector<float> band(std::size_t(w) * 3 * std::size_t(kBand));
         for (int y = 0; y < h; y += kBand) {
             host::stop_if_cancelled();
             const OIIO::ROI rows(0, w, y, std::min(y + kBand, h), 0, 1, 0, 3);
             if (!image_.get_pixels(rows, TypeDesc::FLOAT, band.data()) ||
-                !dst.set_pixels(rows, TypeDesc::FLOAT, band.data()))
-                throw std::runtime_error("cannot compose the sheet: " + dst.geterror());
+                !out.set_pixels(rows, TypeDesc::FLOAT, band.data()))
+                throw std::runtime_error("cannot compose the sheet: " + out.geterror());
         }
+        dst.swap(out);
     }
 
     // Cell (col, row)'s top-left corner.
