@@ -164,6 +164,18 @@ TEST_CASE("update: a single run up to date says so under -v only, and writes not
     CHECK(r.rc == 0);
     CHECK(r.err.find("up to date") == std::string::npos);
     CHECK(relief::test::run_cli(zip, in_d).err.find("relief: up to date") != std::string::npos);
+    // A map one texel wide carries its pixel digest as any other does.
+    {
+        OIIO::ImageBuf src(kNormal);
+        OIIO::ImageBuf column = OIIO::ImageBufAlgo::cut(src, OIIO::ROI(0, 1, 0, 32));
+        column.set_write_format(OIIO::TypeDesc::UINT8);
+        REQUIRE(column.write((d / "column.png").string()));
+    }
+    const std::string thin = "column.png --height -o column.exr --update -v";
+    REQUIRE(relief::test::run_cli(thin, in_d).rc == 0);
+    r = relief::test::run_cli(thin, in_d);
+    INFO(r.err);
+    CHECK(r.err.find("relief: up to date") != std::string::npos);
 }
 
 TEST_CASE("update: a dry run calls a chain's reader pending when the job it reads would run, as the real run "

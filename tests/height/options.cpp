@@ -228,3 +228,22 @@ TEST_CASE("options: skip=on skips flat tiles and says so, skip=off runs them all
     CHECK(on.find("rays: skipped 12 of 16 tiles") != std::string::npos);
     CHECK(off.find("skipped") == std::string::npos);
 }
+
+TEST_CASE("options: a height over an ROI is that region's size, placed at its origin", "[options][height]")
+{
+    std::vector<float> up(64 * 48 * 3, 0.0f);
+    for (std::size_t i = 2; i < up.size(); i += 3)
+        up[i] = 1.0f;
+    const OIIO::ImageBuf normals = test::image(64, 48, 3, up);
+    HeightOptions o;
+    o.normals.convention = NormalConvention::OpenGL;
+    for (const HeightMethod method : {HeightMethod::Poisson, HeightMethod::Rays}) {
+        o.method = method;
+        const OIIO::ImageBuf h = relief::height(normals, o, OIIO::ROI(10, 40, 5, 25));
+        REQUIRE_FALSE(h.has_error());
+        CHECK(h.spec().width == 30);
+        CHECK(h.spec().height == 20);
+        CHECK(h.spec().x == 10);
+        CHECK(h.spec().y == 5);
+    }
+}
