@@ -181,10 +181,15 @@ DeviceInfo choose_device(const std::string& requested)
         if (p < 0 || d < 0)
             throw Error("bad device '" + spec +
                         "': expected auto, gpu, cpu or <platform>:<device> (e.g. 0:0)");
-        for (const auto& info : list_devices())
+        const std::vector<DeviceInfo> devices = list_devices();
+        std::string here;
+        for (const auto& info : devices) {
             if (info.platform_index == p && info.device_index == d)
                 return info;
-        throw NoDeviceError("no OpenCL device " + spec);
+            here += (here.empty() ? "" : "; ") + info.describe();
+        }
+        // (the numbers there are, as --list-devices prints them)
+        throw NoDeviceError("no OpenCL device " + spec + "; the devices here: " + here);
     }
     const auto ranked = rank_devices(list_devices());
     for (const auto& info : ranked)

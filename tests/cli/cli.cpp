@@ -234,7 +234,8 @@ TEST_CASE("cli: bad input fails with a clear message, a non-zero exit and no out
         {"-o without a value", ok + " --height -o", "", "needs a value"},
         {"no OpenCL device", ok + " --height -o " + out,
          "OCL_ICD_VENDORS='" + (dir / "no_vendors").string() + "'", "no OpenCL"},
-        {"no such device", ok + " --device 9:9 --height -o " + out, "", "no OpenCL device 9:9"},
+        {"no such device", ok + " --device 9:9 --height -o " + out, "",
+         "no OpenCL device 9:9; the devices here: 0:0 "},
         {"kernel build failure", ok + " --height:rays=4:radius=4 -o " + out,
          "RELIEF_KERNEL_DIR='" + kernels.string() + "'", "failed to build"},
     };
