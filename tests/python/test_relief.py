@@ -119,6 +119,25 @@ class MoreDoors(unittest.TestCase):
                                           relief.height(np.ascontiguousarray(view), normal="opengl",
                                                         boundary="free"))
 
+    def test_a_one_channel_view_is_copied_once(self):
+        # A height seen through a strided channel axis (shape h, w, 1, the
+        # channel 12 bytes apart): one channel is packed whatever its
+        # stride, so relief reads it as it is; numpy makes no copy of it.
+        h3 = np.zeros((512, 512, 3), np.float32)
+        h3[..., 0] = np.sin(np.arange(512, dtype=np.float32) * 0.05)[None, :] * 4
+        view = h3[..., ::3]
+        dense = np.ascontiguousarray(view)
+        peaks = []
+        for a in (dense, view):
+            tracemalloc.start()  # numpy's allocations are traced
+            try:
+                got = relief.tessellation(a)  # (a result of a few KiB: the copy would be the peak)
+                peaks.append(tracemalloc.get_traced_memory()[1])
+            finally:
+                tracemalloc.stop()
+        np.testing.assert_array_equal(got, relief.tessellation(dense))
+        self.assertLess(peaks[1], peaks[0] + view.size * 4 // 2)  # (a copy: 1 MiB more)
+
     def test_uint16_and_half_inputs_equal_the_cli_on_the_same_bytes(self):
         n16 = (self.normals.astype(np.uint16) * 257).astype(np.uint16)
         png16 = self.path("n16.png")
