@@ -197,6 +197,20 @@ TEST_CASE("correct: unflip_mesh moves a node straight back, by the first quarter
         CHECK(host::flipped_triangles(c, g).empty());
         CHECK(c[2 * 4] == float(x0 + t * (0.0 - x0)));
         CHECK(c[2 * 4 + 1] == float(y0 + t * (0.0 - y0)));
+        // The whole mesh shifted by (0.3, 0.2): the same fold, the same
+        // step, now toward the neighbours' mean (0.3, 0.2).
+        std::vector<float> shifted(2 * 9);
+        for (std::size_t k = 0; k < 9; ++k) {
+            shifted[2 * k] = 0.3f;
+            shifted[2 * k + 1] = 0.2f;
+        }
+        shifted[2 * 4] += x0;
+        shifted[2 * 4 + 1] += y0;
+        const double sx = shifted[2 * 4], sy = shifted[2 * 4 + 1];
+        CHECK(host::unflip_mesh(shifted, g, 20) == 1);
+        CHECK(host::flipped_triangles(shifted, g).empty());
+        CHECK(shifted[2 * 4] == Approx(sx + t * (double(0.3f) - sx)).margin(1e-6));
+        CHECK(shifted[2 * 4 + 1] == Approx(sy + t * (double(0.2f) - sy)).margin(1e-6));
     }
 }
 
