@@ -86,6 +86,12 @@ TEST_CASE("preview: spherical-harmonic irradiance of analytic environments", "[c
     CHECK(e_up[1] == Approx(M_PI).epsilon(0.05));
     CHECK(e_side[1] == Approx(M_PI / 2).epsilon(0.02));
     CHECK(std::abs(e_down[1]) < 0.1 * M_PI);
+    for (const float sign : {1.0f, -1.0f}) {  // along x as along y: the sky has no side
+        const float along_x[3] = {sign, 0, 0};
+        float e_x[3];
+        irradiance(hs, along_x, e_x);
+        CHECK(e_x[1] == Approx(M_PI / 2).epsilon(0.02));
+    }
     // Light from the image's right (azimuth 0) lights normals tilted to +x.
     OIIO::ImageBuf right(OIIO::ImageSpec(64, 32, 3, OIIO::TypeDesc::FLOAT));
     OIIO::ImageBufAlgo::fill(right, one, OIIO::ROI(0, 8, 8, 16));  // around azimuth 0, above the horizon
