@@ -136,6 +136,24 @@ TEST_CASE("cli: -v reports device and convention, integer outputs state their sc
     }
 }
 
+TEST_CASE("cli: a read then a height sets the device up beside the read, a --dup between them or not",
+          "[cli]")
+{
+    auto dir = relief::test::scratch("cli/ahead");
+    const std::string out = "'" + (dir / "h.exr").string() + "'";
+    for (const std::string& between : {std::string(), std::string(" --dup")}) {
+        INFO("between: '" << between << "'");
+        const auto r = run_cli("-v '" + kSampleNormal + "'" + between + " --height -o " + out);
+        INFO(r.err);
+        REQUIRE(r.rc == 0);
+        CHECK(r.err.find("relief: set up ahead, beside the read: ") != std::string::npos);
+    }
+    // Not for an operation that does not set up ahead (slopes plan no FFT).
+    const auto r = run_cli("-v '" + kSampleNormal + "' --slopes -o " + out);
+    REQUIRE(r.rc == 0);
+    CHECK(r.err.find("set up ahead") == std::string::npos);
+}
+
 TEST_CASE("cli: --slopes pushes the 2-channel DDM and says which convention auto chose", "[cli]")
 {
     auto dir = relief::test::scratch("cli/slopes");
