@@ -27,12 +27,16 @@ struct Host {
     std::vector<double> progress;
     int answer_at = 0;
     std::chrono::steady_clock::time_point answered;  // (when it answered non-zero)
+    const relief_image* result = nullptr;            // (the call's output, looked at on hearing 1)
+    bool result_at_one = false;                      // (its pixels were there when 1 was heard)
 };
 
 int heard(double fraction, void* user)
 {
     Host& h = *static_cast<Host*>(user);
     h.progress.push_back(fraction);
+    if (fraction >= 1.0 && h.result)
+        h.result_at_one = h.result->pixels != nullptr;
     const bool stop = h.answer_at < 0 ? fraction >= 1.0 : int(h.progress.size()) == h.answer_at;
     if (stop)
         h.answered = std::chrono::steady_clock::now();
@@ -156,9 +160,13 @@ TEST_CASE("C ABI: a cancel answered to the last progress call comes after the wo
         host.answer_at = -1;
         relief_callbacks cb = {nullptr, heard, &host};
         relief_image out{};
+        host.result = &out;
         REQUIRE(relief_run_with("auto", c.operation, c.modifiers, c.inputs.data(), int(c.inputs.size()), &out,
                                 &cb) == RELIEF_OK);
         CHECK(out.pixels != nullptr);
+        // 1 is heard once the result is the host's (converting a large one
+        // takes a while, and the host could still cancel during it)
+        CHECK(host.result_at_one);
         REQUIRE(!host.progress.empty());
         CHECK(host.progress.back() == 1.0);
         CHECK(std::count(host.progress.begin(), host.progress.end(), 1.0) == 1);  // the last call only

@@ -5,9 +5,13 @@
 
 #include <OpenImageIO/imagebuf.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <functional>
+#include <memory>
 #include <new>
 #include <stdexcept>
 #include <string>
@@ -91,36 +95,46 @@ char* copy_text(const std::string& s)
     return p;
 }
 
-void to_c_image(const ImageBuf& img, relief_image* out)
+// A run its caller's progress callback stopped.
+struct CancelledRun : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+// `img` as the caller's floats. A large result (a preview sheet of a 1024^2
+// map: 20M values, 0.2 s) is converted in bands of rows, `between` called
+// before each: the host's heartbeat, which throws CancelledRun when the
+// host has asked to stop (nothing is kept).
+void to_c_image(const ImageBuf& img, relief_image* out, const std::function<void()>& between = {})
 {
     const OIIO::ImageSpec& spec = img.spec();
-    const std::size_t n = std::size_t(spec.width) * spec.height * spec.nchannels;
-    float* px = static_cast<float*>(std::malloc(n * sizeof(float)));
+    const std::size_t row = std::size_t(spec.width) * spec.nchannels;
+    std::unique_ptr<float, decltype(&std::free)> px(
+        static_cast<float*>(std::malloc(row * spec.height * sizeof(float))), &std::free);
     if (!px)
         throw std::bad_alloc();
-    if (!img.get_pixels(img.roi(), TypeDesc::FLOAT, px)) {
-        std::free(px);
-        throw std::runtime_error("cannot read the result: " + img.geterror());
+    const int band = int(std::max<std::size_t>(1, (std::size_t(1) << 20) / std::max<std::size_t>(row, 1)));
+    for (int y = 0; y < spec.height; y += band) {
+        if (between)
+            between();
+        OIIO::ROI rows = img.roi();
+        rows.ybegin = spec.y + y;
+        rows.yend = spec.y + std::min(y + band, spec.height);
+        if (!img.get_pixels(rows, TypeDesc::FLOAT, px.get() + row * std::size_t(y)))
+            throw std::runtime_error("cannot read the result: " + img.geterror());
     }
     std::string meta;
     for (const auto& p : spec.extra_attribs)
         if (p.name().string().rfind("relief:", 0) == 0)
             meta += p.name().string() + "=" + p.get_string() + "\n";
+    char* text = copy_text(meta);
     out->width = spec.width;
     out->height = spec.height;
     out->channels = spec.nchannels;
     out->type = RELIEF_FLOAT;
-    out->pixels = px;
-    try {
-        out->metadata = copy_text(meta);
-    } catch (...) {
-        std::free(px);
-        *out = relief_image{};
-        throw;
-    }
+    out->pixels = px.release();
+    out->metadata = text;
 }
 
-// The modifiers parsed for `operation`, the device checked.
 // A C entry point's call: the operation (its name and table entry) and its
 // modifiers parsed, or Refused saying why not.
 struct ParsedCall {
@@ -149,11 +163,6 @@ std::string device_or_auto(const char* device)
 {
     return device && *device ? device : "auto";
 }
-
-// A run its caller's progress callback stopped.
-struct CancelledRun : std::runtime_error {
-    using std::runtime_error::runtime_error;
-};
 
 // The caller's images converted for the table's input slots (all of them
 // for the first slot when they are the tiles of a UDIM set), and pointers
@@ -190,7 +199,12 @@ public:
         if (cb_.message)
             exec.on_message = [this](relief::Severity s, const std::string& text) { say(severity(s), text); };
         if (cb_.progress) {
-            exec.on_progress = [this](double fraction) { progress(fraction); };
+            // The operation's 1 is held back until the result is the host's
+            // (finish()): converting it may take a while, heartbeat() beats.
+            exec.on_progress = [this](double fraction) {
+                if (fraction < 1.0)
+                    progress(fraction);
+            };
             exec.cancel = [this] { return cancelled_; };
         }
         return exec;
@@ -199,9 +213,26 @@ public:
     bool progress(double fraction)
     {
         const relief::detail::InCallback in;
+        heard_ = {fraction, std::chrono::steady_clock::now()};
         if (cb_.progress && !cancelled_ && cb_.progress(fraction, cb_.user) != 0)
             cancelled_ = true;
         return !cancelled_;
+    }
+    // The last fraction again once 50 ms have passed since the host last
+    // heard (as detail::paced does while kernels run); false once it has
+    // asked to cancel.
+    bool heartbeat()
+    {
+        if (cb_.progress && std::chrono::steady_clock::now() - heard_.at >= std::chrono::milliseconds(50))
+            return progress(heard_.fraction);
+        return !cancelled_;
+    }
+    // The final 1, once the result is the host's: an answer to it cancels
+    // nothing.
+    void finish()
+    {
+        if (cb_.progress)
+            progress(1.0);
     }
     bool cancelled() const { return cancelled_; }
     void say(relief_severity severity, const std::string& text) const
@@ -224,6 +255,10 @@ private:
     }
     relief_callbacks cb_{};
     bool cancelled_ = false;
+    struct {
+        double fraction = 0.0;
+        std::chrono::steady_clock::time_point at = std::chrono::steady_clock::now();
+    } heard_;
 };
 
 // Runs the body of a C entry point that makes images: RELIEF_OK when it
@@ -325,7 +360,11 @@ int relief_run_with(const char* device, const char* operation, const char* modif
             ImageBuf result;
             if (!relief::run_operation(result, call, in.pointers, host.execution(device)))
                 operation_failed(host, op);
-            to_c_image(result, output);
+            to_c_image(result, output, [&] {
+                if (!host.heartbeat())
+                    throw CancelledRun(op + ": cancelled");
+            });
+            host.finish();
         },
         [&] {
             if (output)
