@@ -68,8 +68,7 @@ void LevelSolver::node_phases(CorrectLevel& lv, std::vector<cl_uchar>& act)
             set_args(active_k_, moved_, cl_int(phases_.size()), cl_int(tiles_x_), cl_int(tiles_y_),
                      cl_int(g.periodic.bits()), active_);
             c.launch(active_k_, tiles);
-            // (blocking: every phase of every iteration; see add_partials)
-            c.queue.enqueueReadBuffer(active_, CL_TRUE, 0, tiles, act.data());
+            state_.read_each_iteration(active_, tiles, act.data());
             for (cl_uchar v : act)
                 lv.tile_phases_run += v != 0;
         } else {

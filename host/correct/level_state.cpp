@@ -144,18 +144,23 @@ void LevelState::add_partials(const cl::Buffer& partials, std::size_t groups, do
 {
     if (fp64) {
         std::vector<double> part(groups);
-        // Blocking, not read_asking: these reads come every iteration, a
-        // few ms apart, and the solver asks before each kernel anyway; the
-        // listening wait's callback cost the correction 15% at 512^2.
-        c.queue.enqueueReadBuffer(partials, CL_TRUE, 0, sizeof(double) * groups, part.data());
+        read_each_iteration(partials, sizeof(double) * groups, part.data());
         for (double v : part)
             sum += v;
     } else {
         std::vector<float> part(groups);
-        c.queue.enqueueReadBuffer(partials, CL_TRUE, 0, sizeof(float) * groups, part.data());
+        read_each_iteration(partials, sizeof(float) * groups, part.data());
         for (float v : part)
             sum += v;
     }
+}
+
+void LevelState::read_each_iteration(const cl::Buffer& buffer, std::size_t bytes, void* dst)
+{
+    if (nodes >= kListenFrom)
+        read_asking(c.queue, buffer, 0, bytes, dst);
+    else
+        c.queue.enqueueReadBuffer(buffer, CL_TRUE, 0, bytes, dst);
 }
 
 }  // namespace relief::host

@@ -43,6 +43,14 @@ public:
     // Adds the first `groups` work-group partial sums of `partials` to
     // `sum`, in order.
     void add_partials(const cl::Buffer& partials, std::size_t groups, double& sum);
+    // The reads each iteration makes (partial sums, active tiles). On a
+    // level of at least kListenFrom nodes they listen (read_asking): a
+    // kernel there runs tens of ms, and a blocking read behind it had kept
+    // the host from hearing progress for 100 ms and more at 1024^2. On
+    // smaller levels they block: they come a few ms apart, and the
+    // listening wait's callback cost 15% at 512^2.
+    void read_each_iteration(const cl::Buffer& buffer, std::size_t bytes, void* dst);
+    static constexpr std::size_t kListenFrom = std::size_t(1) << 19;
     // Bytes of one partial sum (energy_t: double with fp64, else float).
     std::size_t sum_size() const { return fp64 ? sizeof(double) : sizeof(float); }
     // A work-group for a sum kernel: one energy_t of local memory per
