@@ -344,6 +344,7 @@ int relief_run_with(const char* device, const char* operation, const char* modif
                     const relief_callbacks* callbacks)
 {
     HostCallbacks host(callbacks);
+    bool delivered = false;  // `output` holds the result (then only the final 1 can fail)
     return run_entry(
         "relief_run", &host,
         [&] {
@@ -360,15 +361,20 @@ int relief_run_with(const char* device, const char* operation, const char* modif
             ImageBuf result;
             if (!relief::run_operation(result, call, in.pointers, host.execution(device)))
                 operation_failed(host, op);
-            to_c_image(result, output, [&] {
+            // (`name`: a lambda may not capture a structured binding in C++17)
+            to_c_image(result, output, [&, name = op] {
                 if (!host.heartbeat())
-                    throw CancelledRun(op + ": cancelled");
+                    throw CancelledRun(name + ": cancelled");
             });
+            delivered = true;
             host.finish();
         },
         [&] {
-            if (output)
+            if (output) {
+                if (delivered)  // (a C++ host's progress threw at the final 1)
+                    relief_image_free(output);
                 *output = relief_image{};
+            }
         });
 }
 
