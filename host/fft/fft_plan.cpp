@@ -4,6 +4,7 @@
 #include "fft/fft_plan.h"
 
 #include <array>
+#include <atomic>
 #include <clocale>
 #include <cstring>
 #include <map>
@@ -38,6 +39,7 @@ struct VkfftBuilds {
     std::vector<std::string> from_cache;                         // keys the plan being made loaded
 };
 thread_local VkfftBuilds vkfft_builds;
+std::atomic<std::size_t> programs_from_cache{0};
 
 // VkFFT 1.2.26 transforms in place: a work-group reads its elements from
 // global memory into local memory, and after barriers that fence local
@@ -79,6 +81,7 @@ cl_program relief_vkfft_create_program(cl_context context, cl_uint count, const 
                 clCreateProgramWithBinary(context, 1, &device, &size, &bytes, nullptr, &status);
             if (status == CL_SUCCESS) {
                 vkfft_builds.from_cache.push_back(key);
+                ++programs_from_cache;
                 if (err)
                     *err = status;
                 return program;
@@ -433,6 +436,11 @@ std::string vkfft_version()
 {
     const int v = VkFFTGetVersion();  // X.XX.XX
     return std::to_string(v / 10000) + "." + std::to_string(v / 100 % 100) + "." + std::to_string(v % 100);
+}
+
+std::size_t vkfft_programs_from_cache()
+{
+    return programs_from_cache.load();
 }
 
 }  // namespace relief::host

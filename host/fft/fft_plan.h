@@ -67,4 +67,9 @@ private:
 float* read_real_result(ComputeContext::Impl& c, cl::Buffer& grid, cl::Buffer& spare, std::size_t stride,
                         int w, int h, bool transposed, const std::function<float*()>& sink);
 
+// How many of VkFFT's programs this process has made from binaries in the
+// binary cache, rather than from source (a plan of a size met before, in
+// this process or an earlier one, should make them all so).
+std::size_t vkfft_programs_from_cache();
+
 }  // namespace relief::host

@@ -60,14 +60,21 @@ inline void write_crop(const std::string& from, const fs::path& to, int x0, int 
     REQUIRE(crop.write(to.string()));
 }
 
-inline std::vector<std::string> statuses(const fs::path& log)
+// Each record's string `key` (its text up to the first quote).
+inline std::vector<std::string> fields(const fs::path& log, const std::string& key)
 {
     std::vector<std::string> s;
+    const std::string start = "\"" + key + "\":\"";
     for (const std::string& l : lines_of(log)) {
-        const std::size_t at = l.find("\"status\":\"") + 10;
+        const std::size_t at = l.find(start) + start.size();
         s.push_back(l.substr(at, l.find('"', at) - at));
     }
     return s;
+}
+
+inline std::vector<std::string> statuses(const fs::path& log)
+{
+    return fields(log, "status");
 }
 
 }  // namespace relief::test::farm

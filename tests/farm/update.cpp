@@ -69,6 +69,7 @@ TEST_CASE("update: a job is skipped exactly when its outputs record the digest i
     r = run();
     CHECK(r.rc == 0);
     CHECK(statuses(log) == S{"skipped", "skipped", "skipped", "skipped"});
+    CHECK(fields(log, "message") == S{"up to date", "up to date", "up to date", "up to date"});
     CHECK(r.err.find("0 ok, 4 skipped, 0 failed of 4 job(s)") != std::string::npos);
     CHECK(fs::last_write_time(d / "h0.exr") == h0_time);
     // the same bytes written again (a new mtime) are the same input

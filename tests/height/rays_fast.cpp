@@ -229,6 +229,14 @@ TEST_CASE("the reference kernel accumulates in float when asked, as on a device 
         CHECK(fp64 != in_float);
 }
 
+TEST_CASE("fast kernel on a one-texel map: no transform, a zero height, as the reference", "[rays][fast]")
+{
+    // (the stress case below sweeps thin and tiny maps; this one, whose
+    // FFT would have a length of 1, is kept in the fast tier)
+    check_fast_against_reference({1, 1, 8, 4.0, 0.5, true});
+    check_fast_against_reference({1, 1, 8, 4.0, 0.5, false});
+}
+
 TEST_CASE("fast kernel equals the reference kernel at long radii, thin and tiny maps and FFT interiors",
           "[rays][fast][stress]")
 {

@@ -18,6 +18,7 @@
 #include "device/environment.h"
 #include "errors.h"
 #include "device/memory_budget.h"
+#include "fft/fft_plan.h"
 #include "fft/plan_cache.h"
 #include "poisson/poisson_stage.h"
 #include "device/setup_times.h"
@@ -231,13 +232,16 @@ TEST_CASE("VkFFT's programs are kept on disk too, and an unusable entry falls ba
         c.queue.enqueueReadBuffer(buf, CL_TRUE, 0, sizeof(float) * y.size(), y.data());
         return y;
     };
+    const std::size_t loaded = vkfft_programs_from_cache();
     const std::vector<float> first = transform();
+    CHECK(vkfft_programs_from_cache() == loaded);  // (an empty cache)
     const std::vector<fs::path> vkfft = entries();
     REQUIRE(vkfft.size() >= 2);  // forward and inverse, at least
     std::vector<std::string> stamps;
     for (const fs::path& p : vkfft)
         stamps.push_back(relief::test::slurp(p));
     CHECK(transform() == first);  // from the binaries: the same bits, nothing rebuilt
+    CHECK(vkfft_programs_from_cache() >= loaded + vkfft.size());  // (each program made from its binary)
     CHECK(entries() == vkfft);
     for (std::size_t i = 0; i < vkfft.size(); ++i)
         CHECK(relief::test::slurp(vkfft[i]) == stamps[i]);
@@ -398,6 +402,14 @@ TEST_CASE("memory: a cgroup's limit less its use, the tightest of the group and 
     CHECK(cgroup_available(proc, sys) == 700000);
     put(sys / "farm/job7/memory.current", "1200000\n");  // over its limit: nothing left
     CHECK(cgroup_available(proc, sys) == 0);
+    // a group's name may hold "0::" (only '/' and newlines are reserved):
+    // the line is the v2 one by its start
+    put(proc, "0::/farm/job7/step0::1\n");
+    put(sys / "farm/job7/step0::1/memory.max", "300000\n");
+    put(sys / "farm/job7/step0::1/memory.current", "100000\n");
+    put(sys / "farm/job7/memory.current", "400000\n");
+    CHECK(cgroup_available(proc, sys) == 200000);
+    put(proc, "12:cpu,cpuacct:/elsewhere\n0::/farm/job7\n");
     // no limit anywhere, the root group, or no cgroup v2 line: unlimited
     const Bytes unlimited = ~Bytes(0);
     put(sys / "farm/job7/memory.max", "max\n");
