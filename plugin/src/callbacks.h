@@ -48,7 +48,7 @@ std::function<void(Severity, const std::string&)> marked(std::function<void(Seve
 //   complete) reports 1: a stage's own 1 is not passed on, so a cancel
 //   answered to 1 always comes after the work, and the operation returns
 //   its result.
-Execution paced(const Execution& exec,
-                std::chrono::steady_clock::duration interval = std::chrono::milliseconds(50));
+inline constexpr std::chrono::milliseconds kHeartbeat{50};
+Execution paced(const Execution& exec, std::chrono::steady_clock::duration interval = kHeartbeat);
 
 }  // namespace relief::detail

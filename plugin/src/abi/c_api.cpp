@@ -218,12 +218,12 @@ public:
             cancelled_ = true;
         return !cancelled_;
     }
-    // The last fraction again once 50 ms have passed since the host last
-    // heard (as detail::paced does while kernels run); false once it has
-    // asked to cancel.
+    // The last fraction again once the heartbeat's interval has passed
+    // since the host last heard (as detail::paced does while kernels run);
+    // false once it has asked to cancel.
     bool heartbeat()
     {
-        if (cb_.progress && std::chrono::steady_clock::now() - heard_.at >= std::chrono::milliseconds(50))
+        if (cb_.progress && std::chrono::steady_clock::now() - heard_.at >= relief::detail::kHeartbeat)
             return progress(heard_.fraction);
         return !cancelled_;
     }
